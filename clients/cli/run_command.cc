@@ -1,0 +1,132 @@
+#include "run_command.h"
+
+#include <omp.h>
+
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <ostream>
+
+#include "dysa/core/probes.h"
+#include "dysa/core/simulation.h"
+#include "vtk_writer.h"
+
+namespace dysa {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double Seconds(Clock::duration d) { return std::chrono::duration<double>(d).count(); }
+
+class ProbeWriter {
+ public:
+  ProbeWriter(const std::filesystem::path& path, const Scene& scene) : file_(path) {
+    if (!file_) throw std::runtime_error("cannot write " + path.string());
+    file_ << "time,step";
+    for (const std::string& column : ProbeColumns(scene.probes)) file_ << ',' << column;
+    file_ << '\n';
+    file_ << std::setprecision(9);
+  }
+  void Write(const Simulation& sim) {
+    file_ << sim.state().time << ',' << sim.state().step;
+    for (double v : EvaluateProbes(sim.scene().probes, sim.model(), sim.state())) file_ << ',' << v;
+    file_ << '\n';
+    if (!file_) throw std::runtime_error("error writing probes.csv");
+  }
+
+ private:
+  std::ofstream file_;
+};
+
+void PrintProfile(const Simulation& sim, double wall_s, uint64_t steps, int threads,
+                  std::ostream& out) {
+  double total_ms = 0;
+  for (const PassProfile& pass : sim.profile()) total_ms += pass.total_ms;
+  out << "\n" << std::left << std::setw(18) << "pass" << std::right << std::setw(12)
+      << "ms/step" << std::setw(10) << "share\n";
+  for (const PassProfile& pass : sim.profile()) {
+    const double per_step = steps ? pass.total_ms / double(steps) : 0.0;
+    out << std::left << std::setw(18) << pass.name << std::right << std::fixed
+        << std::setprecision(3) << std::setw(12) << per_step << std::setw(9)
+        << std::setprecision(1) << (total_ms > 0 ? 100 * pass.total_ms / total_ms : 0.0) << "%\n";
+  }
+  const double particle_steps = double(sim.state().particles.size()) * double(steps);
+  out << std::left << std::setw(18) << "total" << std::right << std::setprecision(3)
+      << std::setw(12) << (steps ? total_ms / double(steps) : 0.0) << "\n\n"
+      << steps << " steps of " << sim.state().particles.size() << " particles in "
+      << std::setprecision(2) << wall_s << " s with " << threads << " threads: "
+      << std::setprecision(2) << (wall_s > 0 ? particle_steps / wall_s / 1e6 : 0.0)
+      << " million particle-steps/s\n";
+  out.unsetf(std::ios::floatfield);
+}
+
+}  // namespace
+
+void RunOffline(const RunOptions& options, std::ostream& out, std::ostream& progress) {
+  Scene scene = LoadScene(options.scene);
+  for (const std::string& assignment : options.sets) SetParamFromString(scene.params, assignment);
+  BlockParticleCounts(scene, scene.params);
+  if (options.threads > 0) omp_set_num_threads(options.threads);
+  const int threads = options.threads > 0 ? options.threads : omp_get_max_threads();
+
+  Simulation sim(std::move(scene));
+  const Scene& sc = sim.scene();
+  const double end_time = options.end_time.value_or(sc.end_time);
+  const double frame_time = sim.model().dt * sim.params().iterations_per_frame;
+  const double interval = sc.probe_interval.value_or(frame_time);
+
+  const std::filesystem::path dir(options.out_dir);
+  std::filesystem::create_directories(dir);
+  ProbeWriter probes(dir / "probes.csv", sc);
+  std::optional<VtkSeriesWriter> vtk;
+  if (options.vtk_every > 0) vtk.emplace(dir, "frames");
+
+  out << "scene " << sc.name << ": " << sim.state().particles.size() << " particles, solver "
+      << sc.solver << ", dt " << sim.model().dt << " s, "
+      << (options.steps ? std::to_string(*options.steps) + " steps"
+                        : "until t = " + std::to_string(end_time) + " s")
+      << ", output in " << dir.string() << "\n";
+
+  probes.Write(sim);
+  if (vtk) vtk->WriteFrame(sim.state().particles, 0.0);
+  double next_output = interval;
+  const auto start = Clock::now();
+  auto last_progress = start;
+  auto done = [&] {
+    return options.steps ? sim.state().step >= *options.steps
+                         : sim.state().time + 0.5 * sim.model().dt >= end_time;
+  };
+  while (!done()) {
+    sim.Step();
+    const State& st = sim.state();
+    if (st.time + 1e-9 * interval >= next_output) {
+      probes.Write(sim);
+      while (next_output <= st.time + 1e-9 * interval) next_output += interval;
+    }
+    const uint64_t ipf = uint64_t(sim.params().iterations_per_frame);
+    if (vtk && st.step % ipf == 0 && (st.step / ipf) % uint64_t(options.vtk_every) == 0) {
+      vtk->WriteFrame(st.particles, st.time);
+    }
+    const auto now = Clock::now();
+    if (options.progress && Seconds(now - last_progress) > 0.25) {
+      last_progress = now;
+      const double wall = Seconds(now - start);
+      progress << "\r  t = " << std::fixed << std::setprecision(3) << st.time << " s"
+               << (options.steps ? "" : " / " + std::to_string(end_time).substr(0, 8) + " s")
+               << "  step " << st.step << "  "
+               << std::setprecision(2) << double(st.particles.size()) * double(st.step) / wall / 1e6
+               << " M particle-steps/s   " << std::flush;
+      progress.unsetf(std::ios::floatfield);
+    }
+  }
+  const double wall_s = Seconds(Clock::now() - start);
+  if (options.progress) progress << "\r" << std::string(72, ' ') << "\r" << std::flush;
+  PrintProfile(sim, wall_s, sim.state().step, threads, out);
+  out << "probes: " << (dir / "probes.csv").string();
+  if (vtk) out << ", ParaView series: " << (dir / "frames.pvd").string() << " (" << vtk->frames() << " frames)";
+  out << "\n";
+}
+
+}  // namespace dysa

@@ -1,0 +1,28 @@
+// `dysa run`: simulate a scene offline, without a server.
+#pragma once
+
+#include <cstdint>
+#include <iosfwd>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace dysa {
+
+struct RunOptions {
+  std::string scene;               // built-in name or JSON file
+  std::vector<std::string> sets;   // NAME=VALUE parameter overrides
+  std::optional<double> end_time;  // s; default: the scene's end_time
+  std::optional<uint64_t> steps;   // instead of end_time
+  int threads = 0;                 // 0: OpenMP's default
+  std::string out_dir = "out";
+  int vtk_every = 0;               // write a VTK frame every K frames; 0: none
+  bool progress = false;           // a live progress line on stderr
+};
+
+// Runs the scene and writes OUT/probes.csv (and VTK frames); prints the per-pass timing table
+// and throughput to `out`. Throws ConfigError for bad scenes or parameters and
+// std::runtime_error for I/O failures.
+void RunOffline(const RunOptions& options, std::ostream& out, std::ostream& progress);
+
+}  // namespace dysa

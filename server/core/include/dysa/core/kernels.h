@@ -1,0 +1,78 @@
+// Smoothing kernels of the seed model, normalised in 3D (integral over the ball of radius h = 1).
+//
+// r is the distance between two particles and h the smoothing radius; every kernel is zero for
+// r >= h. Density uses spiky^2 and near density spiky^3 (Clavet et al. 2005, "Particle-based
+// viscoelastic fluid simulation", in the form of Sebastian Lague's fluid simulation); viscosity
+// uses poly6 (Mueller et al. 2003, "Particle-based fluid simulation for interactive
+// applications"). Normalisation constants: int_0^h 4 pi r^2 (h - r)^2 dr = 2 pi h^5 / 15,
+// int_0^h 4 pi r^2 (h - r)^3 dr = pi h^6 / 15, int_0^h 4 pi r^2 (h^2 - r^2)^3 dr = 64 pi h^9 / 315.
+#pragma once
+
+#include <numbers>
+
+namespace dysa {
+
+template <class T>
+struct Spiky2 {
+  static T W(T r, T h) {
+    if (r >= h) return 0;
+    const T v = h - r;
+    return T(15) / (T(2) * std::numbers::pi_v<T> * Pow5(h)) * v * v;
+  }
+  // dW/dr
+  static T dW(T r, T h) {
+    if (r >= h) return 0;
+    return -T(15) / (std::numbers::pi_v<T> * Pow5(h)) * (h - r);
+  }
+  static T Pow5(T h) { return h * h * h * h * h; }
+};
+
+template <class T>
+struct Spiky3 {
+  static T W(T r, T h) {
+    if (r >= h) return 0;
+    const T v = h - r;
+    return T(15) / (std::numbers::pi_v<T> * Pow6(h)) * v * v * v;
+  }
+  static T dW(T r, T h) {
+    if (r >= h) return 0;
+    const T v = h - r;
+    return -T(45) / (std::numbers::pi_v<T> * Pow6(h)) * v * v;
+  }
+  static T Pow6(T h) { return h * h * h * h * h * h; }
+};
+
+template <class T>
+struct Poly6 {
+  static T W(T r, T h) {
+    if (r >= h) return 0;
+    const T v = h * h - r * r;
+    return T(315) / (T(64) * std::numbers::pi_v<T> * Pow9(h)) * v * v * v;
+  }
+  static T dW(T r, T h) {
+    if (r >= h) return 0;
+    const T v = h * h - r * r;
+    return -T(6) * T(315) / (T(64) * std::numbers::pi_v<T> * Pow9(h)) * r * v * v;
+  }
+  static T Pow9(T h) {
+    const T h3 = h * h * h;
+    return h3 * h3 * h3;
+  }
+};
+
+// The constant factors of the kernels above for one h, hoisted out of the neighbour loops:
+// W_spiky2 = spiky2 * (h - r)^2, dW_spiky2/dr = -spiky2_grad * (h - r), and so on.
+template <class T>
+struct SeedKernelFactors {
+  explicit SeedKernelFactors(T h_in)
+      : h(h_in),
+        h2(h_in * h_in),
+        spiky2(Spiky2<T>::W(0, h_in) / (h_in * h_in)),
+        spiky2_grad(-Spiky2<T>::dW(0, h_in) / h_in),
+        spiky3(Spiky3<T>::W(0, h_in) / (h_in * h_in * h_in)),
+        spiky3_grad(-Spiky3<T>::dW(0, h_in) / (h_in * h_in)),
+        poly6(Poly6<T>::W(0, h_in) / (h_in * h_in * h_in * h_in * h_in * h_in)) {}
+  T h, h2, spiky2, spiky2_grad, spiky3, spiky3_grad, poly6;
+};
+
+}  // namespace dysa

@@ -1,0 +1,67 @@
+// The tunable parameters of a simulation and their single declaration table.
+//
+// Every parameter is declared once, in ParamTable(), with its name, unit, range, default and
+// whether changing it needs a reset. Scene parsing, `dysa run --set`, the RPC layer and the
+// viewer's sliders all read that table; nothing else lists parameters.
+#pragma once
+
+#include <span>
+#include <string>
+#include <string_view>
+
+namespace dysa {
+
+// Defaults are the thesis's basic scene (scenes/seed_basic.json). Units: metres, seconds,
+// kilograms; the seed model's densities are kernel sums times the particle mass (kg/m^3).
+struct Params {
+  // Time stepping: one frame is `iterations_per_frame` steps of
+  // dt = time_scale / (frame_rate * iterations_per_frame) simulated seconds.
+  double time_scale = 1.0;     // simulation speed, simulated s per displayed-frame second
+  int iterations_per_frame = 3;
+  double frame_rate = 60.0;  // frames per second (Hz)
+
+  double gravity = -10.0;           // m/s^2 along +y
+  double collision_damping = 0.086; // fraction of the normal speed kept after hitting a wall
+  double smoothing_radius = 0.2;    // m, kernel support h; also the neighbour grid cell size
+  double target_density = 630.0;    // kg/m^3, rest density rho0 of the equation of state
+  double pressure_multiplier = 28.8;      // m^5/(kg s^2): p = (rho - rho0) * k
+  double near_pressure_multiplier = 2.25; // m^5/(kg s^2): p_near = rho_near * k_near
+  double viscosity = 0.001;               // m^3/s: dv_i = mu * sum_j (v_j - v_i) W(r) dt
+  double particle_mass = 1.0;             // kg
+
+  // Spawn: used by every fluid block of the scene that does not set its own value.
+  int particle_quantity = 30;  // particles per axis
+  double spawn_size = 5.0;     // m, edge of the spawn cube
+  double spawn_jitter = 0.035; // m, radius of the random offset added to each particle
+};
+
+struct ParamDecl {
+  std::string_view name;
+  std::string_view unit;  // "" for dimensionless
+  std::string_view description;
+  double min;  // inclusive
+  double max;  // inclusive
+  bool integer;
+  bool needs_reset;  // a change re-spawns the particles (the state cannot carry on)
+  double (*get)(const Params&);
+  void (*set)(Params&, double);
+
+  double DefaultValue() const { return get(Params{}); }
+  // "[min, max] unit", for error messages and help text.
+  std::string RangeText() const;
+};
+
+std::span<const ParamDecl> ParamTable();
+// nullptr when no parameter has this name.
+const ParamDecl* FindParam(std::string_view name);
+
+// Checks value against the declaration of `name` (known name, finite, in range, integral where
+// required) and stores it. Throws ConfigError naming the parameter and its range; `params` is
+// unchanged on error.
+void SetParam(Params& params, std::string_view name, double value);
+double GetParam(const Params& params, std::string_view name);
+
+// Parses "name=value" (as given to --set). Throws ConfigError.
+void SetParamFromString(Params& params, std::string_view assignment);
+
+}  // namespace dysa

@@ -1,0 +1,94 @@
+// Scenes: what to simulate, read from JSON. scenes/README.md documents every field.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "dysa/core/params.h"
+#include "dysa/core/types.h"
+
+namespace dysa {
+
+// The largest particle count a scene may ask for; a larger one is rejected before anything is
+// allocated. About 120 bytes per particle are live, so this is about 2.4 GB of state.
+inline constexpr uint64_t kMaxParticles = 20'000'000;
+
+// A cuboid of fluid. Unset fields take the spawn parameters (particle_quantity, spawn_size,
+// spawn_jitter), as the thesis's single spawn cube did.
+struct FluidBlock {
+  std::optional<Vec3d> center;  // m; default: the centre of the domain
+  std::optional<Vec3d> size;    // m; default: spawn_size on every axis
+  // At most one of particles_per_axis and spacing is set; neither means particle_quantity per
+  // axis. With a count n the particles span the block edge to edge (the thesis's spawner);
+  // with a spacing d they sit at the centres of d-sized cells filling the block.
+  std::optional<Eigen::Vector3i> particles_per_axis;
+  std::optional<double> spacing;  // m
+  std::optional<double> jitter;   // m
+  uint64_t seed = 1;              // random seed of the jitter
+  Vec3d velocity = Vec3d::Zero(); // m/s, initial velocity
+};
+
+struct SphereObstacle {
+  Vec3d center = Vec3d::Zero();  // m
+  double radius = 0.5;           // m
+};
+
+struct BoxObstacle {
+  Aabb box;  // m
+};
+
+enum class ProbeKind {
+  kFront,          // largest coordinate of any particle along `axis` (surge front), m
+  kHeight,         // fluid height above the domain floor at (x, z) of `point`, m
+  kPressure,       // pressure interpolated at `point`, Pa
+  kDensity,        // mean and max density of all particles, kg/m^3 (two columns)
+  kKineticEnergy,  // sum of m |v|^2 / 2, J
+  kCountInside,    // number of particles inside `region` (default: the domain)
+};
+
+struct ProbeSpec {
+  ProbeKind kind = ProbeKind::kKineticEnergy;
+  std::string name;        // column name in probes.csv
+  int axis = 0;            // kFront: 0, 1, 2 for x, y, z
+  Vec3d point = Vec3d::Zero();
+  double radius = 0;       // kHeight: horizontal search radius, m; 0 = smoothing radius
+  std::optional<Aabb> region;
+};
+
+struct Scene {
+  std::string name;
+  std::string description;
+  Aabb domain{Vec3d(-5, -3, -5), Vec3d(5, 3, 5)};
+  std::vector<FluidBlock> fluid_blocks;
+  std::vector<SphereObstacle> spheres;
+  std::vector<BoxObstacle> boxes;
+  std::string solver = "seed";
+  Params params;
+  double end_time = 5.0;                  // s, default length of an offline run
+  std::optional<double> probe_interval;   // s; default: one output per frame
+  std::vector<ProbeSpec> probes;
+};
+
+// Parses a scene from JSON text. Every field is optional and has a default; an unknown field, a
+// wrong type or an out-of-range value throws ConfigError naming the field and the allowed range.
+Scene ParseScene(std::string_view json_text);
+
+// A scene name (built-in) or a path to a JSON file.
+Scene LoadScene(std::string_view name_or_path);
+
+struct BuiltinSceneText {
+  const char* name;
+  const char* json;
+};
+// The scenes/*.json files compiled into the binary (generated at build time).
+const std::vector<BuiltinSceneText>& BuiltinSceneTexts();
+std::vector<std::string> BuiltinSceneNames();
+
+// The number of particles each block spawns with the given parameters, checked against
+// kMaxParticles (throws ConfigError naming the block).
+std::vector<Eigen::Vector3i> BlockParticleCounts(const Scene& scene, const Params& params);
+
+}  // namespace dysa

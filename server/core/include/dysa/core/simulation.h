@@ -1,0 +1,67 @@
+// A running simulation: scene, parameters, state, the pass list of the step and its profile.
+#pragma once
+
+#include <memory>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "dysa/core/model.h"
+#include "dysa/core/scene.h"
+#include "dysa/core/solver.h"
+#include "dysa/core/state.h"
+
+namespace dysa {
+
+// Wall time spent in one pass, in milliseconds.
+struct PassProfile {
+  std::string name;
+  double last_ms = 0;   // the latest step
+  double total_ms = 0;  // since the last ResetProfile()
+  uint64_t calls = 0;
+};
+
+class Simulation {
+ public:
+  // Validates the scene (throws ConfigError) and spawns its particles.
+  explicit Simulation(Scene scene);
+
+  const Scene& scene() const { return scene_; }
+  const Params& params() const { return model_.params; }
+  const Model& model() const { return model_; }
+  const State& state() const { return state_; }
+  std::span<const PassProfile> profile() const { return profile_; }
+  std::vector<std::string> PassNames() const;
+
+  // One solver step of model().dt simulated seconds.
+  void Step();
+  // iterations_per_frame steps: one displayed frame of the thesis.
+  void StepFrame();
+  // Re-spawns the particles from the scene with the current parameters; time and step go to 0.
+  void Reset();
+
+  // Validates and applies one parameter; rebuilds the pass list. Returns true if the change
+  // needed a reset and the simulation was reset. Throws ConfigError (nothing applied).
+  bool SetParam(std::string_view name, double value);
+  // Applies a whole parameter set at once, all validated before any is applied.
+  bool SetParams(const Params& params);
+
+  void ResetProfile();
+
+ private:
+  void Rebuild();
+
+  Scene scene_;
+  Model model_;
+  State state_;
+  std::unique_ptr<Solver> solver_;
+  std::vector<Pass> passes_;
+  std::vector<PassProfile> profile_;
+};
+
+// Creates the particles of every fluid block (positions, velocities, ids) from the scene and
+// parameters; deterministic for a given scene, parameters and seeds.
+void SpawnParticles(const Scene& scene, const Params& params, ParticleArrays& particles);
+
+}  // namespace dysa

@@ -1,0 +1,41 @@
+// Pressure solvers, each a named list of passes, registered by name.
+#pragma once
+
+#include <functional>
+#include <memory>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "dysa/core/model.h"
+#include "dysa/core/state.h"
+
+namespace dysa {
+
+// One named stage of a step. Each pass reads the model and writes the state; a step runs the
+// passes in order and times each one.
+struct Pass {
+  std::string name;
+  std::function<void(const Model&, State&)> run;
+};
+
+class Solver {
+ public:
+  virtual ~Solver() = default;
+  // The passes of one step for this model: only those it needs (no viscosity pass when the
+  // viscosity is 0, no obstacle pass without obstacles, ...). Rebuilt whenever parameters change.
+  virtual std::vector<Pass> BuildPasses(const Model& model) const = 0;
+};
+
+struct SolverInfo {
+  std::string_view name;
+  std::string_view citation;
+  std::unique_ptr<Solver> (*create)();
+};
+
+std::span<const SolverInfo> SolverRegistry();
+// Throws ConfigError("solver", ...) listing the known names.
+std::unique_ptr<Solver> CreateSolver(std::string_view name);
+
+}  // namespace dysa

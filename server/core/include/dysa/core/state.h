@@ -1,0 +1,44 @@
+// The mutable state of a simulation: particles as flat arrays, one array per attribute.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "dysa/core/neighbor_grid.h"
+#include "dysa/core/types.h"
+
+namespace dysa {
+
+// Particles are physically reordered by grid cell every step, so index i is not a particle's
+// identity: id[i] is (its index at spawn time, stable for the whole run).
+struct ParticleArrays {
+  std::vector<uint32_t> id;
+  std::vector<Vec3> position;   // m
+  std::vector<Vec3> velocity;   // m/s
+  std::vector<Vec3> predicted;  // m, position predicted for the force passes
+  std::vector<Real> density;       // kg/m^3
+  std::vector<Real> near_density;  // kg/m^3 (seed model, Clavet et al. 2005)
+  std::vector<Real> pressure;      // Pa
+  std::vector<Real> near_pressure; // Pa
+
+  size_t size() const { return id.size(); }
+  void Resize(size_t n);
+};
+
+struct State {
+  ParticleArrays particles;
+  NeighborGrid grid;
+  // Scratch buffers reused across steps (never shrink, so a step allocates nothing).
+  std::vector<Vec3> vec3_scratch;
+  std::vector<Real> real_scratch;
+  std::vector<uint32_t> index_scratch;
+
+  double time = 0;     // s, simulated
+  uint64_t step = 0;   // steps since the last reset
+};
+
+// FNV-1a over ids, positions and velocities in id order: equal hashes mean bit-identical
+// particle states whatever the storage order.
+uint64_t StateHash(const State& state);
+
+}  // namespace dysa

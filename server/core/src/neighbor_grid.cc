@@ -1,0 +1,48 @@
+#include "dysa/core/neighbor_grid.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace dysa {
+
+void NeighborGrid::Configure(const Aabb& domain, Real min_cell_size) {
+  const Vec3d size = domain.Size();
+  double cell = min_cell_size;
+  // Grow the cell edge until the grid fits in kMaxCells (a cube root estimate, then a guard for
+  // rounding up of the per-axis counts).
+  const double estimate = std::cbrt(size.prod() / double(kMaxCells));
+  cell = std::max(cell, estimate);
+  Eigen::Vector3i dims;
+  for (;;) {
+    for (int a = 0; a < 3; ++a) dims[a] = std::max(1, int(std::ceil(size[a] / cell)));
+    if (int64_t{dims.x()} * dims.y() * dims.z() <= kMaxCells) break;
+    cell *= 1.01;
+  }
+  origin_ = domain.min.cast<Real>();
+  cell_size_ = Real(cell);
+  inv_cell_size_ = Real(1.0 / cell);
+  dims_ = dims;
+}
+
+void NeighborGrid::Sort(std::span<const Vec3> points) {
+  const int64_t n = static_cast<int64_t>(points.size());
+  key_.resize(points.size());
+  sorted_key_.resize(points.size());
+  order_.resize(points.size());
+#pragma omp parallel for schedule(static)
+  for (int64_t i = 0; i < n; ++i) key_[i] = CellIndex(CellOf(points[i]));
+
+  // Counting sort, serial: it is O(n + cells) of simple integer work, a few percent of a step;
+  // visiting points in input order makes it stable, so the order depends on positions alone.
+  const size_t cells = static_cast<size_t>(cell_count());
+  cell_start_.assign(cells + 1, 0);
+  for (int64_t i = 0; i < n; ++i) ++cell_start_[key_[i] + 1];
+  for (size_t c = 0; c < cells; ++c) cell_start_[c + 1] += cell_start_[c];
+  // cell_start_[c] now is the first slot of cell c; use a copy as the fill cursor.
+  cursor_.assign(cell_start_.begin(), cell_start_.end() - 1);
+  for (int64_t i = 0; i < n; ++i) order_[cursor_[key_[i]]++] = static_cast<uint32_t>(i);
+#pragma omp parallel for schedule(static)
+  for (int64_t k = 0; k < n; ++k) sorted_key_[k] = key_[order_[k]];
+}
+
+}  // namespace dysa

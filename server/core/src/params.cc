@@ -1,0 +1,120 @@
+#include "dysa/core/params.h"
+
+#include <array>
+#include <charconv>
+#include <cmath>
+#include <sstream>
+
+#include "dysa/core/types.h"
+
+namespace dysa {
+namespace {
+
+// A ParamDecl for a member of Params; P is a pointer to a double or int member.
+#define DYSA_PARAM(member, unit, min, max, reset, description)                              \
+  ParamDecl {                                                                                \
+    #member, unit, description, min, max,                                                    \
+        std::is_same_v<decltype(Params::member), int>, reset,                                \
+        [](const Params& p) { return static_cast<double>(p.member); },                       \
+        [](Params& p, double v) { p.member = static_cast<decltype(Params::member)>(v); }     \
+  }
+
+constexpr bool kReset = true;
+constexpr bool kLive = false;
+
+const std::array kParamTable = {
+    DYSA_PARAM(time_scale, "", 0.01, 10.0, kLive,
+               "Simulation speed: simulated seconds per second of displayed frames"),
+    DYSA_PARAM(iterations_per_frame, "", 1, 100, kLive, "Solver steps per displayed frame"),
+    DYSA_PARAM(frame_rate, "Hz", 1.0, 1000.0, kLive, "Displayed frames per second"),
+    DYSA_PARAM(gravity, "m/s^2", -100.0, 100.0, kLive, "Gravity along +y"),
+    DYSA_PARAM(collision_damping, "", 0.0, 1.0, kLive,
+               "Fraction of the normal speed kept when a particle hits a wall or obstacle"),
+    DYSA_PARAM(smoothing_radius, "m", 0.01, 10.0, kLive,
+               "Kernel support h: particles closer than h interact"),
+    DYSA_PARAM(target_density, "kg/m^3", 0.001, 1e6, kLive,
+               "Rest density of the equation of state"),
+    DYSA_PARAM(pressure_multiplier, "m^5/(kg s^2)", 0.0, 1e5, kLive,
+               "Stiffness k of p = (rho - rho0) k"),
+    DYSA_PARAM(near_pressure_multiplier, "m^5/(kg s^2)", 0.0, 1e5, kLive,
+               "Stiffness of the near pressure p_near = rho_near k_near (0 turns it off)"),
+    DYSA_PARAM(viscosity, "m^3/s", 0.0, 10.0, kLive,
+               "Viscosity strength: dv_i = mu sum_j (v_j - v_i) W_poly6 dt (0 turns it off)"),
+    DYSA_PARAM(particle_mass, "kg", 1e-6, 1e6, kReset, "Mass of every particle"),
+    DYSA_PARAM(particle_quantity, "", 1, 500, kReset,
+               "Particles per axis of each fluid block that does not set its own count"),
+    DYSA_PARAM(spawn_size, "m", 0.001, 1000.0, kReset,
+               "Edge of each fluid block that does not set its own size"),
+    DYSA_PARAM(spawn_jitter, "m", 0.0, 100.0, kReset,
+               "Random offset radius of each fluid block that does not set its own jitter"),
+};
+#undef DYSA_PARAM
+
+std::string FormatNumber(double v) {
+  std::ostringstream s;
+  s << v;
+  return s.str();
+}
+
+}  // namespace
+
+std::string ParamDecl::RangeText() const {
+  std::string text = "[" + FormatNumber(min) + ", " + FormatNumber(max) + "]";
+  if (!unit.empty()) text += " " + std::string(unit);
+  if (integer) text += " (integer)";
+  return text;
+}
+
+std::span<const ParamDecl> ParamTable() { return kParamTable; }
+
+const ParamDecl* FindParam(std::string_view name) {
+  for (const ParamDecl& decl : kParamTable) {
+    if (decl.name == name) return &decl;
+  }
+  return nullptr;
+}
+
+static const ParamDecl& RequireParam(std::string_view name) {
+  const ParamDecl* decl = FindParam(name);
+  if (decl == nullptr) {
+    std::string known;
+    for (const ParamDecl& d : kParamTable) known += (known.empty() ? "" : ", ") + std::string(d.name);
+    throw ConfigError(std::string(name), "unknown parameter; known parameters: " + known);
+  }
+  return *decl;
+}
+
+void SetParam(Params& params, std::string_view name, double value) {
+  const ParamDecl& decl = RequireParam(name);
+  const bool in_range = std::isfinite(value) && value >= decl.min && value <= decl.max;
+  if (!in_range || (decl.integer && value != std::floor(value))) {
+    throw ConfigError(std::string(name), FormatNumber(value) + " is outside the allowed range " +
+                                             decl.RangeText());
+  }
+  decl.set(params, value);
+}
+
+double GetParam(const Params& params, std::string_view name) {
+  return RequireParam(name).get(params);
+}
+
+void SetParamFromString(Params& params, std::string_view assignment) {
+  const size_t eq = assignment.find('=');
+  if (eq == std::string_view::npos || eq == 0) {
+    throw ConfigError("--set", "expected NAME=VALUE, got '" + std::string(assignment) + "'");
+  }
+  const std::string_view name = assignment.substr(0, eq);
+  const std::string value_text(assignment.substr(eq + 1));
+  const ParamDecl& decl = RequireParam(name);
+  double value = 0;
+  const char* begin = value_text.data();
+  const char* end = begin + value_text.size();
+  auto [ptr, ec] = std::from_chars(begin, end, value);
+  if (ec != std::errc() || ptr != end || value_text.empty()) {
+    throw ConfigError(std::string(name), "'" + value_text + "' is not a number; allowed range " +
+                                             decl.RangeText());
+  }
+  SetParam(params, name, value);
+}
+
+}  // namespace dysa

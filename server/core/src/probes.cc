@@ -1,0 +1,103 @@
+#include "dysa/core/probes.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "dysa/core/kernels.h"
+
+namespace dysa {
+
+std::vector<std::string> ProbeColumns(std::span<const ProbeSpec> probes) {
+  std::vector<std::string> columns;
+  for (const ProbeSpec& probe : probes) {
+    if (probe.kind == ProbeKind::kDensity) {
+      columns.push_back(probe.name + "_mean");
+      columns.push_back(probe.name + "_max");
+    } else {
+      columns.push_back(probe.name);
+    }
+  }
+  return columns;
+}
+
+namespace {
+
+// Probes run once per output, not per step: plain serial loops, summed in a fixed order so the
+// CSV is identical for any thread count.
+double Front(const ParticleArrays& p, int axis) {
+  double front = -std::numeric_limits<double>::infinity();
+  for (const Vec3& x : p.position) front = std::max(front, double(x[axis]));
+  return p.size() == 0 ? std::nan("") : front;
+}
+
+double Height(const ParticleArrays& p, const Model& model, const ProbeSpec& probe) {
+  const double radius = probe.radius > 0 ? probe.radius : model.params.smoothing_radius;
+  double top = model.domain.min.y();
+  for (const Vec3& x : p.position) {
+    const double dx = x.x() - probe.point.x();
+    const double dz = x.z() - probe.point.z();
+    if (dx * dx + dz * dz <= radius * radius) top = std::max(top, double(x.y()));
+  }
+  return top - model.domain.min.y();
+}
+
+// Shepard interpolation sum_j p_j W(r_j) / sum_j W(r_j) with the poly6 kernel; 0 where no
+// particle is within the smoothing radius (a point in air has no fluid pressure).
+double PressureAt(const ParticleArrays& p, const Model& model, const Vec3d& point) {
+  const double h = model.params.smoothing_radius;
+  double weighted = 0;
+  double weights = 0;
+  for (size_t i = 0; i < p.size(); ++i) {
+    const double r = (p.position[i].cast<double>() - point).norm();
+    const double w = Poly6<double>::W(r, h);
+    weighted += w * p.pressure[i];
+    weights += w;
+  }
+  return weights > 0 ? weighted / weights : 0.0;
+}
+
+}  // namespace
+
+std::vector<double> EvaluateProbes(std::span<const ProbeSpec> probes, const Model& model,
+                                   const State& state) {
+  const ParticleArrays& p = state.particles;
+  std::vector<double> values;
+  for (const ProbeSpec& probe : probes) {
+    switch (probe.kind) {
+      case ProbeKind::kFront:
+        values.push_back(Front(p, probe.axis));
+        break;
+      case ProbeKind::kHeight:
+        values.push_back(Height(p, model, probe));
+        break;
+      case ProbeKind::kPressure:
+        values.push_back(PressureAt(p, model, probe.point));
+        break;
+      case ProbeKind::kDensity: {
+        double sum = 0;
+        double max = 0;
+        for (Real rho : p.density) sum += rho, max = std::max(max, double(rho));
+        values.push_back(p.size() == 0 ? 0.0 : sum / double(p.size()));
+        values.push_back(max);
+        break;
+      }
+      case ProbeKind::kKineticEnergy: {
+        double sum = 0;
+        for (const Vec3& v : p.velocity) sum += v.cast<double>().squaredNorm();
+        values.push_back(0.5 * model.params.particle_mass * sum);
+        break;
+      }
+      case ProbeKind::kCountInside: {
+        const Aabb region = probe.region.value_or(model.domain);
+        double count = 0;
+        for (const Vec3& x : p.position) count += region.Contains(x.cast<double>()) ? 1 : 0;
+        values.push_back(count);
+        break;
+      }
+    }
+  }
+  return values;
+}
+
+}  // namespace dysa

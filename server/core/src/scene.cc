@@ -1,0 +1,401 @@
+#include "dysa/core/scene.h"
+
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <sstream>
+
+#include "dysa/core/solver.h"
+
+namespace dysa {
+namespace {
+
+using nlohmann::json;
+
+std::string Num(double v) {
+  std::ostringstream s;
+  s << v;
+  return s.str();
+}
+
+std::string TypeName(const json& j) { return j.type_name(); }
+
+// Reads the fields of one JSON object, each under its full path ("fluid_blocks[0].size"), and
+// rejects any field it was not asked for.
+class ObjectReader {
+ public:
+  ObjectReader(const json& object, std::string path) : object_(object), path_(std::move(path)) {
+    if (!object_.is_object()) {
+      throw ConfigError(path_, "expected an object, got " + TypeName(object_));
+    }
+  }
+
+  std::string PathOf(std::string_view key) const {
+    return path_.empty() ? std::string(key) : path_ + "." + std::string(key);
+  }
+
+  const json* Get(std::string_view key) {
+    known_.insert(std::string(key));
+    auto it = object_.find(key);
+    return it == object_.end() ? nullptr : &*it;
+  }
+
+  std::optional<double> Number(std::string_view key, double min, double max,
+                               std::string_view unit = "") {
+    const json* j = Get(key);
+    if (j == nullptr) return std::nullopt;
+    return CheckNumber(*j, PathOf(key), min, max, unit);
+  }
+
+  std::optional<int64_t> Integer(std::string_view key, int64_t min, int64_t max) {
+    const json* j = Get(key);
+    if (j == nullptr) return std::nullopt;
+    return CheckInteger(*j, PathOf(key), min, max);
+  }
+
+  std::optional<std::string> String(std::string_view key) {
+    const json* j = Get(key);
+    if (j == nullptr) return std::nullopt;
+    if (!j->is_string()) throw ConfigError(PathOf(key), "expected a string, got " + TypeName(*j));
+    return j->get<std::string>();
+  }
+
+  // [x, y, z]; with allow_scalar a single number means the same value on every axis.
+  std::optional<Vec3d> Vector(std::string_view key, double min, double max,
+                              std::string_view unit = "", bool allow_scalar = false) {
+    const json* j = Get(key);
+    if (j == nullptr) return std::nullopt;
+    const std::string path = PathOf(key);
+    if (allow_scalar && j->is_number()) {
+      return Vec3d::Constant(CheckNumber(*j, path, min, max, unit));
+    }
+    if (!j->is_array() || j->size() != 3) {
+      throw ConfigError(path, std::string("expected an array of 3 numbers") +
+                                  (allow_scalar ? " or a number" : "") + ", got " +
+                                  (j->is_array() ? "an array of " + std::to_string(j->size())
+                                                 : TypeName(*j)));
+    }
+    Vec3d v;
+    for (int a = 0; a < 3; ++a) {
+      v[a] = CheckNumber((*j)[a], path + "[" + std::to_string(a) + "]", min, max, unit);
+    }
+    return v;
+  }
+
+  // Call once every field has been read: any other field is an error.
+  void RejectUnknown() const {
+    for (const auto& [key, value] : object_.items()) {
+      if (known_.count(key) != 0) continue;
+      std::string allowed;
+      for (const std::string& k : known_) allowed += (allowed.empty() ? "" : ", ") + k;
+      throw ConfigError(PathOf(key), "unknown field; allowed fields here: " + allowed);
+    }
+  }
+
+  static double CheckNumber(const json& j, const std::string& path, double min, double max,
+                            std::string_view unit = "") {
+    const std::string range =
+        "[" + Num(min) + ", " + Num(max) + "]" + (unit.empty() ? "" : " " + std::string(unit));
+    if (!j.is_number()) {
+      throw ConfigError(path, "expected a number in " + range + ", got " + TypeName(j));
+    }
+    const double v = j.get<double>();
+    if (!(v >= min && v <= max)) {
+      throw ConfigError(path, Num(v) + " is outside the allowed range " + range);
+    }
+    return v;
+  }
+
+  static int64_t CheckInteger(const json& j, const std::string& path, int64_t min, int64_t max) {
+    const std::string range = "[" + std::to_string(min) + ", " + std::to_string(max) + "]";
+    if (!j.is_number() || (j.is_number_float() && j.get<double>() != std::floor(j.get<double>()))) {
+      throw ConfigError(path, "expected an integer in " + range + ", got " +
+                                  (j.is_number() ? Num(j.get<double>()) : TypeName(j)));
+    }
+    const double v = j.get<double>();
+    if (!(v >= double(min) && v <= double(max))) {
+      throw ConfigError(path, Num(v) + " is outside the allowed range " + range);
+    }
+    return static_cast<int64_t>(v);
+  }
+
+ private:
+  const json& object_;
+  std::string path_;
+  std::set<std::string> known_;
+};
+
+// Generous bounds that keep arithmetic finite; physical sense is the solver's business.
+constexpr double kMaxCoord = 1e6;   // m
+constexpr double kMaxSpeed = 1e4;   // m/s
+constexpr int64_t kMaxPerAxis = 100'000;
+
+// Iterates a JSON array field, calling parse(element, "key[i]") for each element.
+template <class F>
+void ForEachElement(ObjectReader& reader, std::string_view key, F&& parse) {
+  const json* array = reader.Get(key);
+  if (array == nullptr) return;
+  if (!array->is_array()) {
+    throw ConfigError(reader.PathOf(key), "expected an array, got " + TypeName(*array));
+  }
+  for (size_t i = 0; i < array->size(); ++i) {
+    parse((*array)[i], reader.PathOf(key) + "[" + std::to_string(i) + "]");
+  }
+}
+
+Aabb ParseBox(const json& j, const std::string& path) {
+  ObjectReader r(j, path);
+  Aabb box;
+  for (const char* key : {"min", "max"}) {
+    const std::optional<Vec3d> corner = r.Vector(key, -kMaxCoord, kMaxCoord, "m");
+    if (!corner) throw ConfigError(r.PathOf(key), "is required");
+    (key[1] == 'i' ? box.min : box.max) = *corner;
+  }
+  r.RejectUnknown();
+  for (int a = 0; a < 3; ++a) {
+    if (!(box.max[a] > box.min[a])) {
+      throw ConfigError(r.PathOf("max"), "must exceed " + r.PathOf("min") + " on every axis");
+    }
+  }
+  return box;
+}
+
+FluidBlock ParseFluidBlock(const json& j, const std::string& path) {
+  ObjectReader r(j, path);
+  FluidBlock b;
+  b.center = r.Vector("center", -kMaxCoord, kMaxCoord, "m");
+  b.size = r.Vector("size", 1e-6, kMaxCoord, "m", /*allow_scalar=*/true);
+  if (const json* n = r.Get("particles_per_axis")) {
+    const std::string p = r.PathOf("particles_per_axis");
+    if (n->is_array()) {
+      if (n->size() != 3) throw ConfigError(p, "expected 3 integers or one integer");
+      Eigen::Vector3i counts;
+      for (int a = 0; a < 3; ++a) {
+        counts[a] = int(ObjectReader::CheckInteger((*n)[a], p + "[" + std::to_string(a) + "]", 1,
+                                                   kMaxPerAxis));
+      }
+      b.particles_per_axis = counts;
+    } else {
+      b.particles_per_axis = Eigen::Vector3i::Constant(int(ObjectReader::CheckInteger(*n, p, 1, kMaxPerAxis)));
+    }
+  }
+  b.spacing = r.Number("spacing", 1e-5, kMaxCoord, "m");
+  if (b.spacing && b.particles_per_axis) {
+    throw ConfigError(r.PathOf("spacing"), "give either particles_per_axis or spacing, not both");
+  }
+  b.jitter = r.Number("jitter", 0, 100, "m");
+  b.seed = static_cast<uint64_t>(r.Integer("seed", 0, int64_t{1} << 53).value_or(1));
+  b.velocity = r.Vector("velocity", -kMaxSpeed, kMaxSpeed, "m/s").value_or(Vec3d::Zero());
+  r.RejectUnknown();
+  return b;
+}
+
+void ParseObstacle(const json& j, const std::string& path, Scene& scene) {
+  ObjectReader r(j, path);
+  const std::string type = r.String("type").value_or("");
+  if (type == "sphere") {
+    SphereObstacle s;
+    s.center = r.Vector("center", -kMaxCoord, kMaxCoord, "m").value_or(Vec3d::Zero());
+    s.radius = r.Number("radius", 1e-6, kMaxCoord, "m").value_or(s.radius);
+    scene.spheres.push_back(s);
+  } else if (type == "box") {
+    const Vec3d center = r.Vector("center", -kMaxCoord, kMaxCoord, "m").value_or(Vec3d::Zero());
+    const Vec3d size = r.Vector("size", 1e-6, kMaxCoord, "m", true).value_or(Vec3d::Ones());
+    scene.boxes.push_back({Aabb{center - 0.5 * size, center + 0.5 * size}});
+  } else {
+    throw ConfigError(r.PathOf("type"), "expected \"sphere\" or \"box\", got \"" + type + "\"");
+  }
+  r.RejectUnknown();
+}
+
+const std::map<std::string, ProbeKind>& ProbeKinds() {
+  static const std::map<std::string, ProbeKind> kinds = {
+      {"front", ProbeKind::kFront},
+      {"height", ProbeKind::kHeight},
+      {"pressure", ProbeKind::kPressure},
+      {"density", ProbeKind::kDensity},
+      {"kinetic_energy", ProbeKind::kKineticEnergy},
+      {"count_inside", ProbeKind::kCountInside},
+  };
+  return kinds;
+}
+
+ProbeSpec ParseProbe(const json& j, const std::string& path) {
+  ObjectReader r(j, path);
+  const std::string type = r.String("type").value_or("");
+  auto kind = ProbeKinds().find(type);
+  if (kind == ProbeKinds().end()) {
+    std::string names;
+    for (const auto& [name, k] : ProbeKinds()) names += (names.empty() ? "" : ", ") + name;
+    throw ConfigError(r.PathOf("type"), "unknown probe type \"" + type + "\"; known: " + names);
+  }
+  ProbeSpec p;
+  p.kind = kind->second;
+  p.name = r.String("name").value_or(type);
+  if (p.name.empty() || p.name.find_first_of(",\"\n") != std::string::npos) {
+    throw ConfigError(r.PathOf("name"), "must be non-empty without commas, quotes or newlines");
+  }
+  switch (p.kind) {
+    case ProbeKind::kFront: {
+      const std::string axis = r.String("axis").value_or("x");
+      if (axis != "x" && axis != "y" && axis != "z") {
+        throw ConfigError(r.PathOf("axis"), "expected \"x\", \"y\" or \"z\", got \"" + axis + "\"");
+      }
+      p.axis = axis[0] - 'x';
+      break;
+    }
+    case ProbeKind::kHeight:
+      p.point = r.Vector("point", -kMaxCoord, kMaxCoord, "m").value_or(Vec3d::Zero());
+      p.radius = r.Number("radius", 0, kMaxCoord, "m").value_or(0);
+      break;
+    case ProbeKind::kPressure:
+      p.point = r.Vector("point", -kMaxCoord, kMaxCoord, "m").value_or(Vec3d::Zero());
+      break;
+    case ProbeKind::kCountInside:
+      if (const json* region = r.Get("region")) p.region = ParseBox(*region, r.PathOf("region"));
+      break;
+    case ProbeKind::kDensity:
+    case ProbeKind::kKineticEnergy:
+      break;
+  }
+  r.RejectUnknown();
+  return p;
+}
+
+}  // namespace
+
+Scene ParseScene(std::string_view json_text) {
+  json root;
+  try {
+    root = json::parse(json_text);
+  } catch (const json::parse_error& e) {
+    throw ConfigError("", std::string("malformed JSON: ") + e.what());
+  }
+  ObjectReader r(root, "");
+  Scene scene;
+  scene.name = r.String("name").value_or("");
+  scene.description = r.String("description").value_or("");
+  if (const json* domain = r.Get("domain")) scene.domain = ParseBox(*domain, "domain");
+  ForEachElement(r, "fluid_blocks", [&](const json& j, const std::string& path) {
+    scene.fluid_blocks.push_back(ParseFluidBlock(j, path));
+  });
+  ForEachElement(r, "obstacles", [&](const json& j, const std::string& path) {
+    ParseObstacle(j, path, scene);
+  });
+  scene.solver = r.String("solver").value_or(scene.solver);
+  try {
+    CreateSolver(scene.solver);
+  } catch (const ConfigError& e) {
+    throw ConfigError("solver", e.message());
+  }
+  if (const json* params = r.Get("params")) {
+    if (!params->is_object()) {
+      throw ConfigError("params", "expected an object, got " + TypeName(*params));
+    }
+    for (const auto& [key, value] : params->items()) {
+      const std::string path = "params." + key;
+      if (FindParam(key) == nullptr) {
+        std::string known;
+        for (const ParamDecl& d : ParamTable()) known += (known.empty() ? "" : ", ") + std::string(d.name);
+        throw ConfigError(path, "unknown parameter; known parameters: " + known);
+      }
+      if (!value.is_number()) {
+        throw ConfigError(path, "expected a number in " + FindParam(key)->RangeText() + ", got " +
+                                    TypeName(value));
+      }
+      try {
+        SetParam(scene.params, key, value.get<double>());
+      } catch (const ConfigError& e) {
+        throw ConfigError(path, e.message());
+      }
+    }
+  }
+  scene.end_time = r.Number("end_time", 1e-6, 1e6, "s").value_or(scene.end_time);
+  scene.probe_interval = r.Number("probe_interval", 1e-6, 1e6, "s");
+  std::set<std::string> probe_names;
+  ForEachElement(r, "probes", [&](const json& j, const std::string& path) {
+    ProbeSpec p = ParseProbe(j, path);
+    if (!probe_names.insert(p.name).second) {
+      throw ConfigError(path + ".name", "duplicate probe name \"" + p.name + "\"");
+    }
+    scene.probes.push_back(std::move(p));
+  });
+  r.RejectUnknown();
+  if (scene.fluid_blocks.empty()) scene.fluid_blocks.emplace_back();  // the thesis's spawn cube
+  BlockParticleCounts(scene, scene.params);  // rejects counts that would exhaust memory
+  return scene;
+}
+
+std::vector<Eigen::Vector3i> BlockParticleCounts(const Scene& scene, const Params& params) {
+  std::vector<Eigen::Vector3i> counts;
+  uint64_t total = 0;
+  for (size_t i = 0; i < scene.fluid_blocks.size(); ++i) {
+    const FluidBlock& b = scene.fluid_blocks[i];
+    const std::string path = "fluid_blocks[" + std::to_string(i) + "]";
+    Eigen::Vector3i n = Eigen::Vector3i::Constant(params.particle_quantity);
+    if (b.particles_per_axis) n = *b.particles_per_axis;
+    if (b.spacing) {
+      const Vec3d size = b.size.value_or(Vec3d::Constant(params.spawn_size));
+      for (int a = 0; a < 3; ++a) {
+        const double cells = std::floor(size[a] / *b.spacing + 0.5);
+        if (cells > double(kMaxParticles)) {
+          throw ConfigError(path + ".spacing", "gives more than " + std::to_string(kMaxParticles) +
+                                                   " particles per axis");
+        }
+        n[a] = std::max(1, int(cells));
+      }
+    }
+    const uint64_t block = uint64_t(n.x()) * uint64_t(n.y()) * uint64_t(n.z());
+    total += block;
+    if (block > kMaxParticles || total > kMaxParticles) {
+      throw ConfigError(path, "the scene would have " + std::to_string(total) +
+                                  " particles or more; the limit is " +
+                                  std::to_string(kMaxParticles));
+    }
+    counts.push_back(n);
+  }
+  return counts;
+}
+
+const std::vector<BuiltinSceneText>& BuiltinSceneTexts();
+
+std::vector<std::string> BuiltinSceneNames() {
+  std::vector<std::string> names;
+  for (const BuiltinSceneText& s : BuiltinSceneTexts()) names.emplace_back(s.name);
+  return names;
+}
+
+Scene LoadScene(std::string_view name_or_path) {
+  for (const BuiltinSceneText& s : BuiltinSceneTexts()) {
+    if (name_or_path == s.name) {
+      Scene scene = ParseScene(s.json);
+      if (scene.name.empty()) scene.name = s.name;
+      return scene;
+    }
+  }
+  const std::string path(name_or_path);
+  std::ifstream file(path, std::ios::binary);
+  if (!file) {
+    std::string names;
+    for (const std::string& n : BuiltinSceneNames()) names += (names.empty() ? "" : ", ") + n;
+    throw ConfigError("scene", "'" + path + "' is neither a readable file nor a built-in scene (" +
+                                   names + ")");
+  }
+  std::stringstream text;
+  text << file.rdbuf();
+  try {
+    Scene scene = ParseScene(text.str());
+    if (scene.name.empty()) {
+      const size_t slash = path.find_last_of('/');
+      std::string base = slash == std::string::npos ? path : path.substr(slash + 1);
+      scene.name = base.substr(0, base.rfind(".json"));
+    }
+    return scene;
+  } catch (const ConfigError& e) {
+    throw ConfigError(e.field(), e.message() + " (in " + path + ")");
+  }
+}
+
+}  // namespace dysa

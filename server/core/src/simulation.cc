@@ -1,0 +1,85 @@
+#include "dysa/core/simulation.h"
+
+#include <chrono>
+
+namespace dysa {
+
+Simulation::Simulation(Scene scene) : scene_(std::move(scene)) {
+  solver_ = CreateSolver(scene_.solver);
+  model_ = MakeModel(scene_, scene_.params);
+  Rebuild();
+  Reset();
+}
+
+std::vector<std::string> Simulation::PassNames() const {
+  std::vector<std::string> names;
+  for (const Pass& pass : passes_) names.push_back(pass.name);
+  return names;
+}
+
+void Simulation::Step() {
+  using Clock = std::chrono::steady_clock;
+  for (size_t k = 0; k < passes_.size(); ++k) {
+    const auto start = Clock::now();
+    passes_[k].run(model_, state_);
+    const double ms = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+    PassProfile& prof = profile_[k];
+    prof.last_ms = ms;
+    prof.total_ms += ms;
+    ++prof.calls;
+  }
+  state_.time += model_.dt;
+  ++state_.step;
+}
+
+void Simulation::StepFrame() {
+  for (int i = 0; i < model_.params.iterations_per_frame; ++i) Step();
+}
+
+void Simulation::Reset() {
+  SpawnParticles(scene_, model_.params, state_.particles);
+  state_.time = 0;
+  state_.step = 0;
+}
+
+bool Simulation::SetParam(std::string_view name, double value) {
+  Params next = model_.params;
+  dysa::SetParam(next, name, value);  // throws, nothing applied
+  return SetParams(next);
+}
+
+bool Simulation::SetParams(const Params& params) {
+  // Validate every value and the particle count it implies before touching anything.
+  Params checked;
+  for (const ParamDecl& decl : ParamTable()) dysa::SetParam(checked, decl.name, decl.get(params));
+  BlockParticleCounts(scene_, checked);
+
+  bool needs_reset = false;
+  for (const ParamDecl& decl : ParamTable()) {
+    needs_reset |= decl.needs_reset && decl.get(checked) != decl.get(model_.params);
+  }
+  model_ = MakeModel(scene_, checked);
+  Rebuild();
+  if (needs_reset) Reset();
+  return needs_reset;
+}
+
+void Simulation::ResetProfile() {
+  for (PassProfile& prof : profile_) prof = PassProfile{prof.name};
+}
+
+void Simulation::Rebuild() {
+  passes_ = solver_->BuildPasses(model_);
+  // Keep the accumulated timings of passes that stay in the list.
+  std::vector<PassProfile> profile;
+  for (const Pass& pass : passes_) {
+    PassProfile prof{pass.name};
+    for (const PassProfile& old : profile_) {
+      if (old.name == pass.name) prof = old;
+    }
+    profile.push_back(prof);
+  }
+  profile_ = std::move(profile);
+}
+
+}  // namespace dysa

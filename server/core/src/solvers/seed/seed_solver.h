@@ -1,0 +1,38 @@
+// The DySAQUASIMs thesis model (after Sebastian Lague's fluid simulation): double density
+// relaxation in the form of forces.
+//
+// Clavet, Beaudoin, Poulin 2005, "Particle-based viscoelastic fluid simulation" (SCA): a
+// pressure p = k (rho - rho0) from a spiky^2 density and a near pressure p_near = k_near
+// rho_near from a spiky^3 "near density", which keeps particles apart without clustering.
+// Forces use the shared pressures (p_i + p_j) / 2, so pairwise forces are equal and opposite.
+// Viscosity is the thesis's velocity smoothing with the poly6 kernel (Mueller et al. 2003).
+// Walls reflect the normal velocity scaled by the collision damping.
+#pragma once
+
+#include <memory>
+
+#include "dysa/core/solver.h"
+
+namespace dysa::seed {
+
+// Positions are predicted this far ahead (s) for the density and force passes, a fixed look-
+// ahead as in the thesis: it damps the response to fast approach without depending on dt.
+inline constexpr Real kPredictionLookahead = Real(1.0 / 120.0);
+
+class SeedSolver final : public Solver {
+ public:
+  std::vector<Pass> BuildPasses(const Model& model) const override;
+};
+
+std::unique_ptr<Solver> CreateSeedSolver();
+
+// The passes, exposed for tests.
+void ApplyExternalForces(const Model& model, State& state);
+template <bool kNear>
+void ComputeDensities(const Model& model, State& state);
+template <bool kNear>
+void ApplyPressureForces(const Model& model, State& state);
+void ApplyViscosity(const Model& model, State& state);
+void IntegrateAndCollideWithWalls(const Model& model, State& state);
+
+}  // namespace dysa::seed

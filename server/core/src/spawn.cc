@@ -1,0 +1,75 @@
+#include <cstdint>
+
+#include "dysa/core/simulation.h"
+
+namespace dysa {
+namespace {
+
+// SplitMix64 (Steele, Lea, Flood 2014): a tiny generator whose output is the same on every
+// platform and standard library, unlike std::uniform_real_distribution.
+class SplitMix64 {
+ public:
+  explicit SplitMix64(uint64_t seed) : state_(seed) {}
+  uint64_t Next() {
+    uint64_t z = (state_ += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
+  }
+  // Uniform in [-1, 1).
+  double Signed() { return double(Next() >> 11) * 0x1.0p-52 - 1.0; }
+  // Uniform in the unit ball, by rejection from the cube (52% acceptance).
+  Vec3d InUnitBall() {
+    for (;;) {
+      const Vec3d v(Signed(), Signed(), Signed());
+      if (v.squaredNorm() <= 1.0) return v;
+    }
+  }
+
+ private:
+  uint64_t state_;
+};
+
+}  // namespace
+
+void SpawnParticles(const Scene& scene, const Params& params, ParticleArrays& particles) {
+  const std::vector<Eigen::Vector3i> counts = BlockParticleCounts(scene, params);
+  size_t total = 0;
+  for (const Eigen::Vector3i& n : counts) total += size_t(n.x()) * n.y() * n.z();
+  particles.Resize(total);
+
+  size_t i = 0;
+  for (size_t b = 0; b < scene.fluid_blocks.size(); ++b) {
+    const FluidBlock& block = scene.fluid_blocks[b];
+    const Eigen::Vector3i n = counts[b];
+    const Vec3d center = block.center.value_or(scene.domain.Center());
+    const Vec3d size = block.size.value_or(Vec3d::Constant(params.spawn_size));
+    const double jitter = block.jitter.value_or(params.spawn_jitter);
+    SplitMix64 rng(block.seed);
+    // The offset of lattice point k along axis a from the block centre.
+    auto offset = [&](int a, int k) {
+      if (block.spacing) return (k - 0.5 * (n[a] - 1)) * *block.spacing;
+      // The thesis's spawner: n points spanning the edge, both ends included.
+      return n[a] > 1 ? (double(k) / (n[a] - 1) - 0.5) * size[a] : 0.0;
+    };
+    for (int x = 0; x < n.x(); ++x) {
+      for (int y = 0; y < n.y(); ++y) {
+        for (int z = 0; z < n.z(); ++z) {
+          Vec3d pos = center + Vec3d(offset(0, x), offset(1, y), offset(2, z));
+          if (jitter > 0) pos += rng.InUnitBall() * jitter;
+          particles.id[i] = static_cast<uint32_t>(i);
+          particles.position[i] = pos.cast<Real>();
+          particles.predicted[i] = particles.position[i];
+          particles.velocity[i] = block.velocity.cast<Real>();
+          ++i;
+        }
+      }
+    }
+  }
+  std::fill(particles.density.begin(), particles.density.end(), Real(0));
+  std::fill(particles.near_density.begin(), particles.near_density.end(), Real(0));
+  std::fill(particles.pressure.begin(), particles.pressure.end(), Real(0));
+  std::fill(particles.near_pressure.begin(), particles.near_pressure.end(), Real(0));
+}
+
+}  // namespace dysa

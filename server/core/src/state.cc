@@ -1,0 +1,43 @@
+#include "dysa/core/state.h"
+
+#include <cstring>
+
+namespace dysa {
+
+void ParticleArrays::Resize(size_t n) {
+  id.resize(n);
+  position.resize(n);
+  velocity.resize(n);
+  predicted.resize(n);
+  density.resize(n);
+  near_density.resize(n);
+  pressure.resize(n);
+  near_pressure.resize(n);
+}
+
+namespace {
+
+constexpr uint64_t kFnvOffset = 0xcbf29ce484222325ull;
+constexpr uint64_t kFnvPrime = 0x100000001b3ull;
+
+void HashBytes(uint64_t& h, const void* data, size_t size) {
+  const auto* bytes = static_cast<const unsigned char*>(data);
+  for (size_t i = 0; i < size; ++i) h = (h ^ bytes[i]) * kFnvPrime;
+}
+
+}  // namespace
+
+uint64_t StateHash(const State& state) {
+  const ParticleArrays& p = state.particles;
+  std::vector<uint32_t> slot_of_id(p.size());
+  for (size_t i = 0; i < p.size(); ++i) slot_of_id[p.id[i]] = static_cast<uint32_t>(i);
+  uint64_t h = kFnvOffset;
+  for (uint32_t slot : slot_of_id) {
+    HashBytes(h, &p.id[slot], sizeof(uint32_t));
+    HashBytes(h, p.position[slot].data(), 3 * sizeof(Real));
+    HashBytes(h, p.velocity[slot].data(), 3 * sizeof(Real));
+  }
+  return h;
+}
+
+}  // namespace dysa
