@@ -41,8 +41,19 @@ void NeighborGrid::Sort(std::span<const Vec3> points) {
   // cell_start_[c] now is the first slot of cell c; use a copy as the fill cursor.
   cursor_.assign(cell_start_.begin(), cell_start_.end() - 1);
   for (int64_t i = 0; i < n; ++i) order_[cursor_[key_[i]]++] = static_cast<uint32_t>(i);
+
+  for (std::vector<Real>* coords : {&xs_, &ys_, &zs_}) {
+    coords->resize(points.size() + kPadding);
+    std::fill(coords->end() - kPadding, coords->end(), Real(0));
+  }
 #pragma omp parallel for schedule(static)
-  for (int64_t k = 0; k < n; ++k) sorted_key_[k] = key_[order_[k]];
+  for (int64_t k = 0; k < n; ++k) {
+    const uint32_t i = order_[k];
+    sorted_key_[k] = key_[i];
+    xs_[k] = points[i].x();
+    ys_[k] = points[i].y();
+    zs_[k] = points[i].z();
+  }
 }
 
 }  // namespace dysa

@@ -347,13 +347,13 @@ std::vector<Eigen::Vector3i> BlockParticleCounts(const Scene& scene, const Param
         n[a] = std::max(1, int(cells));
       }
     }
-    const uint64_t block = uint64_t(n.x()) * uint64_t(n.y()) * uint64_t(n.z());
-    total += block;
-    if (block > kMaxParticles || total > kMaxParticles) {
-      throw ConfigError(path, "the scene would have " + std::to_string(total) +
-                                  " particles or more; the limit is " +
-                                  std::to_string(kMaxParticles));
+    // In double: the product of three per-axis counts can overflow any integer type.
+    const double block = double(n.x()) * double(n.y()) * double(n.z());
+    if (block > double(kMaxParticles) || double(total) + block > double(kMaxParticles)) {
+      throw ConfigError(path, "the scene would have " + Num(double(total) + block) +
+                                  " particles; the limit is " + std::to_string(kMaxParticles));
     }
+    total += uint64_t(block);
     counts.push_back(n);
   }
   return counts;

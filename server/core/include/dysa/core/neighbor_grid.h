@@ -31,10 +31,16 @@ class NeighborGrid {
 
   // Stable counting sort of the points by cell in O(n + cells). Afterwards order()[k] is the
   // index in `points` of the k-th point in cell order; the caller permutes its arrays with it
-  // (PermuteInto), and the run queries below refer to that sorted order.
+  // (PermuteInPlace), and the run queries below refer to that sorted order.
   void Sort(std::span<const Vec3> points);
 
   std::span<const uint32_t> order() const { return order_; }
+  // The sorted points as separate coordinate arrays, for vectorised neighbour loops. Each holds
+  // kPadding readable zeros past its end, so a loop may load whole vectors at a run's end.
+  static constexpr int kPadding = 8;
+  std::span<const Real> xs() const { return {xs_.data(), order_.size()}; }
+  std::span<const Real> ys() const { return {ys_.data(), order_.size()}; }
+  std::span<const Real> zs() const { return {zs_.data(), order_.size()}; }
   Real cell_size() const { return cell_size_; }
   Eigen::Vector3i dims() const { return dims_; }
   int64_t cell_count() const { return int64_t{dims_.x()} * dims_.y() * dims_.z(); }
@@ -87,6 +93,7 @@ class NeighborGrid {
   std::vector<uint32_t> order_;       // sorted position -> input index
   std::vector<uint32_t> cell_start_;  // cells + 1 entries; cell c holds [start[c], start[c+1])
   std::vector<uint32_t> cursor_;      // fill position of each cell during the sort
+  std::vector<Real> xs_, ys_, zs_;    // sorted points, padded
 };
 
 // out[k] = in[order[k]] for every k, in parallel; then swaps out into in.

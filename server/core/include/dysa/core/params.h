@@ -24,8 +24,8 @@ struct Params {
   double collision_damping = 0.086; // fraction of the normal speed kept after hitting a wall
   double smoothing_radius = 0.2;    // m, kernel support h; also the neighbour grid cell size
   double target_density = 630.0;    // kg/m^3, rest density rho0 of the equation of state
-  double pressure_multiplier = 28.8;      // m^5/(kg s^2): p = (rho - rho0) * k
-  double near_pressure_multiplier = 2.25; // m^5/(kg s^2): p_near = rho_near * k_near
+  double pressure_multiplier = 28.8;      // m^2/s^2: p = (rho - rho0) * k, in Pa
+  double near_pressure_multiplier = 2.25; // m^2/s^2: p_near = rho_near * k_near
   double viscosity = 0.001;               // m^3/s: dv_i = mu * sum_j (v_j - v_i) W(r) dt
   double particle_mass = 1.0;             // kg
 

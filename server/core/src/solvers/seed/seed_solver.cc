@@ -5,6 +5,7 @@
 
 #include "common_passes.h"
 #include "dysa/core/kernels.h"
+#include "simd.h"
 
 namespace dysa::seed {
 namespace {
@@ -38,6 +39,42 @@ void ApplyExternalForces(const Model& model, State& state) {
   }
 }
 
+using simd::RealV;
+using simd::MaskV;
+
+// Vector values are created inside the OpenMP loops, never shared into them: GCC 12 does not
+// keep the 32-byte alignment of vectors in the block it passes to the outlined parallel
+// function, and aligned AVX loads from it fault.
+
+// Loads candidates [j, j + 8) of a run and returns the masked squared distances' ingredients.
+struct CandidateBlock {
+  RealV dx, dy, dz, r2;
+  MaskV in_run;
+};
+
+inline CandidateBlock LoadCandidates(const Real* xs, const Real* ys, const Real* zs, RealV xi,
+                                     RealV yi, RealV zi, uint32_t j, uint32_t end) {
+  CandidateBlock c;
+  c.dx = simd::Load(xs + j) - xi;
+  c.dy = simd::Load(ys + j) - yi;
+  c.dz = simd::Load(zs + j) - zi;
+  c.r2 = c.dx * c.dx + c.dy * c.dy + c.dz * c.dz;
+  c.in_run = simd::InRun(j, end);
+  return c;
+}
+
+// Copies `values` into `padded` (n + kPadding entries, the tail zero) so vector loads at the end
+// of a run stay inside the buffer.
+template <class F>
+Real* PaddedArray(std::vector<Real>& storage, size_t slot, size_t n, F&& value_of) {
+  const size_t stride = n + NeighborGrid::kPadding;
+  Real* out = storage.data() + slot * stride;
+#pragma omp parallel for schedule(static)
+  for (int64_t i = 0; i < int64_t(n); ++i) out[i] = value_of(i);
+  std::fill(out + n, out + stride, Real(0));
+  return out;
+}
+
 template <bool kNear>
 void ComputeDensities(const Model& model, State& state) {
   ParticleArrays& p = state.particles;
@@ -46,103 +83,161 @@ void ComputeDensities(const Model& model, State& state) {
   const Real rho0 = Real(model.params.target_density);
   const Real stiffness = Real(model.params.pressure_multiplier);
   const Real near_stiffness = Real(model.params.near_pressure_multiplier);
-  const Vec3* x = p.predicted.data();
   const NeighborGrid& grid = state.grid;
+  const Real* xs = grid.xs().data();
+  const Real* ys = grid.ys().data();
+  const Real* zs = grid.zs().data();
   const int64_t n = static_cast<int64_t>(p.size());
 #pragma omp parallel for schedule(static)
   for (int64_t i = 0; i < n; ++i) {
-    const Vec3 xi = x[i];
-    Real sum2 = 0;  // sum of (h - r)^2
-    Real sum3 = 0;  // sum of (h - r)^3
+    const RealV h = simd::Broadcast(k.h);
+    const RealV h2 = simd::Broadcast(k.h2);
+    const RealV xi = simd::Broadcast(xs[i]), yi = simd::Broadcast(ys[i]),
+                zi = simd::Broadcast(zs[i]);
+    RealV sum2{};  // sum of (h - r)^2
+    RealV sum3{};  // sum of (h - r)^3
     grid.ForEachNeighborRun(grid.SortedCell(uint32_t(i)), [&](uint32_t begin, uint32_t end) {
-      for (uint32_t j = begin; j < end; ++j) {
-        const Real r2 = (x[j] - xi).squaredNorm();
-        if (r2 >= k.h2) continue;
-        const Real q = k.h - std::sqrt(r2);
+      for (uint32_t j = begin; j < end; j += simd::kLanes) {
+        const CandidateBlock c = LoadCandidates(xs, ys, zs, xi, yi, zi, j, end);
+        const RealV q = simd::Select(c.in_run & (c.r2 < h2), h - simd::Sqrt(c.r2), RealV{});
         sum2 += q * q;
         if constexpr (kNear) sum3 += q * q * q;
       }
     });
-    const Real rho = mass * k.spiky2 * sum2;
+    const Real rho = mass * k.spiky2 * simd::Sum(sum2);
     p.density[i] = rho;
     p.pressure[i] = (rho - rho0) * stiffness;
     if constexpr (kNear) {
-      const Real rho_near = mass * k.spiky3 * sum3;
+      const Real rho_near = mass * k.spiky3 * simd::Sum(sum3);
       p.near_density[i] = rho_near;
       p.near_pressure[i] = rho_near * near_stiffness;
     }
   }
 }
 
-// a_i = m / rho_i * sum_j dW(r_ij)/dr * (p_i + p_j) / 2 / rho_j * (x_j - x_i) / r_ij, plus the
-// same with the near density, near pressure and the spiky^3 gradient.
+// a_i = m / rho_i * sum_j dW(r_ij)/dr * (p_i + p_j) / (2 rho_j) * (x_j - x_i) / r_ij, plus the
+// same with the near density, near pressure and the spiky^3 gradient. The shared-pressure
+// factor is evaluated as p_i * half_inv_rho_j + half_p_over_rho_j, both precomputed per particle.
 template <bool kNear>
 void ApplyPressureForces(const Model& model, State& state) {
   ParticleArrays& p = state.particles;
   const SeedKernelFactors<Real> k(Real(model.params.smoothing_radius));
   const Real mass_dt = Real(model.params.particle_mass * model.dt);
-  const Vec3* x = p.predicted.data();
-  const Real* rho = p.density.data();
-  const Real* pressure = p.pressure.data();
-  const Real* rho_near = p.near_density.data();
-  const Real* near_pressure = p.near_pressure.data();
-  const uint32_t* id = p.id.data();
   const NeighborGrid& grid = state.grid;
-  const int64_t n = static_cast<int64_t>(p.size());
+  const Real* xs = grid.xs().data();
+  const Real* ys = grid.ys().data();
+  const Real* zs = grid.zs().data();
+  const uint32_t* id = p.id.data();
+  const size_t n = p.size();
+
+  state.real_scratch.resize(4 * (n + NeighborGrid::kPadding));
+  std::vector<Real>& scratch = state.real_scratch;
+  const Real* half_inv_rho =
+      PaddedArray(scratch, 0, n, [&](int64_t j) { return Real(0.5) / p.density[j]; });
+  const Real* half_p_over_rho = PaddedArray(
+      scratch, 1, n, [&](int64_t j) { return Real(0.5) * p.pressure[j] / p.density[j]; });
+  const Real* half_inv_rho_near = half_inv_rho;
+  const Real* half_pn_over_rho_near = half_p_over_rho;
+  if constexpr (kNear) {
+    half_inv_rho_near =
+        PaddedArray(scratch, 2, n, [&](int64_t j) { return Real(0.5) / p.near_density[j]; });
+    half_pn_over_rho_near = PaddedArray(scratch, 3, n, [&](int64_t j) {
+      return Real(0.5) * p.near_pressure[j] / p.near_density[j];
+    });
+  }
+
 #pragma omp parallel for schedule(static)
-  for (int64_t i = 0; i < n; ++i) {
-    const Vec3 xi = x[i];
-    const Real pi = pressure[i];
-    const Real pni = kNear ? near_pressure[i] : Real(0);
-    Vec3 force = Vec3::Zero();
+  for (int64_t i = 0; i < int64_t(n); ++i) {
+    const RealV h = simd::Broadcast(k.h);
+    const RealV h2 = simd::Broadcast(k.h2);
+    const RealV grad2 = simd::Broadcast(k.spiky2_grad);
+    const RealV grad3 = simd::Broadcast(k.spiky3_grad);
+    const RealV xi = simd::Broadcast(xs[i]), yi = simd::Broadcast(ys[i]),
+                zi = simd::Broadcast(zs[i]);
+    const RealV pi = simd::Broadcast(p.pressure[i]);
+    const RealV pni = simd::Broadcast(kNear ? p.near_pressure[i] : Real(0));
+    RealV fx{}, fy{}, fz{};
+    MaskV coincident{};  // candidates at distance 0, i itself included
     grid.ForEachNeighborRun(grid.SortedCell(uint32_t(i)), [&](uint32_t begin, uint32_t end) {
-      for (uint32_t j = begin; j < end; ++j) {
-        const Vec3 d = x[j] - xi;
-        const Real r2 = d.squaredNorm();
-        if (r2 >= k.h2 || j == uint32_t(i)) continue;
-        const Real r = std::sqrt(r2);
-        const Vec3 dir = r > 0 ? Vec3(d / r) : CoincidentDirection(id[i], id[j]);
-        const Real q = k.h - r;
-        // -dW/dr; the minus sign of the gradient is folded into the subtraction below.
-        Real magnitude = k.spiky2_grad * q * Real(0.5) * (pi + pressure[j]) / rho[j];
+      for (uint32_t j = begin; j < end; j += simd::kLanes) {
+        const CandidateBlock c = LoadCandidates(xs, ys, zs, xi, yi, zi, j, end);
+        const MaskV inside = c.in_run & (c.r2 < h2) & (c.r2 > RealV{});
+        coincident -= c.in_run & (c.r2 == RealV{});  // a true lane is -1
+        const RealV r = simd::Sqrt(c.r2);
+        const RealV q = simd::Select(inside, h - r, RealV{});
+        const RealV inv_r = simd::Select(inside, Real(1) / r, RealV{});
+        // -dW/dr times the shared pressure over rho_j; the force pushes i away from j.
+        RealV magnitude = grad2 * q * (pi * simd::Load(half_inv_rho + j) +
+                                       simd::Load(half_p_over_rho + j));
         if constexpr (kNear) {
-          magnitude += k.spiky3_grad * q * q * Real(0.5) * (pni + near_pressure[j]) / rho_near[j];
+          magnitude += grad3 * q * q * (pni * simd::Load(half_inv_rho_near + j) +
+                                        simd::Load(half_pn_over_rho_near + j));
         }
-        force -= dir * magnitude;
+        const RealV s = simd::Select(inside, magnitude * inv_r, RealV{});
+        fx -= c.dx * s;
+        fy -= c.dy * s;
+        fz -= c.dz * s;
       }
     });
-    p.velocity[i] += force * (mass_dt / rho[i]);
+    Vec3 force(simd::Sum(fx), simd::Sum(fy), simd::Sum(fz));
+    int32_t zero_distance = 0;
+    for (int l = 0; l < simd::kLanes; ++l) zero_distance += coincident[l];
+    if (zero_distance > 1) {
+      // Rare: particles exactly on top of each other get a pair-specific direction.
+      const Real pi_s = p.pressure[i];
+      const Real pni_s = kNear ? p.near_pressure[i] : Real(0);
+      grid.ForEachNeighborRun(grid.SortedCell(uint32_t(i)), [&](uint32_t begin, uint32_t end) {
+        for (uint32_t j = begin; j < end; ++j) {
+          if (j == uint32_t(i) || xs[j] != xs[i] || ys[j] != ys[i] || zs[j] != zs[i]) continue;
+          Real magnitude = k.spiky2_grad * k.h * (pi_s * half_inv_rho[j] + half_p_over_rho[j]);
+          if constexpr (kNear) {
+            magnitude += k.spiky3_grad * k.h * k.h *
+                         (pni_s * half_inv_rho_near[j] + half_pn_over_rho_near[j]);
+          }
+          force -= CoincidentDirection(id[i], id[j]) * magnitude;
+        }
+      });
+    }
+    p.velocity[i] += force * (mass_dt * 2 * half_inv_rho[i]);
   }
 }
 
-// v_i += mu dt sum_j (v_j - v_i) W_poly6(r_ij), reading the velocities before the pass and
-// writing a second buffer, so the result does not depend on the order particles are visited.
+// v_i += mu dt sum_j (v_j - v_i) W_poly6(r_ij), reading the velocities from a copy made before
+// the pass, so the result does not depend on the order particles are visited.
 void ApplyViscosity(const Model& model, State& state) {
   ParticleArrays& p = state.particles;
   const SeedKernelFactors<Real> k(Real(model.params.smoothing_radius));
   const Real scale = Real(model.params.viscosity * model.dt) * k.poly6;
-  const Vec3* x = p.predicted.data();
-  const Vec3* v = p.velocity.data();
-  state.vec3_scratch.resize(p.size());
-  Vec3* v_out = state.vec3_scratch.data();
   const NeighborGrid& grid = state.grid;
-  const int64_t n = static_cast<int64_t>(p.size());
+  const Real* xs = grid.xs().data();
+  const Real* ys = grid.ys().data();
+  const Real* zs = grid.zs().data();
+  const size_t n = p.size();
+  state.real_scratch.resize(3 * (n + NeighborGrid::kPadding));
+  std::vector<Real>& scratch = state.real_scratch;
+  const Real* vx = PaddedArray(scratch, 0, n, [&](int64_t j) { return p.velocity[j].x(); });
+  const Real* vy = PaddedArray(scratch, 1, n, [&](int64_t j) { return p.velocity[j].y(); });
+  const Real* vz = PaddedArray(scratch, 2, n, [&](int64_t j) { return p.velocity[j].z(); });
 #pragma omp parallel for schedule(static)
-  for (int64_t i = 0; i < n; ++i) {
-    const Vec3 xi = x[i];
-    const Vec3 vi = v[i];
-    Vec3 sum = Vec3::Zero();
+  for (int64_t i = 0; i < int64_t(n); ++i) {
+    const RealV h2 = simd::Broadcast(k.h2);
+    const RealV xi = simd::Broadcast(xs[i]), yi = simd::Broadcast(ys[i]),
+                zi = simd::Broadcast(zs[i]);
+    const RealV vxi = simd::Broadcast(vx[i]), vyi = simd::Broadcast(vy[i]),
+                vzi = simd::Broadcast(vz[i]);
+    RealV ax{}, ay{}, az{};
     grid.ForEachNeighborRun(grid.SortedCell(uint32_t(i)), [&](uint32_t begin, uint32_t end) {
-      for (uint32_t j = begin; j < end; ++j) {
-        const Real r2 = (x[j] - xi).squaredNorm();
-        if (r2 >= k.h2) continue;
-        const Real w = k.h2 - r2;
-        sum += (v[j] - vi) * (w * w * w);
+      for (uint32_t j = begin; j < end; j += simd::kLanes) {
+        const CandidateBlock c = LoadCandidates(xs, ys, zs, xi, yi, zi, j, end);
+        const RealV w = simd::Select(c.in_run & (c.r2 < h2), h2 - c.r2, RealV{});
+        const RealV w3 = w * w * w;
+        ax += (simd::Load(vx + j) - vxi) * w3;
+        ay += (simd::Load(vy + j) - vyi) * w3;
+        az += (simd::Load(vz + j) - vzi) * w3;
       }
     });
-    v_out[i] = vi + sum * scale;
+    p.velocity[i] += Vec3(simd::Sum(ax), simd::Sum(ay), simd::Sum(az)) * scale;
   }
-  p.velocity.swap(state.vec3_scratch);
 }
 
 void IntegrateAndCollideWithWalls(const Model& model, State& state) {
