@@ -7,7 +7,9 @@ namespace dysa {
 
 void NeighborGrid::Configure(const Aabb& domain, Real min_cell_size) {
   const Vec3d size = domain.Size();
-  double cell = min_cell_size;
+  // 1e-6 relative covers the float rounding of the distance tests and the double rounding of
+  // CellOf for any grid under kMaxCells cells per axis.
+  double cell = double(min_cell_size) * (1 + 1e-6);
   // Grow the cell edge until the grid fits in kMaxCells (a cube root estimate, then a guard for
   // rounding up of the per-axis counts).
   const double estimate = std::cbrt(size.prod() / double(kMaxCells));
@@ -18,9 +20,9 @@ void NeighborGrid::Configure(const Aabb& domain, Real min_cell_size) {
     if (int64_t{dims.x()} * dims.y() * dims.z() <= kMaxCells) break;
     cell *= 1.01;
   }
-  origin_ = domain.min.cast<Real>();
+  origin_ = domain.min;
   cell_size_ = Real(cell);
-  inv_cell_size_ = Real(1.0 / cell);
+  inv_cell_size_ = 1.0 / cell;
   dims_ = dims;
 }
 

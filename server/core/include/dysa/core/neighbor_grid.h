@@ -45,12 +45,15 @@ class NeighborGrid {
   Eigen::Vector3i dims() const { return dims_; }
   int64_t cell_count() const { return int64_t{dims_.x()} * dims_.y() * dims_.z(); }
 
+  // In double, with a cell edge a hair longer than the requested size: two points closer than
+  // that size then always land in the same or adjacent cells, whatever the float rounding
+  // (in float, (x - origin) / h can put points 0.99999 h apart two cells apart).
   Eigen::Vector3i CellOf(const Vec3& p) const {
     Eigen::Vector3i c;
     for (int a = 0; a < 3; ++a) {
-      Real f = (p[a] - origin_[a]) * inv_cell_size_;
-      // Clamp before the cast: the cast of a huge or NaN float is undefined.
-      f = std::isnan(f) ? Real{0} : std::fmin(std::fmax(f, Real{0}), Real(dims_[a] - 1));
+      double f = (double(p[a]) - origin_[a]) * inv_cell_size_;
+      // Clamp before the cast: the cast of a huge or NaN value is undefined.
+      f = std::isnan(f) ? 0.0 : std::fmin(std::fmax(f, 0.0), double(dims_[a] - 1));
       c[a] = static_cast<int>(f);
     }
     return c;
@@ -84,9 +87,9 @@ class NeighborGrid {
   }
 
  private:
-  Vec3 origin_ = Vec3::Zero();
+  Vec3d origin_ = Vec3d::Zero();
   Real cell_size_ = 1;
-  Real inv_cell_size_ = 1;
+  double inv_cell_size_ = 1;
   Eigen::Vector3i dims_{1, 1, 1};
   std::vector<uint32_t> key_;         // cell of each point, input order
   std::vector<uint32_t> sorted_key_;  // cell of each point, sorted order

@@ -4,7 +4,8 @@
 // Clavet, Beaudoin, Poulin 2005, "Particle-based viscoelastic fluid simulation" (SCA): a
 // pressure p = k (rho - rho0) from a spiky^2 density and a near pressure p_near = k_near
 // rho_near from a spiky^3 "near density", which keeps particles apart without clustering.
-// Forces use the shared pressures (p_i + p_j) / 2, so pairwise forces are equal and opposite.
+// Forces use the shared pressures (p_i + p_j) / 2 over rho_i rho_j, so pairwise forces are equal
+// and opposite.
 // Viscosity is the thesis's velocity smoothing with the poly6 kernel (Mueller et al. 2003).
 // Walls reflect the normal velocity scaled by the collision damping.
 #pragma once
