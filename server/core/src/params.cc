@@ -59,10 +59,11 @@ std::string FormatNumber(double v) {
 }  // namespace
 
 std::string ParamDecl::RangeText() const {
-  std::string text = "[" + FormatNumber(min) + ", " + FormatNumber(max) + "]";
-  if (!unit.empty()) text += " " + std::string(unit);
-  if (integer) text += " (integer)";
-  return text;
+  std::ostringstream text;
+  text << '[' << min << ", " << max << ']';
+  if (!unit.empty()) text << ' ' << unit;
+  if (integer) text << " (integer)";
+  return text.str();
 }
 
 std::span<const ParamDecl> ParamTable() { return kParamTable; }
