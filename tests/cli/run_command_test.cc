@@ -1,0 +1,279 @@
+// Tests of clients/cli/run_command.h (`dysa run`): the files an offline run writes, its timing
+// table, its errors, and the real `dysa` executable's exit codes and messages.
+#include "run_command.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "dysa/core/params.h"
+#include "dysa/core/probes.h"
+#include "dysa/core/scene.h"
+#include "dysa/core/types.h"
+
+#ifndef DYSA_BINARY
+#error "DYSA_BINARY must name the dysa executable (tests/CMakeLists.txt defines it)"
+#endif
+
+namespace dysa {
+namespace {
+
+namespace fs = std::filesystem;
+using ::testing::HasSubstr;
+
+// A fresh directory under the test temp dir, removed at the end of the test.
+class TempDir {
+ public:
+  TempDir() {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    path_ = fs::path(::testing::TempDir()) /
+            ("dysa_run_" + std::string(info->name()) + "_" + std::to_string(::getpid()));
+    fs::remove_all(path_);
+    fs::create_directories(path_);
+  }
+  ~TempDir() { fs::remove_all(path_); }
+  const fs::path& path() const { return path_; }
+
+ private:
+  fs::path path_;
+};
+
+std::string ReadFile(const fs::path& path) {
+  std::ifstream file(path, std::ios::binary);
+  std::stringstream text;
+  text << file.rdbuf();
+  return text.str();
+}
+
+std::vector<std::string> Split(const std::string& text, char separator) {
+  std::vector<std::string> parts;
+  std::string part;
+  std::istringstream in(text);
+  while (std::getline(in, part, separator)) parts.push_back(part);
+  return parts;
+}
+
+RunOptions SmallRun(const fs::path& out_dir) {
+  RunOptions options;
+  options.scene = "seed_basic";
+  options.sets = {"particle_quantity=8"};
+  options.steps = 12;
+  options.out_dir = (out_dir / "out").string();
+  return options;
+}
+
+TEST(RunOfflineTest, WritesProbesCsvWithAHeaderAndARowPerFrame) {
+  TempDir dir;
+  const RunOptions options = SmallRun(dir.path());
+  std::ostringstream out, progress;
+  RunOffline(options, out, progress);
+
+  const fs::path csv = fs::path(options.out_dir) / "probes.csv";
+  ASSERT_TRUE(fs::exists(csv));
+  const std::vector<std::string> lines = Split(ReadFile(csv), '\n');
+  ASSERT_FALSE(lines.empty());
+  std::string header = "time,step";
+  const Scene scene = LoadScene("seed_basic");
+  for (const std::string& column : ProbeColumns(scene.probes)) header += "," + column;
+  EXPECT_EQ(lines[0], header);
+  EXPECT_THAT(lines[0], HasSubstr("density_mean,density_max"));
+
+  // 12 steps at 3 steps per frame: the t = 0 row and one per frame.
+  const int ipf = scene.params.iterations_per_frame;
+  ASSERT_EQ(ipf, 3);
+  ASSERT_EQ(lines.size(), 1u + 1 + 12 / ipf);
+  const size_t columns = Split(header, ',').size();
+  const double dt = 1.0 / (60.0 * 3);
+  for (size_t r = 1; r < lines.size(); ++r) {
+    const std::vector<std::string> cells = Split(lines[r], ',');
+    ASSERT_EQ(cells.size(), columns) << lines[r];
+    const double time = std::stod(cells[0]);
+    const int step = std::stoi(cells[1]);
+    EXPECT_EQ(step, int(r - 1) * ipf) << lines[r];
+    EXPECT_NEAR(time, step * dt, 1e-7) << lines[r];
+    for (const std::string& cell : cells) {
+      EXPECT_TRUE(std::isfinite(std::stod(cell))) << lines[r];
+    }
+    // The inside_domain probe counts all 512 particles.
+    EXPECT_EQ(cells.back(), "512") << lines[r];
+  }
+  EXPECT_FALSE(fs::exists(fs::path(options.out_dir) / "frames.pvd"));  // no --vtk-every
+}
+
+TEST(RunOfflineTest, PrintsEveryPassAndTheThroughput) {
+  TempDir dir;
+  std::ostringstream out, progress;
+  RunOffline(SmallRun(dir.path()), out, progress);
+  const std::string text = out.str();
+  for (const char* pass : {"external_forces", "neighbour_grid", "density", "pressure_force",
+                           "viscosity", "integrate"}) {
+    EXPECT_THAT(text, HasSubstr(pass));
+  }
+  EXPECT_THAT(text, HasSubstr("particle-steps/s"));
+  EXPECT_THAT(text, HasSubstr("512 particles"));
+  EXPECT_THAT(text, HasSubstr("12 steps"));
+  EXPECT_TRUE(progress.str().empty());  // progress is off
+}
+
+TEST(RunOfflineTest, VtkEveryTwoFramesWritesTheExpectedFrames) {
+  TempDir dir;
+  RunOptions options = SmallRun(dir.path());
+  options.vtk_every = 2;
+  std::ostringstream out, progress;
+  RunOffline(options, out, progress);
+  const fs::path out_dir(options.out_dir);
+  ASSERT_TRUE(fs::exists(out_dir / "frames.pvd"));
+  // Frames 0 (t = 0), 2 and 4 of the 4 frames of 12 steps.
+  size_t vtp_files = 0;
+  for (const auto& entry : fs::recursive_directory_iterator(out_dir)) {
+    vtp_files += entry.path().extension() == ".vtp" ? 1 : 0;
+  }
+  EXPECT_EQ(vtp_files, 3u);
+  const std::string pvd = ReadFile(out_dir / "frames.pvd");
+  size_t datasets = 0;
+  for (size_t at = pvd.find("<DataSet"); at != std::string::npos;
+       at = pvd.find("<DataSet", at + 1)) {
+    ++datasets;
+  }
+  EXPECT_EQ(datasets, 3u);
+  EXPECT_THAT(out.str(), HasSubstr("frames.pvd"));
+}
+
+TEST(RunOfflineTest, ThreadsOptionGivesTheSameProbes) {
+  TempDir dir;
+  RunOptions one = SmallRun(dir.path());
+  one.threads = 1;
+  one.out_dir = (dir.path() / "one").string();
+  RunOptions two = one;
+  two.threads = 2;
+  two.out_dir = (dir.path() / "two").string();
+  std::ostringstream out, progress;
+  RunOffline(one, out, progress);
+  RunOffline(two, out, progress);
+  EXPECT_EQ(ReadFile(fs::path(one.out_dir) / "probes.csv"),
+            ReadFile(fs::path(two.out_dir) / "probes.csv"));
+}
+
+TEST(RunOfflineTest, EndTimeRunsTheFramesUpToIt) {
+  TempDir dir;
+  RunOptions options = SmallRun(dir.path());
+  options.steps.reset();
+  options.end_time = 0.1;  // 18 steps of 1/180 s: 6 frames
+  std::ostringstream out, progress;
+  RunOffline(options, out, progress);
+  const std::vector<std::string> lines =
+      Split(ReadFile(fs::path(options.out_dir) / "probes.csv"), '\n');
+  ASSERT_EQ(lines.size(), 1u + 1 + 6);
+  EXPECT_EQ(Split(lines.back(), ',')[1], "18");
+}
+
+void ExpectRunConfigError(const RunOptions& options, const std::string& field) {
+  std::ostringstream out, progress;
+  try {
+    RunOffline(options, out, progress);
+    ADD_FAILURE() << "no ConfigError";
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.field(), field) << e.what();
+  }
+  EXPECT_FALSE(fs::exists(fs::path(options.out_dir) / "probes.csv"));
+}
+
+TEST(RunOfflineTest, UnknownSceneThrowsConfigError) {
+  TempDir dir;
+  RunOptions options = SmallRun(dir.path());
+  options.scene = "no_such_scene";
+  ExpectRunConfigError(options, "scene");
+}
+
+TEST(RunOfflineTest, BadSetThrowsConfigError) {
+  TempDir dir;
+  RunOptions options = SmallRun(dir.path());
+  options.sets = {"viscosity=-3"};
+  ExpectRunConfigError(options, "viscosity");
+  options.sets = {"no_such_param=1"};
+  ExpectRunConfigError(options, "no_such_param");
+  options.sets = {"viscosity"};
+  ExpectRunConfigError(options, "--set");
+  options.sets = {"particle_quantity=8", "particle_quantity=2.5"};
+  ExpectRunConfigError(options, "particle_quantity");
+}
+
+// ---------------------------------------------------------------------------------------------
+// The real executable.
+
+struct Result {
+  int exit_code = -1;
+  std::string out;
+  std::string err;
+};
+
+// Runs `dysa ARGS` through the shell, capturing stdout and stderr into files under `dir`.
+Result RunDysa(const fs::path& dir, const std::string& args) {
+  const fs::path out = dir / "stdout.txt";
+  const fs::path err = dir / "stderr.txt";
+  const std::string command = std::string("'") + DYSA_BINARY + "' " + args + " >'" + out.string() +
+                              "' 2>'" + err.string() + "' </dev/null";
+  const int status = std::system(command.c_str());
+  Result result;
+  result.exit_code = (status != -1 && WIFEXITED(status)) ? WEXITSTATUS(status) : -1;
+  result.out = ReadFile(out);
+  result.err = ReadFile(err);
+  return result;
+}
+
+TEST(DysaBinaryTest, RunHelpListsSetAndEveryParameter) {
+  TempDir dir;
+  const Result r = RunDysa(dir.path(), "run --help");
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("--set"));
+  for (const ParamDecl& decl : ParamTable()) {
+    EXPECT_THAT(r.out, HasSubstr(std::string(decl.name)));
+    EXPECT_THAT(r.out, HasSubstr(decl.RangeText())) << decl.name;
+  }
+  for (const std::string& scene : BuiltinSceneNames()) EXPECT_THAT(r.out, HasSubstr(scene));
+}
+
+TEST(DysaBinaryTest, OutOfRangeSetFailsNamingTheParameterAndRange) {
+  TempDir dir;
+  const fs::path out_dir = dir.path() / "out";
+  const Result r = RunDysa(
+      dir.path(), "run seed_basic --set viscosity=-3 --steps 1 --out '" + out_dir.string() + "'");
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_THAT(r.err, HasSubstr("viscosity"));
+  EXPECT_THAT(r.err, HasSubstr(FindParam("viscosity")->RangeText()));
+  EXPECT_FALSE(fs::exists(out_dir / "probes.csv"));
+}
+
+TEST(DysaBinaryTest, BogusFlagFails) {
+  TempDir dir;
+  const Result r = RunDysa(dir.path(), "run seed_basic --no-such-flag");
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_THAT(r.err + r.out, HasSubstr("--no-such-flag"));
+  EXPECT_NE(RunDysa(dir.path(), "").exit_code, 0);                          // no subcommand
+  EXPECT_NE(RunDysa(dir.path(), "frobnicate").exit_code, 0);                // unknown subcommand
+  EXPECT_NE(RunDysa(dir.path(), "run seed_basic --steps 0").exit_code, 0);  // out of range
+}
+
+TEST(DysaBinaryTest, SmallRunSucceeds) {
+  TempDir dir;
+  const fs::path out_dir = dir.path() / "out";
+  const Result r =
+      RunDysa(dir.path(), "run seed_basic --set particle_quantity=6 --steps 6 --out '" +
+                              out_dir.string() + "' --vtk-every 1 --threads 1");
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("particle-steps/s"));
+  EXPECT_TRUE(fs::exists(out_dir / "probes.csv"));
+  EXPECT_TRUE(fs::exists(out_dir / "frames.pvd"));
+}
+
+}  // namespace
+}  // namespace dysa

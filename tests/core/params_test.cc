@@ -1,0 +1,245 @@
+// Tests of dysa/core/params.h: every declared parameter is checked against its range, and errors
+// name the parameter and its range without changing anything.
+#include "dysa/core/params.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "dysa/core/types.h"
+
+namespace dysa {
+namespace {
+
+using ::testing::HasSubstr;
+
+// Every parameter value, in table order, so "unchanged" can be checked for all of them.
+std::vector<double> AllValues(const Params& p) {
+  std::vector<double> values;
+  for (const ParamDecl& decl : ParamTable()) values.push_back(decl.get(p));
+  return values;
+}
+
+// A parameter set with every value different from the defaults (and in range), so a write of
+// a default value would also be noticed.
+Params NonDefaultParams() {
+  Params p;
+  for (const ParamDecl& decl : ParamTable()) {
+    double v = decl.min + 0.25 * (decl.max - decl.min);
+    if (decl.integer) v = std::floor(v);
+    if (v == decl.DefaultValue()) v = decl.integer ? v + 1 : 0.5 * (v + decl.max);
+    decl.set(p, v);
+  }
+  return p;
+}
+
+// Expects SetParam(name, value) to throw a ConfigError naming the parameter and its range, and
+// to leave the parameters unchanged.
+void ExpectRejected(const ParamDecl& decl, double value) {
+  SCOPED_TRACE(std::string(decl.name) + " = " + std::to_string(value));
+  Params p = NonDefaultParams();
+  const std::vector<double> before = AllValues(p);
+  try {
+    SetParam(p, decl.name, value);
+    ADD_FAILURE() << "no ConfigError";
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.field(), decl.name);
+    EXPECT_THAT(e.what(), HasSubstr(std::string(decl.name)));
+    EXPECT_THAT(e.what(), HasSubstr(decl.RangeText()));
+    EXPECT_THAT(e.message(), HasSubstr(decl.RangeText()));
+  }
+  EXPECT_EQ(AllValues(p), before);
+}
+
+TEST(ParamTableTest, HasUniqueNamesThatFindParamFinds) {
+  ASSERT_FALSE(ParamTable().empty());
+  std::set<std::string> names;
+  for (const ParamDecl& decl : ParamTable()) {
+    EXPECT_TRUE(names.insert(std::string(decl.name)).second) << "duplicate " << decl.name;
+    EXPECT_EQ(FindParam(decl.name), &decl);
+    EXPECT_FALSE(decl.description.empty()) << decl.name;
+    EXPECT_LT(decl.min, decl.max) << decl.name;
+  }
+  EXPECT_EQ(FindParam("no_such_parameter"), nullptr);
+  EXPECT_EQ(FindParam(""), nullptr);
+}
+
+TEST(ParamTableTest, DeclaresEveryThesisParameter) {
+  // The thesis's control panel (DESIGN.md, Viewer): every slider has a parameter.
+  for (const char* name :
+       {"time_scale", "iterations_per_frame", "gravity", "collision_damping", "smoothing_radius",
+        "target_density", "pressure_multiplier", "near_pressure_multiplier", "viscosity",
+        "particle_quantity", "spawn_size", "spawn_jitter"}) {
+    EXPECT_NE(FindParam(name), nullptr) << name;
+  }
+  EXPECT_TRUE(FindParam("particle_quantity")->integer);
+  EXPECT_TRUE(FindParam("particle_quantity")->needs_reset);
+  EXPECT_TRUE(FindParam("iterations_per_frame")->integer);
+  EXPECT_FALSE(FindParam("viscosity")->needs_reset);
+  EXPECT_FALSE(FindParam("gravity")->needs_reset);
+}
+
+TEST(ParamTableTest, DefaultsAreInRange) {
+  for (const ParamDecl& decl : ParamTable()) {
+    const double v = decl.DefaultValue();
+    EXPECT_GE(v, decl.min) << decl.name;
+    EXPECT_LE(v, decl.max) << decl.name;
+    if (decl.integer) {
+      EXPECT_EQ(v, std::floor(v)) << decl.name;
+    }
+    // The default passes the same validation as any other value.
+    Params p;
+    EXPECT_NO_THROW(SetParam(p, decl.name, v)) << decl.name;
+  }
+}
+
+TEST(ParamTableTest, RangeTextShowsBoundsUnitAndIntegrality) {
+  for (const ParamDecl& decl : ParamTable()) {
+    const std::string text = decl.RangeText();
+    EXPECT_EQ(text.front(), '[') << decl.name;
+    EXPECT_THAT(text, HasSubstr(", ")) << decl.name;
+    EXPECT_THAT(text, HasSubstr("]")) << decl.name;
+    if (!decl.unit.empty()) {
+      EXPECT_THAT(text, HasSubstr(std::string(decl.unit))) << decl.name;
+    }
+    EXPECT_EQ(text.find("integer") != std::string::npos, decl.integer) << decl.name << ": " << text;
+  }
+  EXPECT_EQ(FindParam("viscosity")->RangeText(), "[0, 10] m^3/s");
+  EXPECT_EQ(FindParam("particle_quantity")->RangeText(), "[1, 500] (integer)");
+}
+
+TEST(SetParamTest, AcceptsTheBoundsOfEveryParameter) {
+  for (const ParamDecl& decl : ParamTable()) {
+    for (double v : {decl.min, decl.max}) {
+      Params p = NonDefaultParams();
+      std::vector<double> want = AllValues(p);
+      EXPECT_NO_THROW(SetParam(p, decl.name, v)) << decl.name << " = " << v;
+      EXPECT_EQ(GetParam(p, decl.name), v) << decl.name;
+      EXPECT_EQ(decl.get(p), v) << decl.name;
+      // Only this parameter changed.
+      want[size_t(&decl - ParamTable().data())] = v;
+      EXPECT_EQ(AllValues(p), want) << decl.name;
+    }
+  }
+}
+
+TEST(SetParamTest, RejectsValuesBelowTheMinimum) {
+  for (const ParamDecl& decl : ParamTable()) {
+    ExpectRejected(decl, std::nextafter(decl.min, -std::numeric_limits<double>::infinity()));
+    ExpectRejected(decl, decl.min - 1);
+    ExpectRejected(decl, -std::numeric_limits<double>::max());
+  }
+}
+
+TEST(SetParamTest, RejectsValuesAboveTheMaximum) {
+  for (const ParamDecl& decl : ParamTable()) {
+    ExpectRejected(decl, std::nextafter(decl.max, std::numeric_limits<double>::infinity()));
+    ExpectRejected(decl, decl.max + 1);
+    ExpectRejected(decl, std::numeric_limits<double>::max());
+  }
+}
+
+TEST(SetParamTest, RejectsNonFiniteValues) {
+  for (const ParamDecl& decl : ParamTable()) {
+    ExpectRejected(decl, std::numeric_limits<double>::quiet_NaN());
+    ExpectRejected(decl, std::numeric_limits<double>::infinity());
+    ExpectRejected(decl, -std::numeric_limits<double>::infinity());
+  }
+}
+
+TEST(SetParamTest, RejectsNonIntegersForIntegerParameters) {
+  int integer_params = 0;
+  for (const ParamDecl& decl : ParamTable()) {
+    if (!decl.integer) continue;
+    ++integer_params;
+    ExpectRejected(decl, decl.min + 0.5);
+    ExpectRejected(decl, std::nextafter(decl.min + 1, 0.0));
+    ExpectRejected(decl, decl.max - 0.25);
+  }
+  EXPECT_GE(integer_params, 2);
+}
+
+TEST(SetParamTest, UnknownNameThrowsNamingIt) {
+  Params p = NonDefaultParams();
+  const std::vector<double> before = AllValues(p);
+  try {
+    SetParam(p, "viscocity", 0.1);
+    FAIL() << "no ConfigError";
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.field(), "viscocity");
+    EXPECT_THAT(e.what(), HasSubstr("viscocity"));
+    EXPECT_THAT(e.what(), HasSubstr("viscosity"));  // lists the known names
+  }
+  EXPECT_EQ(AllValues(p), before);
+  EXPECT_THROW(GetParam(p, "nope"), ConfigError);
+  EXPECT_THROW(SetParam(p, "", 1), ConfigError);
+}
+
+TEST(SetParamFromStringTest, SetsAGoodValue) {
+  Params p;
+  SetParamFromString(p, "viscosity=0.25");
+  EXPECT_EQ(p.viscosity, 0.25);
+  SetParamFromString(p, "gravity=-9.81");
+  EXPECT_EQ(p.gravity, -9.81);
+  SetParamFromString(p, "particle_quantity=12");
+  EXPECT_EQ(p.particle_quantity, 12);
+  SetParamFromString(p, "target_density=1e3");
+  EXPECT_EQ(p.target_density, 1000.0);
+}
+
+// Expects SetParamFromString to throw a ConfigError whose field() is `field` and to leave the
+// parameters unchanged; returns the message.
+std::string ExpectFromStringRejected(std::string_view assignment, std::string_view field) {
+  SCOPED_TRACE(std::string(assignment));
+  Params p = NonDefaultParams();
+  const std::vector<double> before = AllValues(p);
+  std::string what;
+  try {
+    SetParamFromString(p, assignment);
+    ADD_FAILURE() << "no ConfigError";
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.field(), field);
+    what = e.what();
+  }
+  EXPECT_EQ(AllValues(p), before);
+  return what;
+}
+
+TEST(SetParamFromStringTest, RejectsAMissingEqualsSign) {
+  EXPECT_THAT(ExpectFromStringRejected("viscosity", "--set"), HasSubstr("NAME=VALUE"));
+  ExpectFromStringRejected("viscosity 0.1", "--set");
+  ExpectFromStringRejected("", "--set");
+  ExpectFromStringRejected("=0.1", "--set");
+}
+
+TEST(SetParamFromStringTest, RejectsANonNumber) {
+  const std::string range = FindParam("viscosity")->RangeText();
+  EXPECT_THAT(ExpectFromStringRejected("viscosity=abc", "viscosity"), HasSubstr(range));
+  EXPECT_THAT(ExpectFromStringRejected("viscosity=", "viscosity"), HasSubstr(range));
+  ExpectFromStringRejected("viscosity= 0.1", "viscosity");
+  ExpectFromStringRejected("viscosity=nan", "viscosity");
+  ExpectFromStringRejected("viscosity=inf", "viscosity");
+}
+
+TEST(SetParamFromStringTest, RejectsTrailingGarbage) {
+  ExpectFromStringRejected("viscosity=0.1x", "viscosity");
+  ExpectFromStringRejected("viscosity=0.1 ", "viscosity");
+  ExpectFromStringRejected("viscosity=0.1=0.2", "viscosity");
+  ExpectFromStringRejected("particle_quantity=12,5", "particle_quantity");
+}
+
+TEST(SetParamFromStringTest, RejectsOutOfRangeNonIntegerAndUnknown) {
+  const std::string range = FindParam("viscosity")->RangeText();
+  EXPECT_THAT(ExpectFromStringRejected("viscosity=-1", "viscosity"), HasSubstr(range));
+  ExpectFromStringRejected("particle_quantity=12.5", "particle_quantity");
+  ExpectFromStringRejected("particle_quantity=0", "particle_quantity");
+  ExpectFromStringRejected("viscocity=0.1", "viscocity");
+}
+
+}  // namespace
+}  // namespace dysa

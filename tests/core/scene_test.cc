@@ -1,0 +1,423 @@
+// Tests of dysa/core/scene.h: the built-in scenes hold the thesis's values, and every kind of bad
+// scene is rejected with a ConfigError whose field() is the exact JSON path of the mistake.
+#include "dysa/core/scene.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "dysa/core/params.h"
+#include "dysa/core/types.h"
+
+namespace dysa {
+namespace {
+
+using ::testing::HasSubstr;
+
+// Parses `json`, expects a ConfigError, checks its field() and returns it.
+ConfigError ExpectConfigError(std::string_view json, std::string_view field) {
+  SCOPED_TRACE(std::string(json));
+  try {
+    ParseScene(json);
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.field(), field) << "what(): " << e.what();
+    if (!field.empty()) {
+      EXPECT_THAT(e.what(), HasSubstr(std::string(field)));
+    }
+    return e;
+  } catch (const std::exception& e) {
+    ADD_FAILURE() << "expected a ConfigError naming " << field
+                  << ", got another exception: " << e.what();
+    return ConfigError("", "");
+  }
+  ADD_FAILURE() << "expected a ConfigError naming " << field << ", but the scene parsed";
+  return ConfigError("", "");
+}
+
+TEST(BuiltinScenesTest, EveryBuiltinSceneParses) {
+  const std::vector<std::string> names = BuiltinSceneNames();
+  ASSERT_EQ(names.size(), BuiltinSceneTexts().size());
+  for (const char* expected : {"seed_basic", "seed_test_scene", "seed_obstacles"}) {
+    EXPECT_NE(std::find(names.begin(), names.end(), expected), names.end()) << expected;
+  }
+  for (const std::string& name : names) {
+    SCOPED_TRACE(name);
+    Scene scene;
+    ASSERT_NO_THROW(scene = LoadScene(name));
+    EXPECT_EQ(scene.name, name);
+    EXPECT_FALSE(scene.description.empty());
+    EXPECT_FALSE(scene.fluid_blocks.empty());
+    EXPECT_NO_THROW(BlockParticleCounts(scene, scene.params));
+    for (int a = 0; a < 3; ++a) EXPECT_LT(scene.domain.min[a], scene.domain.max[a]);
+  }
+}
+
+TEST(BuiltinScenesTest, SeedTestSceneHasTheThesisValues) {
+  const Scene scene = LoadScene("seed_test_scene");
+  const Params& p = scene.params;
+  EXPECT_EQ(scene.solver, "seed");
+  EXPECT_EQ(scene.domain.Size(), Vec3d(10, 10, 10));
+  EXPECT_EQ(scene.domain.Center(), Vec3d(0, 0, 0));
+  EXPECT_EQ(p.particle_quantity, 45);
+  EXPECT_EQ(p.spawn_size, 5);
+  EXPECT_EQ(p.spawn_jitter, 0.32);
+  EXPECT_EQ(p.time_scale, 0.8);
+  EXPECT_EQ(p.iterations_per_frame, 2);
+  EXPECT_EQ(p.frame_rate, 60);
+  EXPECT_EQ(p.smoothing_radius, 0.3);
+  EXPECT_EQ(p.target_density, 630);
+  EXPECT_EQ(p.pressure_multiplier, 58.8);
+  EXPECT_EQ(p.near_pressure_multiplier, 28.88);
+  EXPECT_EQ(p.viscosity, 0.001);
+  EXPECT_EQ(p.collision_damping, 0.118);
+  EXPECT_EQ(p.gravity, -10);
+  EXPECT_EQ(p.particle_mass, 1);
+  const std::vector<Eigen::Vector3i> counts = BlockParticleCounts(scene, p);
+  ASSERT_EQ(counts.size(), 1u);
+  EXPECT_EQ(counts[0], Eigen::Vector3i(45, 45, 45));
+  EXPECT_EQ(int64_t{counts[0].prod()}, 91'125);
+}
+
+TEST(BuiltinScenesTest, SeedBasicHasTheThesisValues) {
+  const Scene scene = LoadScene("seed_basic");
+  const Params& p = scene.params;
+  EXPECT_EQ(scene.domain.Size(), Vec3d(10, 6, 10));
+  EXPECT_EQ(p.particle_quantity, 30);
+  EXPECT_EQ(p.spawn_size, 5);
+  EXPECT_EQ(p.spawn_jitter, 0.035);
+  EXPECT_EQ(p.smoothing_radius, 0.2);
+  EXPECT_EQ(p.target_density, 630);
+  EXPECT_EQ(p.pressure_multiplier, 28.8);
+  EXPECT_EQ(p.near_pressure_multiplier, 2.25);
+  EXPECT_EQ(p.viscosity, 0.001);
+  EXPECT_EQ(p.collision_damping, 0.086);
+  EXPECT_EQ(p.gravity, -10);
+  const std::vector<Eigen::Vector3i> counts = BlockParticleCounts(scene, p);
+  ASSERT_EQ(counts.size(), 1u);
+  EXPECT_EQ(counts[0], Eigen::Vector3i(30, 30, 30));
+  // params.h: the defaults are the thesis's basic scene.
+  const Params defaults;
+  for (const ParamDecl& decl : ParamTable()) {
+    EXPECT_EQ(decl.get(p), decl.get(defaults)) << decl.name;
+  }
+}
+
+TEST(BuiltinScenesTest, SeedObstaclesHasASphereAndABox) {
+  const Scene scene = LoadScene("seed_obstacles");
+  ASSERT_EQ(scene.spheres.size(), 1u);
+  ASSERT_EQ(scene.boxes.size(), 1u);
+  EXPECT_GT(scene.spheres[0].radius, 0);
+  EXPECT_TRUE(scene.domain.Contains(scene.spheres[0].center));
+  for (int a = 0; a < 3; ++a) EXPECT_LT(scene.boxes[0].box.min[a], scene.boxes[0].box.max[a]);
+  EXPECT_TRUE(scene.domain.Contains(scene.boxes[0].box.Center()));
+  ASSERT_EQ(scene.fluid_blocks.size(), 1u);
+  EXPECT_GT(scene.fluid_blocks[0].velocity.x(), 0);  // thrown at the obstacles
+}
+
+TEST(ParseSceneTest, EmptyObjectGivesTheDefaults) {
+  const Scene scene = ParseScene("{}");
+  EXPECT_EQ(scene.solver, "seed");
+  ASSERT_EQ(scene.fluid_blocks.size(), 1u);  // the thesis's spawn cube
+  EXPECT_FALSE(scene.fluid_blocks[0].particles_per_axis);
+  EXPECT_FALSE(scene.fluid_blocks[0].spacing);
+  EXPECT_TRUE(scene.spheres.empty());
+  EXPECT_TRUE(scene.boxes.empty());
+  EXPECT_TRUE(scene.probes.empty());
+  const Params defaults;
+  for (const ParamDecl& decl : ParamTable()) {
+    EXPECT_EQ(decl.get(scene.params), decl.get(defaults)) << decl.name;
+  }
+}
+
+TEST(ParseSceneTest, ReadsEveryField) {
+  const Scene scene = ParseScene(R"({
+    "name": "n", "description": "d",
+    "domain": {"min": [-1, -2, -3], "max": [1, 2, 3]},
+    "fluid_blocks": [
+      {"center": [0.1, 0.2, 0.3], "size": [1, 0.5, 0.25], "particles_per_axis": [4, 5, 6],
+       "jitter": 0.01, "seed": 9, "velocity": [1, -2, 3]},
+      {"size": 0.6, "spacing": 0.1},
+      {"particles_per_axis": 3}
+    ],
+    "obstacles": [{"type": "sphere", "center": [0, 1, 0], "radius": 0.3},
+                  {"type": "box", "center": [0, -1, 0], "size": [0.2, 0.4, 0.6]}],
+    "params": {"viscosity": 0.5, "particle_quantity": 7},
+    "end_time": 2.5, "probe_interval": 0.1,
+    "probes": [{"type": "front", "name": "fz", "axis": "z"},
+               {"type": "height", "name": "h", "point": [0.5, 0, 0.5], "radius": 0.2},
+               {"type": "pressure", "name": "p", "point": [0, -1, 0]},
+               {"type": "density", "name": "rho"},
+               {"type": "kinetic_energy"},
+               {"type": "count_inside", "name": "c",
+                "region": {"min": [0, 0, 0], "max": [1, 1, 1]}}]
+  })");
+  EXPECT_EQ(scene.name, "n");
+  EXPECT_EQ(scene.description, "d");
+  EXPECT_EQ(scene.domain.min, Vec3d(-1, -2, -3));
+  EXPECT_EQ(scene.domain.max, Vec3d(1, 2, 3));
+  ASSERT_EQ(scene.fluid_blocks.size(), 3u);
+  const FluidBlock& b = scene.fluid_blocks[0];
+  EXPECT_EQ(*b.center, Vec3d(0.1, 0.2, 0.3));
+  EXPECT_EQ(*b.size, Vec3d(1, 0.5, 0.25));
+  EXPECT_EQ(*b.particles_per_axis, Eigen::Vector3i(4, 5, 6));
+  EXPECT_EQ(*b.jitter, 0.01);
+  EXPECT_EQ(b.seed, 9u);
+  EXPECT_EQ(b.velocity, Vec3d(1, -2, 3));
+  EXPECT_EQ(*scene.fluid_blocks[1].size, Vec3d::Constant(0.6));
+  EXPECT_EQ(*scene.fluid_blocks[1].spacing, 0.1);
+  EXPECT_EQ(*scene.fluid_blocks[2].particles_per_axis, Eigen::Vector3i(3, 3, 3));
+  ASSERT_EQ(scene.spheres.size(), 1u);
+  EXPECT_EQ(scene.spheres[0].center, Vec3d(0, 1, 0));
+  EXPECT_EQ(scene.spheres[0].radius, 0.3);
+  ASSERT_EQ(scene.boxes.size(), 1u);
+  EXPECT_TRUE(scene.boxes[0].box.min.isApprox(Vec3d(-0.1, -1.2, -0.3)));
+  EXPECT_TRUE(scene.boxes[0].box.max.isApprox(Vec3d(0.1, -0.8, 0.3)));
+  EXPECT_EQ(scene.params.viscosity, 0.5);
+  EXPECT_EQ(scene.params.particle_quantity, 7);
+  EXPECT_EQ(scene.end_time, 2.5);
+  EXPECT_EQ(*scene.probe_interval, 0.1);
+  ASSERT_EQ(scene.probes.size(), 6u);
+  EXPECT_EQ(scene.probes[0].kind, ProbeKind::kFront);
+  EXPECT_EQ(scene.probes[0].axis, 2);
+  EXPECT_EQ(scene.probes[1].kind, ProbeKind::kHeight);
+  EXPECT_EQ(scene.probes[1].point, Vec3d(0.5, 0, 0.5));
+  EXPECT_EQ(scene.probes[1].radius, 0.2);
+  EXPECT_EQ(scene.probes[2].kind, ProbeKind::kPressure);
+  EXPECT_EQ(scene.probes[3].kind, ProbeKind::kDensity);
+  EXPECT_EQ(scene.probes[4].kind, ProbeKind::kKineticEnergy);
+  EXPECT_EQ(scene.probes[4].name, "kinetic_energy");  // the type is the default name
+  EXPECT_EQ(scene.probes[5].kind, ProbeKind::kCountInside);
+  ASSERT_TRUE(scene.probes[5].region);
+  EXPECT_EQ(scene.probes[5].region->max, Vec3d(1, 1, 1));
+
+  const std::vector<Eigen::Vector3i> counts = BlockParticleCounts(scene, scene.params);
+  ASSERT_EQ(counts.size(), 3u);
+  EXPECT_EQ(counts[0], Eigen::Vector3i(4, 5, 6));
+  EXPECT_EQ(counts[1], Eigen::Vector3i(6, 6, 6));  // 0.6 / 0.1 cells per axis
+  EXPECT_EQ(counts[2], Eigen::Vector3i(3, 3, 3));
+}
+
+TEST(ParseSceneTest, BlockWithoutCountUsesParticleQuantity) {
+  const Scene scene = ParseScene(R"({"params": {"particle_quantity": 11}})");
+  Params p = scene.params;
+  EXPECT_EQ(BlockParticleCounts(scene, p)[0], Eigen::Vector3i(11, 11, 11));
+  p.particle_quantity = 4;
+  EXPECT_EQ(BlockParticleCounts(scene, p)[0], Eigen::Vector3i(4, 4, 4));
+}
+
+TEST(ParseSceneTest, MalformedJsonMentionsLineAndColumn) {
+  const ConfigError e = ExpectConfigError("{\n  \"name\": \"x\",\n  \"end_time\": ,\n}", "");
+  EXPECT_THAT(e.what(), HasSubstr("line 3"));
+  EXPECT_THAT(e.what(), HasSubstr("column"));
+  ExpectConfigError("", "");
+  ExpectConfigError("{\"name\": \"x\"", "");
+}
+
+TEST(ParseSceneTest, TopLevelMustBeAnObject) {
+  ExpectConfigError("[]", "");
+  ExpectConfigError("3", "");
+}
+
+TEST(ParseSceneTest, UnknownFieldsAreNamed) {
+  EXPECT_THAT(ExpectConfigError(R"({"colour": "blue"})", "colour").what(),
+              HasSubstr("fluid_blocks"));  // lists the allowed fields
+  ExpectConfigError(R"({"fluid_blocks": [{"colour": "blue"}]})", "fluid_blocks[0].colour");
+  ExpectConfigError(R"({"fluid_blocks": [{}, {"center": [0, 0, 0], "colour": 1}]})",
+                    "fluid_blocks[1].colour");
+  ExpectConfigError(R"({"domain": {"min": [0, 0, 0], "max": [1, 1, 1], "mid": 0}})", "domain.mid");
+  ExpectConfigError(R"({"obstacles": [{"type": "sphere", "size": 1}]})", "obstacles[0].size");
+  ExpectConfigError(R"({"probes": [{"type": "density", "point": [0, 0, 0]}]})", "probes[0].point");
+  ExpectConfigError(
+      R"({"probes": [{"type": "count_inside", "region": {"min": [0, 0, 0], "max": [1, 1, 1],
+          "extra": 1}}]})",
+      "probes[0].region.extra");
+}
+
+TEST(ParseSceneTest, WrongTypesAreNamed) {
+  EXPECT_THAT(ExpectConfigError(R"({"end_time": "5"})", "end_time").what(), HasSubstr("string"));
+  ExpectConfigError(R"({"name": 5})", "name");
+  ExpectConfigError(R"({"domain": {"min": [0, 0], "max": [1, 1, 1]}})", "domain.min");
+  ExpectConfigError(R"({"domain": {"min": [0, 0, 0, 0], "max": [1, 1, 1]}})", "domain.min");
+  ExpectConfigError(R"({"domain": {"min": 0, "max": [1, 1, 1]}})", "domain.min");
+  ExpectConfigError(R"({"domain": {"min": [0, "0", 0], "max": [1, 1, 1]}})", "domain.min[1]");
+  ExpectConfigError(R"({"domain": {"max": [1, 1, 1]}})", "domain.min");
+  ExpectConfigError(R"({"domain": []})", "domain");
+  ExpectConfigError(R"({"fluid_blocks": {}})", "fluid_blocks");
+  ExpectConfigError(R"({"fluid_blocks": [3]})", "fluid_blocks[0]");
+  ExpectConfigError(R"({"fluid_blocks": [{"velocity": [1, 2]}]})", "fluid_blocks[0].velocity");
+  ExpectConfigError(R"({"fluid_blocks": [{"jitter": "big"}]})", "fluid_blocks[0].jitter");
+  ExpectConfigError(R"({"params": {"viscosity": "0.1"}})", "params.viscosity");
+  ExpectConfigError(R"({"params": []})", "params");
+  ExpectConfigError(R"({"solver": 3})", "solver");
+}
+
+TEST(ParseSceneTest, BadParticleCountsAreNamed) {
+  for (const char* count : {"0", "-1", "-100", "2.5", "\"10\"", "true"}) {
+    ExpectConfigError(std::string(R"({"fluid_blocks": [{"particles_per_axis": )") + count + "}]}",
+                      "fluid_blocks[0].particles_per_axis");
+  }
+  ExpectConfigError(R"({"fluid_blocks": [{"particles_per_axis": [4, 0, 4]}]})",
+                    "fluid_blocks[0].particles_per_axis[1]");
+  ExpectConfigError(R"({"fluid_blocks": [{"particles_per_axis": [4, 4]}]})",
+                    "fluid_blocks[0].particles_per_axis");
+  ExpectConfigError(R"({"fluid_blocks": [{"spacing": 0}]})", "fluid_blocks[0].spacing");
+  ExpectConfigError(R"({"fluid_blocks": [{"spacing": -0.1}]})", "fluid_blocks[0].spacing");
+  ExpectConfigError(R"({"fluid_blocks": [{"size": 0}]})", "fluid_blocks[0].size");
+  ExpectConfigError(R"({"fluid_blocks": [{"size": [1, -1, 1]}]})", "fluid_blocks[0].size[1]");
+  ExpectConfigError(R"({"fluid_blocks": [{"jitter": -0.1}]})", "fluid_blocks[0].jitter");
+}
+
+TEST(ParseSceneTest, SpacingAndCountTogetherAreRejected) {
+  ExpectConfigError(R"({"fluid_blocks": [{"particles_per_axis": 4, "spacing": 0.1}]})",
+                    "fluid_blocks[0].spacing");
+}
+
+TEST(ParseSceneTest, DomainMaxMustExceedMin) {
+  ExpectConfigError(R"({"domain": {"min": [0, 0, 0], "max": [1, 0, 1]}})", "domain.max");
+  ExpectConfigError(R"({"domain": {"min": [0, 0, 0], "max": [1, 1, -1]}})", "domain.max");
+  ExpectConfigError(
+      R"({"probes": [{"type": "count_inside", "region": {"min": [2, 0, 0], "max": [1, 1, 1]}}]})",
+      "probes[0].region.max");
+}
+
+TEST(ParseSceneTest, UnknownSolverIsNamed) {
+  EXPECT_THAT(ExpectConfigError(R"({"solver": "magic"})", "solver").what(), HasSubstr("seed"));
+}
+
+TEST(ParseSceneTest, BadParametersAreNamed) {
+  ExpectConfigError(R"({"params": {"foo": 1}})", "params.foo");
+  const ConfigError e = ExpectConfigError(R"({"params": {"viscosity": -1}})", "params.viscosity");
+  EXPECT_THAT(e.what(), HasSubstr(FindParam("viscosity")->RangeText()));
+  ExpectConfigError(R"({"params": {"particle_quantity": 2.5}})", "params.particle_quantity");
+  ExpectConfigError(R"({"params": {"particle_quantity": 501}})", "params.particle_quantity");
+  ExpectConfigError(R"({"params": {"smoothing_radius": 0}})", "params.smoothing_radius");
+}
+
+TEST(ParseSceneTest, ParticleCountsThatWouldExhaustMemoryAreRejected) {
+  // 3000^3 = 2.7e10 particles.
+  ConfigError e =
+      ExpectConfigError(R"({"fluid_blocks": [{"particles_per_axis": 3000}]})", "fluid_blocks[0]");
+  EXPECT_THAT(e.what(), HasSubstr(std::to_string(kMaxParticles)));
+  // The same through particle_quantity... which the parameter range already bounds (500^3 fits),
+  // so through a spacing instead: 1000 cells per axis.
+  ExpectConfigError(R"({"fluid_blocks": [{"size": 10, "spacing": 0.01}]})", "fluid_blocks[0]");
+  // Two blocks each under the limit whose sum is over it: 2 x 250^3 = 3.1e7 > 2e7.
+  e = ExpectConfigError(
+      R"({"fluid_blocks": [{"particles_per_axis": 250}, {"particles_per_axis": 250}]})",
+      "fluid_blocks[1]");
+  EXPECT_THAT(e.what(), HasSubstr(std::to_string(kMaxParticles)));
+  // Exactly at the limit is fine: 200 x 200 x 500 = 2e7.
+  EXPECT_NO_THROW(ParseScene(R"({"fluid_blocks": [{"particles_per_axis": [200, 200, 500]}]})"));
+  ExpectConfigError(R"({"fluid_blocks": [{"particles_per_axis": [200, 200, 501]}]})",
+                    "fluid_blocks[0]");
+}
+
+TEST(ParseSceneTest, ParticleCountProductThatOverflowsIsRejected) {
+  // 2^22 particles per axis from a spacing: 2^66 particles, which wraps to 0 in 64 bits. Each
+  // axis alone is under kMaxParticles, so only the product can catch it.
+  ExpectConfigError(R"({"fluid_blocks": [{"size": 4096, "spacing": 0.0009765625}]})",
+                    "fluid_blocks[0]");
+  // 2^21 x 2^21 x 2^22 = 2^64 as well.
+  ExpectConfigError(R"({"fluid_blocks": [{"size": [2048, 2048, 4096], "spacing": 0.0009765625}]})",
+                    "fluid_blocks[0]");
+}
+
+TEST(BlockParticleCountsTest, ChecksTheLimitWithTheGivenParams) {
+  Scene scene = ParseScene(R"({"fluid_blocks": [{}, {}, {}]})");
+  Params p = scene.params;
+  p.particle_quantity = 200;  // 3 x 8e6 > 2e7
+  try {
+    BlockParticleCounts(scene, p);
+    FAIL() << "no ConfigError";
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.field(), "fluid_blocks[2]");
+  }
+  p.particle_quantity = 150;
+  EXPECT_EQ(BlockParticleCounts(scene, p).size(), 3u);
+}
+
+TEST(ParseSceneTest, BadProbesAreNamed) {
+  ExpectConfigError(R"({"probes": [{"type": "temperature"}]})", "probes[0].type");
+  ExpectConfigError(R"({"probes": [{"name": "x"}]})", "probes[0].type");
+  ExpectConfigError(R"({"probes": [{"type": "front", "axis": "w"}]})", "probes[0].axis");
+  ExpectConfigError(R"({"probes": [{"type": "density", "name": "a,b"}]})", "probes[0].name");
+  ExpectConfigError(R"({"probes": [{"type": "density", "name": ""}]})", "probes[0].name");
+  ExpectConfigError(R"({"probes": [{"type": "height", "radius": -1}]})", "probes[0].radius");
+}
+
+TEST(ParseSceneTest, DuplicateProbeNamesAreRejected) {
+  ExpectConfigError(R"({"probes": [{"type": "density", "name": "a"},
+                                   {"type": "kinetic_energy", "name": "a"}]})",
+                    "probes[1].name");
+  // The default name is the type.
+  ExpectConfigError(R"({"probes": [{"type": "kinetic_energy"}, {"type": "kinetic_energy"}]})",
+                    "probes[1].name");
+}
+
+TEST(ParseSceneTest, BadObstaclesAreNamed) {
+  ExpectConfigError(R"({"obstacles": [{"type": "cone"}]})", "obstacles[0].type");
+  ExpectConfigError(R"({"obstacles": [{"type": "sphere", "radius": 0}]})", "obstacles[0].radius");
+  ExpectConfigError(R"({"obstacles": [{"type": "box", "size": [1, 0, 1]}]})",
+                    "obstacles[0].size[1]");
+}
+
+TEST(ParseSceneTest, OutOfRangeNumbersAreNamed) {
+  ExpectConfigError(R"({"end_time": 0})", "end_time");
+  ExpectConfigError(R"({"end_time": -1})", "end_time");
+  ExpectConfigError(R"({"probe_interval": 0})", "probe_interval");
+  ExpectConfigError(R"({"fluid_blocks": [{"velocity": [1e9, 0, 0]}]})",
+                    "fluid_blocks[0].velocity[0]");
+  ExpectConfigError(R"({"domain": {"min": [-1e300, 0, 0], "max": [1, 1, 1]}})", "domain.min[0]");
+}
+
+class TempFile {
+ public:
+  explicit TempFile(const std::string& name, const std::string& text)
+      : path_(std::filesystem::path(::testing::TempDir()) /
+              (std::to_string(::getpid()) + "_" + name)) {
+    std::ofstream(path_) << text;
+  }
+  ~TempFile() { std::filesystem::remove(path_); }
+  std::string path() const { return path_.string(); }
+
+ private:
+  std::filesystem::path path_;
+};
+
+TEST(LoadSceneTest, MissingFileIsNamed) {
+  const std::string path = "/nonexistent/dir/no_such_scene.json";
+  try {
+    LoadScene(path);
+    FAIL() << "no ConfigError";
+  } catch (const ConfigError& e) {
+    EXPECT_THAT(e.what(), HasSubstr(path));
+    EXPECT_THAT(e.what(), HasSubstr("seed_basic"));  // lists the built-in scenes
+  }
+  EXPECT_THROW(LoadScene("seed_basics"), ConfigError);
+}
+
+TEST(LoadSceneTest, ReadsAFileAndNamesTheSceneAfterIt) {
+  TempFile file("my_scene.json", R"({"params": {"viscosity": 0.2}})");
+  const Scene scene = LoadScene(file.path());
+  EXPECT_EQ(scene.params.viscosity, 0.2);
+  EXPECT_EQ(scene.name, std::to_string(::getpid()) + "_my_scene");
+}
+
+TEST(LoadSceneTest, ErrorsInAFileNameTheFieldAndTheFile) {
+  TempFile file("bad_scene.json", R"({"params": {"viscosity": -2}})");
+  try {
+    LoadScene(file.path());
+    FAIL() << "no ConfigError";
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.field(), "params.viscosity");
+    EXPECT_THAT(e.what(), HasSubstr(file.path()));
+  }
+}
+
+}  // namespace
+}  // namespace dysa
