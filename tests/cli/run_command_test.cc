@@ -19,6 +19,7 @@
 #include "dysa/core/probes.h"
 #include "dysa/core/scene.h"
 #include "dysa/core/types.h"
+#include "support/temp_dir.h"
 
 #ifndef DYSA_BINARY
 #error "DYSA_BINARY must name the dysa executable (tests/CMakeLists.txt defines it)"
@@ -30,29 +31,12 @@ namespace {
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 
-// A fresh directory under the test temp dir, removed at the end of the test.
-class TempDir {
- public:
-  TempDir() {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    path_ = fs::path(::testing::TempDir()) /
-            ("dysa_run_" + std::string(info->name()) + "_" + std::to_string(::getpid()));
-    fs::remove_all(path_);
-    fs::create_directories(path_);
-  }
-  ~TempDir() { fs::remove_all(path_); }
-  const fs::path& path() const { return path_; }
+using dysa::testing::ReadFile;
 
- private:
-  fs::path path_;
+// Each test gets its own directory.
+struct TempDir : dysa::testing::TempDir {
+  TempDir() : dysa::testing::TempDir("dysa_run") {}
 };
-
-std::string ReadFile(const fs::path& path) {
-  std::ifstream file(path, std::ios::binary);
-  std::stringstream text;
-  text << file.rdbuf();
-  return text.str();
-}
 
 std::vector<std::string> Split(const std::string& text, char separator) {
   std::vector<std::string> parts;

@@ -16,36 +16,20 @@
 #include <string>
 #include <vector>
 
+#include "support/temp_dir.h"
+
 namespace dysa {
 namespace {
 
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 
-// A fresh directory under the test temp dir, removed at the end of the test.
-class TempDir {
- public:
-  TempDir() {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    path_ = fs::path(::testing::TempDir()) /
-            ("dysa_vtk_" + std::string(info->name()) + "_" + std::to_string(::getpid()));
-    fs::remove_all(path_);
-    fs::create_directories(path_);
-  }
-  ~TempDir() { fs::remove_all(path_); }
-  const fs::path& path() const { return path_; }
+using dysa::testing::ReadFile;
 
- private:
-  fs::path path_;
+// Each test gets its own directory.
+struct TempDir : dysa::testing::TempDir {
+  TempDir() : dysa::testing::TempDir("dysa_vtk") {}
 };
-
-std::string ReadFile(const fs::path& path) {
-  std::ifstream file(path, std::ios::binary);
-  EXPECT_TRUE(file) << path;
-  std::stringstream text;
-  text << file.rdbuf();
-  return text.str();
-}
 
 // One DataArray of a .vtp file: its attributes and its bytes from the appended block.
 struct DataArray {

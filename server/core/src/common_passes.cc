@@ -55,8 +55,10 @@ void CollideWithObstacles(const Model& model, State& state) {
   const int64_t n = static_cast<int64_t>(p.size());
 #pragma omp parallel for schedule(static)
   for (int64_t i = 0; i < n; ++i) {
-    for (const SphereObstacle& s : model.spheres) CollideWithSphere(s, damping, p.position[i], p.velocity[i]);
-    for (const BoxObstacle& b : model.boxes) CollideWithBox(b, damping, p.position[i], p.velocity[i]);
+    for (const SphereObstacle& s : model.spheres)
+      CollideWithSphere(s, damping, p.position[i], p.velocity[i]);
+    for (const BoxObstacle& b : model.boxes)
+      CollideWithBox(b, damping, p.position[i], p.velocity[i]);
   }
 }
 

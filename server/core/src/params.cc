@@ -10,14 +10,14 @@
 namespace dysa {
 namespace {
 
-// A ParamDecl for a member of Params; P is a pointer to a double or int member.
-#define DYSA_PARAM(member, unit, min, max, reset, description)                              \
-  ParamDecl {                                                                                \
-    #member, unit, description, min, max,                                                    \
-        std::is_same_v<decltype(Params::member), int>, reset,                                \
-        [](const Params& p) { return static_cast<double>(p.member); },                       \
-        [](Params& p, double v) { p.member = static_cast<decltype(Params::member)>(v); }     \
-  }
+// The ParamDecl of member `member` of Params (a double or an int), named after it.
+// clang-format off
+#define DYSA_PARAM(member, unit, min, max, reset, description)                         \
+  ParamDecl{#member, unit, description, min, max,                                      \
+            std::is_same_v<decltype(Params::member), int>, reset,                      \
+            [](const Params& p) { return static_cast<double>(p.member); },             \
+            [](Params& p, double v) { p.member = static_cast<decltype(Params::member)>(v); }}
+// clang-format on
 
 constexpr bool kReset = true;
 constexpr bool kLive = false;
@@ -79,7 +79,8 @@ static const ParamDecl& RequireParam(std::string_view name) {
   const ParamDecl* decl = FindParam(name);
   if (decl == nullptr) {
     std::string known;
-    for (const ParamDecl& d : kParamTable) known += (known.empty() ? "" : ", ") + std::string(d.name);
+    for (const ParamDecl& d : kParamTable)
+      known += (known.empty() ? "" : ", ") + std::string(d.name);
     throw ConfigError(std::string(name), "unknown parameter; known parameters: " + known);
   }
   return *decl;
@@ -89,8 +90,8 @@ void SetParam(Params& params, std::string_view name, double value) {
   const ParamDecl& decl = RequireParam(name);
   const bool in_range = std::isfinite(value) && value >= decl.min && value <= decl.max;
   if (!in_range || (decl.integer && value != std::floor(value))) {
-    throw ConfigError(std::string(name), FormatNumber(value) + " is outside the allowed range " +
-                                             decl.RangeText());
+    throw ConfigError(std::string(name),
+                      FormatNumber(value) + " is outside the allowed range " + decl.RangeText());
   }
   decl.set(params, value);
 }
@@ -112,8 +113,8 @@ void SetParamFromString(Params& params, std::string_view assignment) {
   const char* end = begin + value_text.size();
   auto [ptr, ec] = std::from_chars(begin, end, value);
   if (ec != std::errc() || ptr != end || value_text.empty()) {
-    throw ConfigError(std::string(name), "'" + value_text + "' is not a number; allowed range " +
-                                             decl.RangeText());
+    throw ConfigError(std::string(name),
+                      "'" + value_text + "' is not a number; allowed range " + decl.RangeText());
   }
   SetParam(params, name, value);
 }

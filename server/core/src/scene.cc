@@ -72,10 +72,10 @@ class ObjectReader {
       return Vec3d::Constant(CheckNumber(*j, path, min, max, unit));
     }
     if (!j->is_array() || j->size() != 3) {
-      throw ConfigError(path, std::string("expected an array of 3 numbers") +
-                                  (allow_scalar ? " or a number" : "") + ", got " +
-                                  (j->is_array() ? "an array of " + std::to_string(j->size())
-                                                 : TypeName(*j)));
+      throw ConfigError(
+          path, std::string("expected an array of 3 numbers") +
+                    (allow_scalar ? " or a number" : "") + ", got " +
+                    (j->is_array() ? "an array of " + std::to_string(j->size()) : TypeName(*j)));
     }
     Vec3d v;
     for (int a = 0; a < 3; ++a) {
@@ -128,8 +128,8 @@ class ObjectReader {
 };
 
 // Generous bounds that keep arithmetic finite; physical sense is the solver's business.
-constexpr double kMaxCoord = 1e6;   // m
-constexpr double kMaxSpeed = 1e4;   // m/s
+constexpr double kMaxCoord = 1e6;  // m
+constexpr double kMaxSpeed = 1e4;  // m/s
 constexpr int64_t kMaxPerAxis = 100'000;
 
 // Iterates a JSON array field, calling parse(element, "key[i]") for each element.
@@ -173,12 +173,13 @@ FluidBlock ParseFluidBlock(const json& j, const std::string& path) {
       if (n->size() != 3) throw ConfigError(p, "expected 3 integers or one integer");
       Eigen::Vector3i counts;
       for (int a = 0; a < 3; ++a) {
-        counts[a] = int(ObjectReader::CheckInteger((*n)[a], p + "[" + std::to_string(a) + "]", 1,
-                                                   kMaxPerAxis));
+        counts[a] = int(
+            ObjectReader::CheckInteger((*n)[a], p + "[" + std::to_string(a) + "]", 1, kMaxPerAxis));
       }
       b.particles_per_axis = counts;
     } else {
-      b.particles_per_axis = Eigen::Vector3i::Constant(int(ObjectReader::CheckInteger(*n, p, 1, kMaxPerAxis)));
+      b.particles_per_axis =
+          Eigen::Vector3i::Constant(int(ObjectReader::CheckInteger(*n, p, 1, kMaxPerAxis)));
     }
   }
   b.spacing = r.Number("spacing", 1e-5, kMaxCoord, "m");
@@ -281,9 +282,8 @@ Scene ParseScene(std::string_view json_text) {
   ForEachElement(r, "fluid_blocks", [&](const json& j, const std::string& path) {
     scene.fluid_blocks.push_back(ParseFluidBlock(j, path));
   });
-  ForEachElement(r, "obstacles", [&](const json& j, const std::string& path) {
-    ParseObstacle(j, path, scene);
-  });
+  ForEachElement(r, "obstacles",
+                 [&](const json& j, const std::string& path) { ParseObstacle(j, path, scene); });
   scene.solver = r.String("solver").value_or(scene.solver);
   try {
     CreateSolver(scene.solver);
@@ -298,7 +298,8 @@ Scene ParseScene(std::string_view json_text) {
       const std::string path = "params." + key;
       if (FindParam(key) == nullptr) {
         std::string known;
-        for (const ParamDecl& d : ParamTable()) known += (known.empty() ? "" : ", ") + std::string(d.name);
+        for (const ParamDecl& d : ParamTable())
+          known += (known.empty() ? "" : ", ") + std::string(d.name);
         throw ConfigError(path, "unknown parameter; known parameters: " + known);
       }
       if (!value.is_number()) {
@@ -380,8 +381,8 @@ Scene LoadScene(std::string_view name_or_path) {
   if (!file) {
     std::string names;
     for (const std::string& n : BuiltinSceneNames()) names += (names.empty() ? "" : ", ") + n;
-    throw ConfigError("scene", "'" + path + "' is neither a readable file nor a built-in scene (" +
-                                   names + ")");
+    throw ConfigError(
+        "scene", "'" + path + "' is neither a readable file nor a built-in scene (" + names + ")");
   }
   std::stringstream text;
   text << file.rdbuf();

@@ -22,7 +22,8 @@ std::unique_ptr<Solver> CreateSolver(std::string_view name) {
     if (info.name == name) return info.create();
   }
   std::string names;
-  for (const SolverInfo& info : kSolvers) names += (names.empty() ? "" : ", ") + std::string(info.name);
+  for (const SolverInfo& info : kSolvers)
+    names += (names.empty() ? "" : ", ") + std::string(info.name);
   throw ConfigError("solver", "unknown solver \"" + std::string(name) + "\"; known: " + names);
 }
 

@@ -16,23 +16,23 @@ namespace dysa {
 struct Params {
   // Time stepping: one frame is `iterations_per_frame` steps of
   // dt = time_scale / (frame_rate * iterations_per_frame) simulated seconds.
-  double time_scale = 1.0;     // simulation speed, simulated s per displayed-frame second
+  double time_scale = 1.0;  // simulation speed, simulated s per displayed-frame second
   int iterations_per_frame = 3;
   double frame_rate = 60.0;  // frames per second (Hz)
 
-  double gravity = -10.0;           // m/s^2 along +y
-  double collision_damping = 0.086; // fraction of the normal speed kept after hitting a wall
-  double smoothing_radius = 0.2;    // m, kernel support h; also the neighbour grid cell size
-  double target_density = 630.0;    // kg/m^3, rest density rho0 of the equation of state
-  double pressure_multiplier = 28.8;      // m^2/s^2: p = (rho - rho0) * k, in Pa
-  double near_pressure_multiplier = 2.25; // m^2/s^2: p_near = rho_near * k_near
-  double viscosity = 0.001;               // m^3/s: dv_i = mu * sum_j (v_j - v_i) W(r) dt
-  double particle_mass = 1.0;             // kg
+  double gravity = -10.0;                  // m/s^2 along +y
+  double collision_damping = 0.086;        // fraction of the normal speed kept after hitting a wall
+  double smoothing_radius = 0.2;           // m, kernel support h; also the neighbour grid cell size
+  double target_density = 630.0;           // kg/m^3, rest density rho0 of the equation of state
+  double pressure_multiplier = 28.8;       // m^2/s^2: p = (rho - rho0) * k, in Pa
+  double near_pressure_multiplier = 2.25;  // m^2/s^2: p_near = rho_near * k_near
+  double viscosity = 0.001;                // m^3/s: dv_i = mu * sum_j (v_j - v_i) W(r) dt
+  double particle_mass = 1.0;              // kg
 
   // Spawn: used by every fluid block of the scene that does not set its own value.
-  int particle_quantity = 30;  // particles per axis
-  double spawn_size = 5.0;     // m, edge of the spawn cube
-  double spawn_jitter = 0.035; // m, radius of the random offset added to each particle
+  int particle_quantity = 30;   // particles per axis
+  double spawn_size = 5.0;      // m, edge of the spawn cube
+  double spawn_jitter = 0.035;  // m, radius of the random offset added to each particle
 };
 
 struct ParamDecl {

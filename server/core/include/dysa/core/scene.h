@@ -25,10 +25,10 @@ struct FluidBlock {
   // axis. With a count n the particles span the block edge to edge (the thesis's spawner);
   // with a spacing d they sit at the centres of d-sized cells filling the block.
   std::optional<Eigen::Vector3i> particles_per_axis;
-  std::optional<double> spacing;  // m
-  std::optional<double> jitter;   // m
-  uint64_t seed = 1;              // random seed of the jitter
-  Vec3d velocity = Vec3d::Zero(); // m/s, initial velocity
+  std::optional<double> spacing;   // m
+  std::optional<double> jitter;    // m
+  uint64_t seed = 1;               // random seed of the jitter
+  Vec3d velocity = Vec3d::Zero();  // m/s, initial velocity
 };
 
 struct SphereObstacle {
@@ -51,10 +51,10 @@ enum class ProbeKind {
 
 struct ProbeSpec {
   ProbeKind kind = ProbeKind::kKineticEnergy;
-  std::string name;        // column name in probes.csv
-  int axis = 0;            // kFront: 0, 1, 2 for x, y, z
+  std::string name;  // column name in probes.csv
+  int axis = 0;      // kFront: 0, 1, 2 for x, y, z
   Vec3d point = Vec3d::Zero();
-  double radius = 0;       // kHeight: horizontal search radius, m; 0 = smoothing radius
+  double radius = 0;  // kHeight: horizontal search radius, m; 0 = smoothing radius
   std::optional<Aabb> region;
 };
 
@@ -67,8 +67,8 @@ struct Scene {
   std::vector<BoxObstacle> boxes;
   std::string solver = "seed";
   Params params;
-  double end_time = 5.0;                  // s, default length of an offline run
-  std::optional<double> probe_interval;   // s; default: one output per frame
+  double end_time = 5.0;                 // s, default length of an offline run
+  std::optional<double> probe_interval;  // s; default: one output per frame
   std::vector<ProbeSpec> probes;
 };
 

@@ -13,13 +13,13 @@ namespace dysa {
 // identity: id[i] is (its index at spawn time, stable for the whole run).
 struct ParticleArrays {
   std::vector<uint32_t> id;
-  std::vector<Vec3> position;   // m
-  std::vector<Vec3> velocity;   // m/s
-  std::vector<Vec3> predicted;  // m, position predicted for the force passes
-  std::vector<Real> density;       // kg/m^3
-  std::vector<Real> near_density;  // kg/m^3 (seed model, Clavet et al. 2005)
-  std::vector<Real> pressure;      // Pa
-  std::vector<Real> near_pressure; // Pa
+  std::vector<Vec3> position;       // m
+  std::vector<Vec3> velocity;       // m/s
+  std::vector<Vec3> predicted;      // m, position predicted for the force passes
+  std::vector<Real> density;        // kg/m^3
+  std::vector<Real> near_density;   // kg/m^3 (seed model, Clavet et al. 2005)
+  std::vector<Real> pressure;       // Pa
+  std::vector<Real> near_pressure;  // Pa
 
   size_t size() const { return id.size(); }
   void Resize(size_t n);
@@ -33,8 +33,8 @@ struct State {
   std::vector<Real> real_scratch;
   std::vector<uint32_t> index_scratch;
 
-  double time = 0;     // s, simulated
-  uint64_t step = 0;   // steps since the last reset
+  double time = 0;    // s, simulated
+  uint64_t step = 0;  // steps since the last reset
 };
 
 // FNV-1a over ids, positions and velocities in id order: equal hashes mean bit-identical

@@ -39,8 +39,8 @@ void ApplyExternalForces(const Model& model, State& state) {
   }
 }
 
-using simd::RealV;
 using simd::MaskV;
+using simd::RealV;
 
 // Vector values are created inside the OpenMP loops, never shared into them: GCC 12 does not
 // keep the 32-byte alignment of vectors in the block it passes to the outlined parallel
@@ -142,9 +142,8 @@ void ApplyPressureForces(const Model& model, State& state) {
       scratch, 1, n, [&](int64_t j) { return Real(0.5) * p.pressure[j] / p.density[j]; });
   const Real* half_pn_over_rho = half_p_over_rho;
   if constexpr (kNear) {
-    half_pn_over_rho = PaddedArray(scratch, 2, n, [&](int64_t j) {
-      return Real(0.5) * p.near_pressure[j] / p.density[j];
-    });
+    half_pn_over_rho = PaddedArray(
+        scratch, 2, n, [&](int64_t j) { return Real(0.5) * p.near_pressure[j] / p.density[j]; });
   }
 
 #pragma omp parallel for schedule(static)
@@ -168,11 +167,11 @@ void ApplyPressureForces(const Model& model, State& state) {
         const RealV q = simd::Select(inside, h - r, RealV{});
         const RealV inv_r = simd::Select(inside, Real(1) / r, RealV{});
         // -dW/dr times the shared pressure over rho_j; the force pushes i away from j.
-        RealV magnitude = grad2 * q * (pi * simd::Load(half_inv_rho + j) +
-                                       simd::Load(half_p_over_rho + j));
+        RealV magnitude =
+            grad2 * q * (pi * simd::Load(half_inv_rho + j) + simd::Load(half_p_over_rho + j));
         if constexpr (kNear) {
-          magnitude += grad3 * q * q * (pni * simd::Load(half_inv_rho + j) +
-                                        simd::Load(half_pn_over_rho + j));
+          magnitude += grad3 * q * q *
+                       (pni * simd::Load(half_inv_rho + j) + simd::Load(half_pn_over_rho + j));
         }
         const RealV s = simd::Select(inside, magnitude * inv_r, RealV{});
         fx -= c.dx * s;
@@ -192,7 +191,8 @@ void ApplyPressureForces(const Model& model, State& state) {
           if (j == uint32_t(i) || xs[j] != xs[i] || ys[j] != ys[i] || zs[j] != zs[i]) continue;
           Real magnitude = k.spiky2_grad * k.h * (pi_s * half_inv_rho[j] + half_p_over_rho[j]);
           if constexpr (kNear) {
-            magnitude += k.spiky3_grad * k.h * k.h * (pni_s * half_inv_rho[j] + half_pn_over_rho[j]);
+            magnitude +=
+                k.spiky3_grad * k.h * k.h * (pni_s * half_inv_rho[j] + half_pn_over_rho[j]);
           }
           force -= CoincidentDirection(id[i], id[j]) * magnitude;
         }
