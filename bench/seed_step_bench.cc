@@ -57,7 +57,9 @@ int main(int argc, char** argv) {
   app.add_option("--warmup", warmup, "Steps before timing (the spawn cube starts to fall)")
       ->check(CLI::Range(0, 100000))
       ->capture_default_str();
-  app.add_option("--steps", steps, "Timed steps")->check(CLI::Range(1, 1000000))->capture_default_str();
+  app.add_option("--steps", steps, "Timed steps")
+      ->check(CLI::Range(1, 1000000))
+      ->capture_default_str();
   app.add_option("--threads", thread_counts, "Thread counts, comma separated")
       ->delimiter(',')
       ->check(CLI::Range(1, 1024));
@@ -70,10 +72,11 @@ int main(int argc, char** argv) {
     for (int t : thread_counts) {
       results.push_back(Measure(scene, t, warmup, steps));
       const Result& r = results.back();
-      std::printf("%s: %zu particles, %d threads: %.2f ms/step, %.2f million particle-steps/s, "
-                  "state hash %016llx\n",
-                  scene_name.c_str(), r.particles, t, r.ms_per_step(), r.mps(),
-                  static_cast<unsigned long long>(r.hash));
+      std::printf(
+          "%s: %zu particles, %d threads: %.2f ms/step, %.2f million particle-steps/s, "
+          "state hash %016llx\n",
+          scene_name.c_str(), r.particles, t, r.ms_per_step(), r.mps(),
+          static_cast<unsigned long long>(r.hash));
       for (const dysa::PassProfile& p : r.passes) {
         std::printf("    %-16s %8.3f ms/step  %5.1f%%\n", p.name.c_str(),
                     p.total_ms / double(r.steps), 100 * 1e-3 * p.total_ms / r.wall_s);
@@ -91,8 +94,7 @@ int main(int argc, char** argv) {
               << results.front().wall_s / r.wall_s << '\n';
       for (const dysa::PassProfile& p : r.passes) {
         passes << scene_name << ',' << r.threads << ',' << p.name << ','
-               << p.total_ms / double(r.steps) << ',' << 100 * 1e-3 * p.total_ms / r.wall_s
-               << '\n';
+               << p.total_ms / double(r.steps) << ',' << 100 * 1e-3 * p.total_ms / r.wall_s << '\n';
       }
     }
     bool same = true;

@@ -40,17 +40,21 @@ int main(int argc, char** argv) {
   run_cmd->add_option("scene", run.scene, "Built-in scene name or path to a scene JSON file")
       ->required();
   run_cmd->add_option("--set", run.sets, "Override a parameter, NAME=VALUE (repeatable)");
-  auto* end_opt = run_cmd->add_option("--end-time", end_time, "Simulated seconds to run (default: the scene's end_time)")
+  auto* end_opt = run_cmd
+                      ->add_option("--end-time", end_time,
+                                   "Simulated seconds to run (default: the scene's end_time)")
                       ->check(CLI::Range(1e-9, 1e6));
-  auto* steps_opt = run_cmd->add_option("--steps", steps, "Number of solver steps to run instead of --end-time")
-                        ->check(CLI::Range(uint64_t{1}, uint64_t{1} << 40));
+  auto* steps_opt =
+      run_cmd->add_option("--steps", steps, "Number of solver steps to run instead of --end-time")
+          ->check(CLI::Range(uint64_t{1}, uint64_t{1} << 40));
   end_opt->excludes(steps_opt);
   run_cmd->add_option("--threads", run.threads, "OpenMP threads (default: all cores)")
       ->check(CLI::Range(1, 1024));
   run_cmd->add_option("--out", run.out_dir, "Output directory for probes.csv and frames")
       ->capture_default_str();
-  run_cmd->add_option("--vtk-every", run.vtk_every,
-                      "Write a ParaView frame (OUT/frames/*.vtp, OUT/frames.pvd) every K frames")
+  run_cmd
+      ->add_option("--vtk-every", run.vtk_every,
+                   "Write a ParaView frame (OUT/frames/*.vtp, OUT/frames.pvd) every K frames")
       ->check(CLI::Range(1, 1 << 30));
   run_cmd->footer(ParameterHelp());
 

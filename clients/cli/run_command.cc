@@ -44,20 +44,21 @@ void PrintProfile(const Simulation& sim, double wall_s, uint64_t steps, int thre
                   std::ostream& out) {
   double total_ms = 0;
   for (const PassProfile& pass : sim.profile()) total_ms += pass.total_ms;
-  out << "\n" << std::left << std::setw(18) << "pass" << std::right << std::setw(12)
-      << "ms/step" << std::setw(10) << "share\n";
+  out << "\n"
+      << std::left << std::setw(18) << "pass" << std::right << std::setw(12) << "ms/step"
+      << std::setw(10) << "share\n";
   for (const PassProfile& pass : sim.profile()) {
     const double per_step = steps ? pass.total_ms / double(steps) : 0.0;
     out << std::left << std::setw(18) << pass.name << std::right << std::fixed
-        << std::setprecision(3) << std::setw(12) << per_step << std::setw(9)
-        << std::setprecision(1) << (total_ms > 0 ? 100 * pass.total_ms / total_ms : 0.0) << "%\n";
+        << std::setprecision(3) << std::setw(12) << per_step << std::setw(9) << std::setprecision(1)
+        << (total_ms > 0 ? 100 * pass.total_ms / total_ms : 0.0) << "%\n";
   }
   const double particle_steps = double(sim.state().particles.size()) * double(steps);
   out << std::left << std::setw(18) << "total" << std::right << std::setprecision(3)
       << std::setw(12) << (steps ? total_ms / double(steps) : 0.0) << "\n\n"
       << steps << " steps of " << sim.state().particles.size() << " particles in "
-      << std::setprecision(2) << wall_s << " s with " << threads << " threads: "
-      << std::setprecision(2) << (wall_s > 0 ? particle_steps / wall_s / 1e6 : 0.0)
+      << std::setprecision(2) << wall_s << " s with " << threads
+      << " threads: " << std::setprecision(2) << (wall_s > 0 ? particle_steps / wall_s / 1e6 : 0.0)
       << " million particle-steps/s\n";
   out.unsetf(std::ios::floatfield);
 }
@@ -115,8 +116,8 @@ void RunOffline(const RunOptions& options, std::ostream& out, std::ostream& prog
       const double wall = Seconds(now - start);
       progress << "\r  t = " << std::fixed << std::setprecision(3) << st.time << " s"
                << (options.steps ? "" : " / " + std::to_string(end_time).substr(0, 8) + " s")
-               << "  step " << st.step << "  "
-               << std::setprecision(2) << double(st.particles.size()) * double(st.step) / wall / 1e6
+               << "  step " << st.step << "  " << std::setprecision(2)
+               << double(st.particles.size()) * double(st.step) / wall / 1e6
                << " M particle-steps/s   " << std::flush;
       progress.unsetf(std::ios::floatfield);
     }
@@ -125,7 +126,9 @@ void RunOffline(const RunOptions& options, std::ostream& out, std::ostream& prog
   if (options.progress) progress << "\r" << std::string(72, ' ') << "\r" << std::flush;
   PrintProfile(sim, wall_s, sim.state().step, threads, out);
   out << "probes: " << (dir / "probes.csv").string();
-  if (vtk) out << ", ParaView series: " << (dir / "frames.pvd").string() << " (" << vtk->frames() << " frames)";
+  if (vtk)
+    out << ", ParaView series: " << (dir / "frames.pvd").string() << " (" << vtk->frames()
+        << " frames)";
   out << "\n";
 }
 

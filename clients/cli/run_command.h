@@ -16,8 +16,8 @@ struct RunOptions {
   std::optional<uint64_t> steps;   // instead of end_time
   int threads = 0;                 // 0: OpenMP's default
   std::string out_dir = "out";
-  int vtk_every = 0;               // write a VTK frame every K frames; 0: none
-  bool progress = false;           // a live progress line on stderr
+  int vtk_every = 0;      // write a VTK frame every K frames; 0: none
+  bool progress = false;  // a live progress line on stderr
 };
 
 // Runs the scene and writes OUT/probes.csv (and VTK frames); prints the per-pass timing table

@@ -70,11 +70,14 @@ void WriteVtp(const std::filesystem::path& path, const ParticleArrays& p) {
       << R"(<VTKFile type="PolyData" version="1.0" byte_order="LittleEndian" header_type="UInt64">)"
       << "\n  <PolyData>\n"
       << "    <Piece NumberOfPoints=\"" << n << "\" NumberOfVerts=\"" << n
-      << R"(" NumberOfLines="0" NumberOfStrips="0" NumberOfPolys="0">)" << "\n"
+      << R"(" NumberOfLines="0" NumberOfStrips="0" NumberOfPolys="0">)"
+      << "\n"
       << "      <PointData Scalars=\"speed\" Vectors=\"velocity\">\n"
       << tag(0) << tag(1) << tag(2) << tag(3) << tag(4) << "      </PointData>\n"
-      << "      <Points>\n" << tag(5) << "      </Points>\n"
-      << "      <Verts>\n" << tag(6) << tag(7) << "      </Verts>\n"
+      << "      <Points>\n"
+      << tag(5) << "      </Points>\n"
+      << "      <Verts>\n"
+      << tag(6) << tag(7) << "      </Verts>\n"
       << "    </Piece>\n  </PolyData>\n  <AppendedData encoding=\"raw\">\n   _";
 
   std::ofstream file(path, std::ios::binary | std::ios::trunc);
@@ -106,7 +109,8 @@ void VtkSeriesWriter::WriteFrame(const ParticleArrays& particles, double time) {
   std::ofstream out(pvd, std::ios::trunc);
   out.precision(9);
   out << "<?xml version=\"1.0\"?>\n"
-      << R"(<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">)" << "\n"
+      << R"(<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">)"
+      << "\n"
       << "  <Collection>\n";
   for (const auto& [t, file] : entries_) {
     out << "    <DataSet timestep=\"" << t << R"(" group="" part="0" file=")" << file << "\"/>\n";
