@@ -8,6 +8,7 @@
 #include <fstream>
 #include <iomanip>
 #include <ostream>
+#include <sstream>
 
 #include "dysa/core/probes.h"
 #include "dysa/core/simulation.h"
@@ -19,6 +20,13 @@ namespace {
 using Clock = std::chrono::steady_clock;
 
 double Seconds(Clock::duration d) { return std::chrono::duration<double>(d).count(); }
+
+// Shortest readable form: 1.5, not 1.500000.
+std::string Number(double v) {
+  std::ostringstream s;
+  s << v;
+  return s.str();
+}
 
 class ProbeWriter {
  public:
@@ -87,7 +95,7 @@ void RunOffline(const RunOptions& options, std::ostream& out, std::ostream& prog
   out << "scene " << sc.name << ": " << sim.state().particles.size() << " particles, solver "
       << sc.solver << ", dt " << sim.model().dt << " s, "
       << (options.steps ? std::to_string(*options.steps) + " steps"
-                        : "until t = " + std::to_string(end_time) + " s")
+                        : "until t = " + Number(end_time) + " s")
       << ", output in " << dir.string() << "\n";
 
   probes.Write(sim);
@@ -115,7 +123,7 @@ void RunOffline(const RunOptions& options, std::ostream& out, std::ostream& prog
       last_progress = now;
       const double wall = Seconds(now - start);
       progress << "\r  t = " << std::fixed << std::setprecision(3) << st.time << " s"
-               << (options.steps ? "" : " / " + std::to_string(end_time).substr(0, 8) + " s")
+               << (options.steps ? "" : " / " + Number(end_time) + " s")
                << "  step " << st.step << "  " << std::setprecision(2)
                << double(st.particles.size()) * double(st.step) / wall / 1e6
                << " M particle-steps/s   " << std::flush;
