@@ -123,8 +123,8 @@ void RunOffline(const RunOptions& options, std::ostream& out, std::ostream& prog
       last_progress = now;
       const double wall = Seconds(now - start);
       progress << "\r  t = " << std::fixed << std::setprecision(3) << st.time << " s"
-               << (options.steps ? "" : " / " + Number(end_time) + " s")
-               << "  step " << st.step << "  " << std::setprecision(2)
+               << (options.steps ? "" : " / " + Number(end_time) + " s") << "  step " << st.step
+               << "  " << std::setprecision(2)
                << double(st.particles.size()) * double(st.step) / wall / 1e6
                << " M particle-steps/s   " << std::flush;
       progress.unsetf(std::ios::floatfield);
