@@ -1,0 +1,133 @@
+// Particle frame codec: bounded-error quantisation, prediction against what the decoder already
+// has, byte planes and zstd, in chunks that decode independently. FORMAT.md is the wire format.
+// No dependency on the solver: frames come in as plain arrays indexed by particle id.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <optional>
+#include <span>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace dysa::codec {
+
+inline constexpr uint32_t kMagic = 0x46535944;  // "DYSF"
+inline constexpr uint16_t kVersion = 1;
+inline constexpr size_t kHeaderSize = 152;
+
+enum Field : uint32_t {
+  kPositions = 1u << 0,
+  kSpeed = 1u << 1,
+  kVelocity = 1u << 2,
+  kDensity = 1u << 3,
+};
+
+// What one stream carries; chosen by the subscriber. Defaults: positions + speed, 16-bit
+// positions, 8-bit speed, a keyframe every 60 frames.
+struct StreamConfig {
+  uint32_t fields = kPositions | kSpeed;
+  int position_bits = 16;               // per axis, 1..24
+  int speed_bits = 8;                   // 1..16
+  int velocity_bits = 12;               // per component, 1..16
+  int density_bits = 16;                // 1..16
+  int keyframe_interval = 60;           // frames; >= 1 (1: every frame is a keyframe)
+  uint32_t stride = 1;                  // level of detail: send the particles with id % stride == 0
+  uint32_t chunk_particles = 1u << 16;  // particles per chunk (bounds a chunk's size)
+  int zstd_level = 1;
+
+  // Throws std::invalid_argument naming the field and its allowed range.
+  void Validate() const;
+};
+
+// One frame as the solver has it. Arrays are indexed by particle id 0 .. count-1 (the caller
+// scatters its storage order into id order, or passes `ids`). Positions and velocities are
+// interleaved xyz.
+struct FrameInput {
+  uint64_t step = 0;
+  double time = 0;                     // s
+  std::array<double, 3> domain_min{};  // m, the box particles are kept in
+  std::array<double, 3> domain_max{};
+  std::span<const float> positions;   // 3 * count, m
+  std::span<const float> velocities;  // 3 * count, m/s; needed for speed and velocity
+  std::span<const float> densities;   // count, kg/m^3; needed for density
+};
+
+// The decoded content of a frame, in id order of the kept particles (id = k * stride).
+struct Frame {
+  uint32_t frame_seq = 0;
+  uint64_t step = 0;
+  double time = 0;
+  bool keyframe = false;
+  uint32_t count = 0;
+  uint32_t stride = 1;
+  uint32_t fields = 0;
+  std::vector<float> positions;   // 3 * count
+  std::vector<float> speed;       // count
+  std::vector<float> velocities;  // 3 * count
+  std::vector<float> densities;   // count
+  // Largest possible |decoded - original| of each field, from the header's ranges and bits.
+  std::array<double, 3> position_error{};
+  double speed_error = 0;
+  double velocity_error = 0;
+  double density_error = 0;
+};
+
+using Chunk = std::vector<uint8_t>;
+
+class FrameEncoder {
+ public:
+  explicit FrameEncoder(StreamConfig config);  // throws std::invalid_argument
+  const StreamConfig& config() const { return config_; }
+
+  // Encodes a frame as chunks (in parallel over chunks). A keyframe is written for the first
+  // frame, every keyframe_interval frames, after RequestKeyframe(), when the particle count
+  // changes, and when a value leaves the ranges of the current keyframe.
+  std::vector<Chunk> Encode(const FrameInput& frame);
+  // The next frame will be a keyframe (a subscriber joined or dropped a frame, a reset).
+  void RequestKeyframe() { keyframe_requested_ = true; }
+
+ private:
+  StreamConfig config_;
+  bool keyframe_requested_ = true;
+  uint32_t frame_seq_ = 0;
+  uint32_t frames_since_keyframe_ = 0;
+  uint32_t count_ = 0;
+  std::array<double, 8> lo_{}, hi_{};  // the current keyframe's range of each component
+  // The decoder's state: quantised values of the last two frames, per component.
+  std::vector<std::vector<uint32_t>> previous_, before_previous_;
+  bool have_before_previous_ = false;
+};
+
+class DecodeError : public std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+class FrameDecoder {
+ public:
+  // Adds one chunk. Returns the frame once all its chunks have arrived. Throws DecodeError with
+  // a clear message for malformed, truncated or hostile input and for a newer format version;
+  // the decoder then waits for the next keyframe.
+  std::optional<Frame> AddChunk(std::span<const uint8_t> chunk);
+  // All chunks of one frame at once, decoded in parallel.
+  std::optional<Frame> AddChunks(std::span<const Chunk> chunks);
+  // True while a delta frame cannot be decoded (no keyframe yet, or a frame was missed).
+  bool waiting_for_keyframe() const { return !have_previous_; }
+
+ private:
+  // The frame being assembled from its chunks.
+  std::optional<uint32_t> pending_seq_;
+  std::vector<uint8_t> pending_header_;  // its first chunk's header
+  std::vector<bool> received_;           // per chunk
+  Frame pending_;
+  std::vector<std::vector<uint32_t>> current_;  // its quantised values, per component
+  // The last complete frame's header and quantised values, and the one before (delta frames
+  // are predicted from them).
+  std::vector<uint8_t> previous_header_;
+  std::vector<std::vector<uint32_t>> previous_, before_previous_;
+  bool have_previous_ = false;
+  bool have_before_previous_ = false;
+};
+
+}  // namespace dysa::codec

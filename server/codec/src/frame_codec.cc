@@ -1,0 +1,649 @@
+#include "dysa/codec/frame_codec.h"
+
+#include <zstd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <sstream>
+
+#include "byte_io.h"
+
+namespace dysa::codec {
+namespace {
+
+// Components in payload order (FORMAT.md).
+enum Component { kPosX, kPosY, kPosZ, kSpeedC, kVelX, kVelY, kVelZ, kDensityC, kComponents };
+
+// A decoder never allocates more than this many particles, whatever a header claims.
+constexpr uint32_t kMaxCount = 1u << 26;
+
+struct Header {
+  uint16_t version = kVersion;
+  uint16_t flags = 0;
+  uint32_t frame_seq = 0;
+  uint32_t count = 0;
+  uint64_t step = 0;
+  double time = 0;
+  uint16_t chunk_index = 0;
+  uint16_t chunk_count = 1;
+  uint32_t first = 0;
+  uint32_t chunk_particles = 0;
+  uint32_t fields = 0;
+  uint8_t position_bits = 0, speed_bits = 0, velocity_bits = 0, density_bits = 0;
+  uint32_t stride = 1;
+  double position_min[3] = {}, position_max[3] = {};
+  double speed_max = 0, velocity_max = 0, density_min = 0, density_max = 0;
+  uint32_t raw_size = 0;
+  uint32_t payload_size = 0;
+
+  bool keyframe() const { return (flags & 1u) != 0; }
+  bool Has(Component c) const {
+    switch (c) {
+      case kPosX:
+      case kPosY:
+      case kPosZ:
+        return true;
+      case kSpeedC:
+        return fields & kSpeed;
+      case kDensityC:
+        return fields & kDensity;
+      default:
+        return fields & kVelocity;
+    }
+  }
+  int Bits(Component c) const {
+    if (c <= kPosZ) return position_bits;
+    if (c == kSpeedC) return speed_bits;
+    if (c == kDensityC) return density_bits;
+    return velocity_bits;
+  }
+  double Lo(Component c) const {
+    if (c <= kPosZ) return position_min[c];
+    if (c == kSpeedC) return 0.0;
+    if (c == kDensityC) return density_min;
+    return -velocity_max;
+  }
+  double Hi(Component c) const {
+    if (c <= kPosZ) return position_max[c];
+    if (c == kSpeedC) return speed_max;
+    if (c == kDensityC) return density_max;
+    return velocity_max;
+  }
+  // Same stream layout: what a delta frame must share with its reference frame.
+  bool SameLayout(const Header& o) const {
+    return count == o.count && stride == o.stride && fields == o.fields &&
+           position_bits == o.position_bits && speed_bits == o.speed_bits &&
+           velocity_bits == o.velocity_bits && density_bits == o.density_bits &&
+           std::equal(position_min, position_min + 3, o.position_min) &&
+           std::equal(position_max, position_max + 3, o.position_max) && speed_max == o.speed_max &&
+           velocity_max == o.velocity_max && density_min == o.density_min &&
+           density_max == o.density_max;
+  }
+};
+
+void WriteHeader(const Header& h, uint8_t* out) {
+  std::memset(out, 0, kHeaderSize);
+  Put<uint32_t>(out + 0, kMagic);
+  Put<uint16_t>(out + 4, h.version);
+  Put<uint16_t>(out + 6, h.flags);
+  Put<uint32_t>(out + 8, h.frame_seq);
+  Put<uint32_t>(out + 12, h.count);
+  Put<uint64_t>(out + 16, h.step);
+  Put<double>(out + 24, h.time);
+  Put<uint16_t>(out + 32, h.chunk_index);
+  Put<uint16_t>(out + 34, h.chunk_count);
+  Put<uint32_t>(out + 36, h.first);
+  Put<uint32_t>(out + 40, h.chunk_particles);
+  Put<uint32_t>(out + 44, h.fields);
+  out[48] = h.position_bits;
+  out[49] = h.speed_bits;
+  out[50] = h.velocity_bits;
+  out[51] = h.density_bits;
+  Put<uint32_t>(out + 52, h.stride);
+  for (int a = 0; a < 3; ++a) {
+    Put<double>(out + 56 + 8 * a, h.position_min[a]);
+    Put<double>(out + 80 + 8 * a, h.position_max[a]);
+  }
+  Put<double>(out + 104, h.speed_max);
+  Put<double>(out + 112, h.velocity_max);
+  Put<double>(out + 120, h.density_min);
+  Put<double>(out + 128, h.density_max);
+  Put<uint32_t>(out + 136, h.raw_size);
+  Put<uint32_t>(out + 140, h.payload_size);
+}
+
+std::string Str(double v) {
+  std::ostringstream s;
+  s << v;
+  return s.str();
+}
+
+// Parses and checks everything in a header that does not depend on other chunks.
+Header ReadHeader(std::span<const uint8_t> chunk) {
+  if (chunk.size() < kHeaderSize) {
+    throw DecodeError("truncated chunk: " + std::to_string(chunk.size()) +
+                      " bytes, the header alone is " + std::to_string(kHeaderSize));
+  }
+  const uint8_t* in = chunk.data();
+  if (Get<uint32_t>(in) != kMagic) throw DecodeError("not a DySAQUASIMs frame (bad magic)");
+  Header h;
+  h.version = Get<uint16_t>(in + 4);
+  if (h.version != kVersion) {
+    throw DecodeError("frame format version " + std::to_string(h.version) +
+                      (h.version > kVersion ? " is newer than" : " is not supported by") +
+                      " this decoder (version " + std::to_string(kVersion) +
+                      "); update the client");
+  }
+  h.flags = Get<uint16_t>(in + 6);
+  h.frame_seq = Get<uint32_t>(in + 8);
+  h.count = Get<uint32_t>(in + 12);
+  h.step = Get<uint64_t>(in + 16);
+  h.time = Get<double>(in + 24);
+  h.chunk_index = Get<uint16_t>(in + 32);
+  h.chunk_count = Get<uint16_t>(in + 34);
+  h.first = Get<uint32_t>(in + 36);
+  h.chunk_particles = Get<uint32_t>(in + 40);
+  h.fields = Get<uint32_t>(in + 44);
+  h.position_bits = in[48];
+  h.speed_bits = in[49];
+  h.velocity_bits = in[50];
+  h.density_bits = in[51];
+  h.stride = Get<uint32_t>(in + 52);
+  for (int a = 0; a < 3; ++a) {
+    h.position_min[a] = Get<double>(in + 56 + 8 * a);
+    h.position_max[a] = Get<double>(in + 80 + 8 * a);
+  }
+  h.speed_max = Get<double>(in + 104);
+  h.velocity_max = Get<double>(in + 112);
+  h.density_min = Get<double>(in + 120);
+  h.density_max = Get<double>(in + 128);
+  h.raw_size = Get<uint32_t>(in + 136);
+  h.payload_size = Get<uint32_t>(in + 140);
+
+  auto fail = [](const std::string& what) { throw DecodeError("corrupt frame header: " + what); };
+  if ((h.flags & ~1u) != 0) fail("unknown flags " + std::to_string(h.flags));
+  if (!(h.fields & kPositions) || (h.fields & ~0xFu) != 0) {
+    fail("fields " + std::to_string(h.fields) + " (positions must be present, bits 0-3 only)");
+  }
+  if (h.count > kMaxCount) fail("count " + std::to_string(h.count) + " over the limit");
+  if (h.stride == 0) fail("stride 0");
+  if (h.chunk_count == 0 || h.chunk_index >= h.chunk_count) fail("chunk index out of range");
+  if (uint64_t{h.first} + h.chunk_particles > h.count) fail("chunk particles out of range");
+  if (h.count > 0 && h.chunk_particles == 0) fail("empty chunk");
+  if (h.chunk_particles > 0 && !std::isfinite(h.time)) fail("time is not finite");
+  for (int c = 0; c < kComponents; ++c) {
+    const auto comp = Component(c);
+    const int bits = h.Bits(comp);
+    const int max_bits = comp <= kPosZ ? 24 : 16;
+    if (!h.Has(comp)) {
+      if (bits != 0 && comp != kVelY && comp != kVelZ) fail("bits set for an absent field");
+      continue;
+    }
+    if (bits < 1 || bits > max_bits) fail("bit width " + std::to_string(bits));
+    const double lo = h.Lo(comp), hi = h.Hi(comp);
+    if (!std::isfinite(lo) || !std::isfinite(hi) || !(hi > lo)) {
+      fail("range [" + Str(lo) + ", " + Str(hi) + "]");
+    }
+  }
+  if (kHeaderSize + uint64_t{h.payload_size} != chunk.size()) {
+    throw DecodeError("truncated or oversized chunk: header says " +
+                      std::to_string(h.payload_size) + " payload bytes, " +
+                      std::to_string(chunk.size() - kHeaderSize) + " present");
+  }
+  return h;
+}
+
+int ComponentCount(const Header& h) {
+  int n = 0;
+  for (int c = 0; c < kComponents; ++c) n += h.Has(Component(c)) ? 1 : 0;
+  return n;
+}
+
+uint32_t Levels(int bits) { return bits >= 32 ? 0xFFFFFFFFu : (1u << bits) - 1; }
+
+uint32_t Quantize(double v, double lo, double hi, uint32_t levels) {
+  const double x = std::round((v - lo) / (hi - lo) * double(levels));
+  if (!(x >= 0)) return 0;  // also NaN
+  return x >= double(levels) ? levels : uint32_t(x);
+}
+
+float Dequantize(uint32_t q, double lo, double step) { return float(lo + double(q) * step); }
+
+uint32_t ZigZag(int32_t r) { return (uint32_t(r) << 1) ^ uint32_t(r >> 31); }
+int32_t UnZigZag(uint32_t z) { return int32_t(z >> 1) ^ -int32_t(z & 1); }
+
+int PlanesFor(uint32_t max_z) {
+  int planes = 0;
+  while (max_z != 0) ++planes, max_z >>= 8;
+  return planes;
+}
+
+// The source value of a component for particle id `i`.
+double SourceValue(const FrameInput& f, Component c, size_t i) {
+  switch (c) {
+    case kPosX:
+    case kPosY:
+    case kPosZ:
+      return f.positions[3 * i + c];
+    case kSpeedC: {
+      const double x = f.velocities[3 * i], y = f.velocities[3 * i + 1],
+                   z = f.velocities[3 * i + 2];
+      return std::sqrt(x * x + y * y + z * z);
+    }
+    case kDensityC:
+      return f.densities[i];
+    default:
+      return f.velocities[3 * i + (c - kVelX)];
+  }
+}
+
+struct ZstdCCtxDeleter {
+  void operator()(ZSTD_CCtx* c) const { ZSTD_freeCCtx(c); }
+};
+struct ZstdDCtxDeleter {
+  void operator()(ZSTD_DCtx* c) const { ZSTD_freeDCtx(c); }
+};
+
+}  // namespace
+
+void StreamConfig::Validate() const {
+  auto check = [](bool ok, const std::string& field, const std::string& range) {
+    if (!ok) throw std::invalid_argument(field + ": allowed range " + range);
+  };
+  check((fields & kPositions) && (fields & ~0xFu) == 0, "fields",
+        "positions plus any of speed, velocity, density");
+  check(position_bits >= 1 && position_bits <= 24, "position_bits", "[1, 24]");
+  check(speed_bits >= 1 && speed_bits <= 16, "speed_bits", "[1, 16]");
+  check(velocity_bits >= 1 && velocity_bits <= 16, "velocity_bits", "[1, 16]");
+  check(density_bits >= 1 && density_bits <= 16, "density_bits", "[1, 16]");
+  check(keyframe_interval >= 1 && keyframe_interval <= 1000000, "keyframe_interval",
+        "[1, 1000000]");
+  check(stride >= 1, "stride", "[1, 2^32 - 1]");
+  check(chunk_particles >= 1 && chunk_particles <= (1u << 20), "chunk_particles", "[1, 2^20]");
+  check(zstd_level >= -7 && zstd_level <= 22, "zstd_level", "[-7, 22]");
+}
+
+FrameEncoder::FrameEncoder(StreamConfig config) : config_(config) { config_.Validate(); }
+
+std::vector<Chunk> FrameEncoder::Encode(const FrameInput& f) {
+  const size_t ids = f.positions.size() / 3;
+  if (f.positions.size() != 3 * ids) throw std::invalid_argument("positions: size not 3 * count");
+  if ((config_.fields & (kSpeed | kVelocity)) && f.velocities.size() != 3 * ids) {
+    throw std::invalid_argument("velocities: 3 * count values needed for speed or velocity");
+  }
+  if ((config_.fields & kDensity) && f.densities.size() != ids) {
+    throw std::invalid_argument("densities: count values needed for density");
+  }
+  if (ids > kMaxCount) throw std::invalid_argument("count over the limit of 2^26 particles");
+  const uint32_t stride = config_.stride;
+  const uint32_t count = uint32_t((ids + stride - 1) / stride);
+  const uint32_t per_chunk = config_.chunk_particles;
+  const uint32_t chunk_count = std::max<uint32_t>(1, (count + per_chunk - 1) / per_chunk);
+  if (chunk_count > 0xFFFF)
+    throw std::invalid_argument("chunk_particles too small: > 65535 chunks");
+
+  Header h;
+  h.fields = config_.fields;
+  h.position_bits = uint8_t(config_.position_bits);
+  h.speed_bits = (h.fields & kSpeed) ? uint8_t(config_.speed_bits) : 0;
+  h.velocity_bits = (h.fields & kVelocity) ? uint8_t(config_.velocity_bits) : 0;
+  h.density_bits = (h.fields & kDensity) ? uint8_t(config_.density_bits) : 0;
+  std::vector<Component> comps;
+  for (int c = 0; c < kComponents; ++c) {
+    if (h.Has(Component(c))) comps.push_back(Component(c));
+  }
+
+  // Extremes of every component over the kept particles (min and max are exact, so the result
+  // does not depend on the thread count).
+  std::array<double, kComponents> lo, hi;
+  lo.fill(std::numeric_limits<double>::infinity());
+  hi.fill(-std::numeric_limits<double>::infinity());
+  for (Component c : comps) {
+    double mn = lo[c], mx = hi[c];
+#pragma omp parallel for reduction(min : mn) reduction(max : mx) schedule(static)
+    for (int64_t k = 0; k < int64_t(count); ++k) {
+      const double v = SourceValue(f, c, size_t(k) * stride);
+      mn = std::min(mn, v);
+      mx = std::max(mx, v);
+    }
+    lo[c] = mn;
+    hi[c] = mx;
+  }
+  bool keyframe = keyframe_requested_ || frame_seq_ == 0 || count != count_ ||
+                  frames_since_keyframe_ >= uint32_t(config_.keyframe_interval);
+  for (Component c : comps) keyframe |= count > 0 && (lo[c] < lo_[c] || hi[c] > hi_[c]);
+  if (keyframe) {
+    // New ranges, with headroom where values move (so later delta frames stay inside).
+    for (Component c : comps) {
+      if (count == 0) lo[c] = 0, hi[c] = 1;
+      double a = lo[c], b = hi[c];
+      if (c <= kPosZ) {
+        // The domain when particles are inside it (walls keep them there); with headroom
+        // where they are not.
+        const bool has_domain = f.domain_max[c] > f.domain_min[c];
+        const bool inside = has_domain && a >= f.domain_min[c] && b <= f.domain_max[c];
+        const double margin = inside ? 0.0 : 0.05 * (b - a) + 1e-3;
+        a = (has_domain ? std::min(a, f.domain_min[c]) : a) - margin;
+        b = (has_domain ? std::max(b, f.domain_max[c]) : b) + margin;
+      } else if (c == kSpeedC) {
+        a = 0;
+        b = std::max(1.25 * b, 1e-3);
+      } else if (c == kDensityC) {
+        const double margin = 0.1 * (b - a) + std::max(1e-3, 1e-3 * std::abs(b));
+        a -= margin;
+        b += margin;
+      } else {
+        // One range for the three components (the header has one velocity_max).
+        b = 1e-3;
+        for (int v = kVelX; v <= kVelZ; ++v) {
+          b = std::max({b, 1.25 * std::abs(lo[v]), 1.25 * std::abs(hi[v])});
+        }
+        a = -b;
+      }
+      lo_[c] = a;
+      hi_[c] = b;
+    }
+  }
+  for (int a = 0; a < 3; ++a) h.position_min[a] = lo_[a], h.position_max[a] = hi_[a];
+  if (h.fields & kSpeed) h.speed_max = hi_[kSpeedC];
+  if (h.fields & kVelocity) h.velocity_max = hi_[kVelX];
+  if (h.fields & kDensity) h.density_min = lo_[kDensityC], h.density_max = hi_[kDensityC];
+
+  // Quantise. The same values are what the decoder will hold, so prediction never drifts.
+  std::vector<std::vector<uint32_t>> q(kComponents);
+  for (Component c : comps) {
+    q[c].resize(count);
+    const uint32_t levels = Levels(h.Bits(c));
+    const double a = h.Lo(c), b = h.Hi(c);
+#pragma omp parallel for schedule(static)
+    for (int64_t k = 0; k < int64_t(count); ++k) {
+      q[c][k] = Quantize(SourceValue(f, c, size_t(k) * stride), a, b, levels);
+    }
+  }
+
+  h.flags = keyframe ? 1 : 0;
+  h.frame_seq = frame_seq_;
+  h.count = count;
+  h.step = f.step;
+  h.time = f.time;
+  h.stride = stride;
+  h.chunk_count = uint16_t(chunk_count);
+  std::vector<Chunk> chunks(chunk_count);
+  const bool extrapolate = !keyframe && have_before_previous_;
+  std::vector<size_t> zstd_errors(chunk_count, 0);  // no exceptions inside the parallel loop
+#pragma omp parallel for schedule(dynamic, 1)
+  for (int64_t ci = 0; ci < int64_t(chunk_count); ++ci) {
+    Header ch = h;
+    ch.chunk_index = uint16_t(ci);
+    ch.first = uint32_t(ci) * per_chunk;
+    const uint32_t m = std::min(per_chunk, count - std::min(count, ch.first));
+    ch.chunk_particles = m;
+    // Residuals, zig-zag mapped, per component; then byte planes.
+    std::vector<uint32_t> z(size_t(m) * comps.size());
+    std::vector<uint8_t> raw(comps.size());
+    for (size_t slot = 0; slot < comps.size(); ++slot) {
+      const Component c = comps[slot];
+      const uint32_t levels = Levels(h.Bits(c));
+      const uint32_t* cur = q[c].data() + ch.first;
+      uint32_t* out = z.data() + slot * m;
+      uint32_t max_z = 0;
+      for (uint32_t k = 0; k < m; ++k) {
+        int64_t pred;
+        if (keyframe) {
+          pred = k == 0 ? 0 : cur[k - 1];
+        } else if (c <= kPosZ && extrapolate) {
+          const int64_t p1 = previous_[c][ch.first + k], p2 = before_previous_[c][ch.first + k];
+          pred = std::clamp<int64_t>(2 * p1 - p2, 0, levels);
+        } else {
+          pred = previous_[c][ch.first + k];
+        }
+        out[k] = ZigZag(int32_t(int64_t(cur[k]) - pred));
+        max_z = std::max(max_z, out[k]);
+      }
+      raw[slot] = uint8_t(PlanesFor(max_z));
+    }
+    for (size_t slot = 0; slot < comps.size(); ++slot) {
+      const uint32_t* zs = z.data() + slot * m;
+      for (int p = 0; p < raw[slot]; ++p) {
+        const size_t at = raw.size();
+        raw.resize(at + m);
+        for (uint32_t k = 0; k < m; ++k) raw[at + k] = uint8_t(zs[k] >> (8 * p));
+      }
+    }
+    thread_local std::unique_ptr<ZSTD_CCtx, ZstdCCtxDeleter> cctx(ZSTD_createCCtx());
+    Chunk& chunk = chunks[ci];
+    chunk.resize(kHeaderSize + ZSTD_compressBound(raw.size()));
+    const size_t payload =
+        ZSTD_compressCCtx(cctx.get(), chunk.data() + kHeaderSize, chunk.size() - kHeaderSize,
+                          raw.data(), raw.size(), config_.zstd_level);
+    if (ZSTD_isError(payload)) {
+      zstd_errors[ci] = payload;
+      continue;
+    }
+    ch.raw_size = uint32_t(raw.size());
+    ch.payload_size = uint32_t(payload);
+    chunk.resize(kHeaderSize + payload);
+    WriteHeader(ch, chunk.data());
+  }
+  for (size_t e : zstd_errors) {
+    if (e != 0) throw std::runtime_error(std::string("zstd: ") + ZSTD_getErrorName(e));
+  }
+
+  if (keyframe) {
+    have_before_previous_ = false;
+  } else {
+    before_previous_ = std::move(previous_);
+    have_before_previous_ = true;
+  }
+  previous_ = std::move(q);
+  frames_since_keyframe_ = keyframe ? 1 : frames_since_keyframe_ + 1;
+  keyframe_requested_ = false;
+  count_ = count;
+  ++frame_seq_;
+  return chunks;
+}
+
+namespace {
+
+// Decodes one chunk's payload into `q` (quantised values, per component, frame-sized) and the
+// frame's float arrays. Chunks of a frame write disjoint ranges, so they run in parallel. Returns
+// an error message, empty on success (no exceptions inside parallel loops).
+std::string DecodeBody(const Header& h, std::span<const uint8_t> payload,
+                       std::vector<std::vector<uint32_t>>& q,
+                       const std::vector<std::vector<uint32_t>>& previous,
+                       const std::vector<std::vector<uint32_t>>& before_previous, bool extrapolate,
+                       Frame& frame) {
+  const int n = ComponentCount(h);
+  const uint32_t m = h.chunk_particles;
+  const unsigned long long content = ZSTD_getFrameContentSize(payload.data(), payload.size());
+  if (content != h.raw_size) return "payload size does not match the header";
+  // The raw size can be at most one plane-count byte and 4 planes per component.
+  if (h.raw_size > uint64_t(n) * (1 + 4 * uint64_t(m))) return "raw size too large";
+  thread_local std::unique_ptr<ZSTD_DCtx, ZstdDCtxDeleter> dctx(ZSTD_createDCtx());
+  std::vector<uint8_t> raw(h.raw_size);
+  const size_t got =
+      ZSTD_decompressDCtx(dctx.get(), raw.data(), raw.size(), payload.data(), payload.size());
+  if (ZSTD_isError(got) || got != raw.size()) return "payload does not decompress";
+  if (raw.size() < size_t(n)) return "payload too short";
+  size_t expected = size_t(n);
+  for (int s = 0; s < n; ++s) {
+    if (raw[s] > 4) return "more than 4 byte planes";
+    expected += size_t(raw[s]) * m;
+  }
+  if (expected != raw.size()) return "payload size does not match its byte planes";
+
+  size_t at = size_t(n);
+  int slot = 0;
+  for (int ci = 0; ci < kComponents; ++ci) {
+    const auto c = Component(ci);
+    if (!h.Has(c)) continue;
+    const int planes = raw[slot++];
+    const uint32_t levels = Levels(h.Bits(c));
+    uint32_t* cur = q[c].data() + h.first;
+    for (uint32_t k = 0; k < m; ++k) {
+      uint32_t z = 0;
+      for (int p = 0; p < planes; ++p) z |= uint32_t(raw[at + size_t(p) * m + k]) << (8 * p);
+      int64_t pred;
+      if (h.keyframe()) {
+        pred = k == 0 ? 0 : cur[k - 1];
+      } else if (c <= kPosZ && extrapolate) {
+        const int64_t p1 = previous[c][h.first + k], p2 = before_previous[c][h.first + k];
+        pred = std::clamp<int64_t>(2 * p1 - p2, 0, levels);
+      } else {
+        pred = previous[c][h.first + k];
+      }
+      const int64_t value = pred + UnZigZag(z);
+      if (value < 0 || value > int64_t(levels)) return "decoded value outside its range";
+      cur[k] = uint32_t(value);
+    }
+    at += size_t(planes) * m;
+
+    const double lo = h.Lo(c);
+    const double step = (h.Hi(c) - lo) / double(levels);
+    for (uint32_t k = 0; k < m; ++k) {
+      const size_t i = size_t(h.first) + k;
+      const float v = Dequantize(cur[k], lo, step);
+      if (c <= kPosZ)
+        frame.positions[3 * i + c] = v;
+      else if (c == kSpeedC)
+        frame.speed[i] = v;
+      else if (c == kDensityC)
+        frame.densities[i] = v;
+      else
+        frame.velocities[3 * i + (c - kVelX)] = v;
+    }
+  }
+  return {};
+}
+
+// Half a quantisation step plus the float rounding of the decoded value.
+double ErrorBound(double lo, double hi, int bits) {
+  const double half_step = 0.5 * (hi - lo) / double(Levels(bits));
+  const double magnitude = std::max(std::abs(lo), std::abs(hi));
+  return half_step + magnitude * std::numeric_limits<float>::epsilon() * 0.5;
+}
+
+}  // namespace
+
+std::optional<Frame> FrameDecoder::AddChunk(std::span<const uint8_t> chunk) {
+  const Chunk copy(chunk.begin(), chunk.end());
+  return AddChunks(std::span<const Chunk>(&copy, 1));
+}
+
+std::optional<Frame> FrameDecoder::AddChunks(std::span<const Chunk> chunks) {
+  std::vector<Header> headers;
+  headers.reserve(chunks.size());
+  for (const Chunk& chunk : chunks) headers.push_back(ReadHeader(chunk));
+  std::optional<Frame> done;
+  // Chunks are taken in order; each group of consecutive chunks of one frame decodes in
+  // parallel. A frame left incomplete when the next one starts is dropped.
+  size_t begin = 0;
+  while (begin < chunks.size()) {
+    const Header& h = headers[begin];
+    if (!pending_seq_ || *pending_seq_ != h.frame_seq) {
+      if (pending_seq_) have_previous_ = false;  // the incomplete frame is lost
+      pending_seq_.reset();
+      if (!h.keyframe()) {
+        Header previous;
+        bool reference_ok = have_previous_;
+        if (reference_ok) {
+          previous = ReadHeader(previous_header_);
+          reference_ok = previous.frame_seq + 1 == h.frame_seq && previous.SameLayout(h);
+        }
+        if (!reference_ok) {
+          have_previous_ = false;  // wait for a keyframe
+          ++begin;
+          continue;
+        }
+      }
+      pending_seq_ = h.frame_seq;
+      pending_header_.assign(chunks[begin].begin(), chunks[begin].begin() + kHeaderSize);
+      Put<uint32_t>(pending_header_.data() + 140, 0);  // a header alone: no payload
+      received_.assign(h.chunk_count, false);
+      pending_ = Frame{};
+      pending_.frame_seq = h.frame_seq;
+      pending_.step = h.step;
+      pending_.time = h.time;
+      pending_.keyframe = h.keyframe();
+      pending_.count = h.count;
+      pending_.stride = h.stride;
+      pending_.fields = h.fields;
+      pending_.positions.resize(3 * size_t(h.count));
+      if (h.fields & kSpeed) pending_.speed.resize(h.count);
+      if (h.fields & kVelocity) pending_.velocities.resize(3 * size_t(h.count));
+      if (h.fields & kDensity) pending_.densities.resize(h.count);
+      current_.assign(kComponents, {});
+      for (int c = 0; c < kComponents; ++c) {
+        if (h.Has(Component(c))) current_[c].resize(h.count);
+      }
+    }
+    const Header first = ReadHeader(pending_header_);
+    size_t end = begin;
+    while (end < chunks.size() && headers[end].frame_seq == first.frame_seq) {
+      const Header& hc = headers[end];
+      if (hc.flags != first.flags || hc.count != first.count || hc.step != first.step ||
+          hc.chunk_count != first.chunk_count || !hc.SameLayout(first) ||
+          !(hc.time == first.time)) {
+        throw DecodeError("chunk " + std::to_string(hc.chunk_index) +
+                          " does not match the other chunks of frame " +
+                          std::to_string(hc.frame_seq));
+      }
+      if (received_[hc.chunk_index]) {
+        throw DecodeError("chunk " + std::to_string(hc.chunk_index) + " of frame " +
+                          std::to_string(hc.frame_seq) + " received twice");
+      }
+      received_[hc.chunk_index] = true;
+      ++end;
+    }
+    const bool extrapolate = !first.keyframe() && have_before_previous_;
+    std::vector<std::string> errors(end - begin);
+#pragma omp parallel for schedule(dynamic, 1)
+    for (int64_t k = int64_t(begin); k < int64_t(end); ++k) {
+      std::span<const uint8_t> payload(chunks[k].data() + kHeaderSize, headers[k].payload_size);
+      errors[k - begin] = DecodeBody(headers[k], payload, current_, previous_, before_previous_,
+                                     extrapolate, pending_);
+    }
+    for (size_t k = 0; k < errors.size(); ++k) {
+      if (!errors[k].empty()) {
+        pending_seq_.reset();
+        have_previous_ = false;
+        throw DecodeError("corrupt chunk " + std::to_string(headers[begin + k].chunk_index) +
+                          " of frame " + std::to_string(first.frame_seq) + ": " + errors[k]);
+      }
+    }
+    begin = end;
+    if (std::find(received_.begin(), received_.end(), false) != received_.end()) continue;
+
+    // Complete: it becomes the reference of the next delta frame.
+    for (int a = 0; a < 3; ++a) {
+      pending_.position_error[a] =
+          ErrorBound(first.position_min[a], first.position_max[a], first.position_bits);
+    }
+    if (first.fields & kSpeed)
+      pending_.speed_error = ErrorBound(0, first.speed_max, first.speed_bits);
+    if (first.fields & kVelocity) {
+      pending_.velocity_error =
+          ErrorBound(-first.velocity_max, first.velocity_max, first.velocity_bits);
+    }
+    if (first.fields & kDensity) {
+      pending_.density_error = ErrorBound(first.density_min, first.density_max, first.density_bits);
+    }
+    if (first.keyframe()) {
+      have_before_previous_ = false;
+    } else {
+      before_previous_ = std::move(previous_);
+      have_before_previous_ = true;
+    }
+    previous_ = std::move(current_);
+    current_.clear();
+    previous_header_ = pending_header_;
+    have_previous_ = true;
+    pending_seq_.reset();
+    done = std::move(pending_);
+  }
+  return done;
+}
+
+}  // namespace dysa::codec
