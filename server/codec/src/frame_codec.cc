@@ -37,6 +37,7 @@ struct Header {
   double speed_max = 0, velocity_max = 0, density_min = 0, density_max = 0;
   uint32_t raw_size = 0;
   uint32_t payload_size = 0;
+  uint32_t bits_size = 0;
 
   bool keyframe() const { return (flags & 1u) != 0; }
   bool Has(Component c) const {
@@ -112,6 +113,7 @@ void WriteHeader(const Header& h, uint8_t* out) {
   Put<double>(out + 128, h.density_max);
   Put<uint32_t>(out + 136, h.raw_size);
   Put<uint32_t>(out + 140, h.payload_size);
+  Put<uint32_t>(out + 144, h.bits_size);
 }
 
 std::string Str(double v) {
@@ -161,6 +163,8 @@ Header ReadHeader(std::span<const uint8_t> chunk) {
   h.density_max = Get<double>(in + 128);
   h.raw_size = Get<uint32_t>(in + 136);
   h.payload_size = Get<uint32_t>(in + 140);
+  h.bits_size = Get<uint32_t>(in + 144);
+  if (Get<uint32_t>(in + 148) != 0) throw DecodeError("corrupt frame header: reserved bytes set");
 
   auto fail = [](const std::string& what) { throw DecodeError("corrupt frame header: " + what); };
   if ((h.flags & ~1u) != 0) fail("unknown flags " + std::to_string(h.flags));
@@ -187,9 +191,9 @@ Header ReadHeader(std::span<const uint8_t> chunk) {
       fail("range [" + Str(lo) + ", " + Str(hi) + "]");
     }
   }
-  if (kHeaderSize + uint64_t{h.payload_size} != chunk.size()) {
+  if (kHeaderSize + uint64_t{h.payload_size} + h.bits_size != chunk.size()) {
     throw DecodeError("truncated or oversized chunk: header says " +
-                      std::to_string(h.payload_size) + " payload bytes, " +
+                      std::to_string(uint64_t{h.payload_size} + h.bits_size) + " payload bytes, " +
                       std::to_string(chunk.size() - kHeaderSize) + " present");
   }
   return h;
@@ -214,6 +218,36 @@ float Dequantize(uint32_t q, double lo, double step) { return float(lo + double(
 uint32_t ZigZag(int32_t r) { return (uint32_t(r) << 1) ^ uint32_t(r >> 31); }
 int32_t UnZigZag(uint32_t z) { return int32_t(z >> 1) ^ -int32_t(z & 1); }
 
+// The residuals of a component are split at bit k: the high parts z >> k, small and skewed,
+// go to zstd as byte planes; the low k bits, close to uniformly random for noisy residuals, are
+// packed as they are. k is chosen from the mean so that the high parts average a few units.
+int SplitBitsFor(uint64_t sum_z, uint32_t m) {
+  const uint64_t mean = m == 0 ? 0 : sum_z / m;
+  int bit_length = 0;
+  while ((mean >> bit_length) != 0) ++bit_length;
+  return std::min(24, std::max(0, bit_length - 3));
+}
+
+// Appends the low k bits of each value, least significant bit first, padded to whole bytes.
+void PackBits(const uint32_t* values, uint32_t m, int k, std::vector<uint8_t>& out) {
+  if (k == 0) return;
+  const uint32_t mask = (1u << k) - 1;
+  uint64_t acc = 0;
+  int filled = 0;
+  for (uint32_t i = 0; i < m; ++i) {
+    acc |= uint64_t(values[i] & mask) << filled;
+    filled += k;
+    while (filled >= 8) {
+      out.push_back(uint8_t(acc));
+      acc >>= 8;
+      filled -= 8;
+    }
+  }
+  if (filled > 0) out.push_back(uint8_t(acc));
+}
+
+size_t PackedBytes(uint32_t m, int k) { return (uint64_t(m) * uint64_t(k) + 7) / 8; }
+
 int PlanesFor(uint32_t max_z) {
   int planes = 0;
   while (max_z != 0) ++planes, max_z >>= 8;
@@ -237,6 +271,25 @@ double SourceValue(const FrameInput& f, Component c, size_t i) {
     default:
       return f.velocities[3 * i + (c - kVelX)];
   }
+}
+
+using History = std::vector<std::vector<std::vector<uint32_t>>>;
+
+// The prediction of value i of component c in a delta frame from the history (newest first):
+// positions are extrapolated with constant velocity from two frames and with constant
+// acceleration from three; other components are predicted by their previous value.
+int64_t PredictDelta(Component c, const History& history, size_t i, uint32_t levels) {
+  const int64_t p1 = history[0][c][i];
+  if (history.size() == 1) return p1;
+  const int64_t p2 = history[1][c][i];
+  const int64_t pred = history.size() == 2 ? 2 * p1 - p2 : 3 * (p1 - p2) + history[2][c][i];
+  return std::clamp<int64_t>(pred, 0, levels);
+}
+
+void PushHistory(History& history, std::vector<std::vector<uint32_t>>&& q, bool keyframe) {
+  if (keyframe) history.clear();
+  history.insert(history.begin(), std::move(q));
+  if (history.size() > 3) history.pop_back();
 }
 
 struct ZstdCCtxDeleter {
@@ -371,7 +424,6 @@ std::vector<Chunk> FrameEncoder::Encode(const FrameInput& f) {
   h.stride = stride;
   h.chunk_count = uint16_t(chunk_count);
   std::vector<Chunk> chunks(chunk_count);
-  const bool extrapolate = !keyframe && have_before_previous_;
   std::vector<size_t> zstd_errors(chunk_count, 0);  // no exceptions inside the parallel loop
 #pragma omp parallel for schedule(dynamic, 1)
   for (int64_t ci = 0; ci < int64_t(chunk_count); ++ci) {
@@ -380,41 +432,46 @@ std::vector<Chunk> FrameEncoder::Encode(const FrameInput& f) {
     ch.first = uint32_t(ci) * per_chunk;
     const uint32_t m = std::min(per_chunk, count - std::min(count, ch.first));
     ch.chunk_particles = m;
-    // Residuals, zig-zag mapped, per component; then byte planes.
+    // Residuals, zig-zag mapped, per component; then split into byte planes of the high parts
+    // (compressed) and packed low bits (stored).
     std::vector<uint32_t> z(size_t(m) * comps.size());
-    std::vector<uint8_t> raw(comps.size());
+    std::vector<uint8_t> raw(2 * comps.size());
+    std::vector<uint8_t> low_bits;
     for (size_t slot = 0; slot < comps.size(); ++slot) {
       const Component c = comps[slot];
       const uint32_t levels = Levels(h.Bits(c));
       const uint32_t* cur = q[c].data() + ch.first;
       uint32_t* out = z.data() + slot * m;
-      uint32_t max_z = 0;
+      uint64_t sum_z = 0;
       for (uint32_t k = 0; k < m; ++k) {
         int64_t pred;
         if (keyframe) {
           pred = k == 0 ? 0 : cur[k - 1];
-        } else if (c <= kPosZ && extrapolate) {
-          const int64_t p1 = previous_[c][ch.first + k], p2 = before_previous_[c][ch.first + k];
-          pred = std::clamp<int64_t>(2 * p1 - p2, 0, levels);
         } else {
-          pred = previous_[c][ch.first + k];
+          pred = PredictDelta(c, history_, ch.first + k, levels);
         }
         out[k] = ZigZag(int32_t(int64_t(cur[k]) - pred));
-        max_z = std::max(max_z, out[k]);
+        sum_z += out[k];
       }
-      raw[slot] = uint8_t(PlanesFor(max_z));
+      const int split = SplitBitsFor(sum_z, m);
+      uint32_t max_high = 0;
+      for (uint32_t k = 0; k < m; ++k) max_high = std::max(max_high, out[k] >> split);
+      raw[2 * slot] = uint8_t(split);
+      raw[2 * slot + 1] = uint8_t(PlanesFor(max_high));
+      PackBits(out, m, split, low_bits);
     }
     for (size_t slot = 0; slot < comps.size(); ++slot) {
       const uint32_t* zs = z.data() + slot * m;
-      for (int p = 0; p < raw[slot]; ++p) {
+      const int split = raw[2 * slot];
+      for (int p = 0; p < raw[2 * slot + 1]; ++p) {
         const size_t at = raw.size();
         raw.resize(at + m);
-        for (uint32_t k = 0; k < m; ++k) raw[at + k] = uint8_t(zs[k] >> (8 * p));
+        for (uint32_t k = 0; k < m; ++k) raw[at + k] = uint8_t((zs[k] >> split) >> (8 * p));
       }
     }
     thread_local std::unique_ptr<ZSTD_CCtx, ZstdCCtxDeleter> cctx(ZSTD_createCCtx());
     Chunk& chunk = chunks[ci];
-    chunk.resize(kHeaderSize + ZSTD_compressBound(raw.size()));
+    chunk.resize(kHeaderSize + ZSTD_compressBound(raw.size()) + low_bits.size());
     const size_t payload =
         ZSTD_compressCCtx(cctx.get(), chunk.data() + kHeaderSize, chunk.size() - kHeaderSize,
                           raw.data(), raw.size(), config_.zstd_level);
@@ -424,20 +481,16 @@ std::vector<Chunk> FrameEncoder::Encode(const FrameInput& f) {
     }
     ch.raw_size = uint32_t(raw.size());
     ch.payload_size = uint32_t(payload);
-    chunk.resize(kHeaderSize + payload);
+    ch.bits_size = uint32_t(low_bits.size());
+    std::copy(low_bits.begin(), low_bits.end(), chunk.begin() + kHeaderSize + payload);
+    chunk.resize(kHeaderSize + payload + low_bits.size());
     WriteHeader(ch, chunk.data());
   }
   for (size_t e : zstd_errors) {
     if (e != 0) throw std::runtime_error(std::string("zstd: ") + ZSTD_getErrorName(e));
   }
 
-  if (keyframe) {
-    have_before_previous_ = false;
-  } else {
-    before_previous_ = std::move(previous_);
-    have_before_previous_ = true;
-  }
-  previous_ = std::move(q);
+  PushHistory(history_, std::move(q), keyframe);
   frames_since_keyframe_ = keyframe ? 1 : frames_since_keyframe_ + 1;
   keyframe_requested_ = false;
   count_ = count;
@@ -451,54 +504,70 @@ namespace {
 // frame's float arrays. Chunks of a frame write disjoint ranges, so they run in parallel. Returns
 // an error message, empty on success (no exceptions inside parallel loops).
 std::string DecodeBody(const Header& h, std::span<const uint8_t> payload,
-                       std::vector<std::vector<uint32_t>>& q,
-                       const std::vector<std::vector<uint32_t>>& previous,
-                       const std::vector<std::vector<uint32_t>>& before_previous, bool extrapolate,
-                       Frame& frame) {
+                       std::span<const uint8_t> bits, std::vector<std::vector<uint32_t>>& q,
+                       const History& history, Frame& frame) {
   const int n = ComponentCount(h);
   const uint32_t m = h.chunk_particles;
   const unsigned long long content = ZSTD_getFrameContentSize(payload.data(), payload.size());
   if (content != h.raw_size) return "payload size does not match the header";
-  // The raw size can be at most one plane-count byte and 4 planes per component.
-  if (h.raw_size > uint64_t(n) * (1 + 4 * uint64_t(m))) return "raw size too large";
+  // At most two bytes and 4 planes per component.
+  if (h.raw_size > uint64_t(n) * (2 + 4 * uint64_t(m))) return "raw size too large";
   thread_local std::unique_ptr<ZSTD_DCtx, ZstdDCtxDeleter> dctx(ZSTD_createDCtx());
   std::vector<uint8_t> raw(h.raw_size);
   const size_t got =
       ZSTD_decompressDCtx(dctx.get(), raw.data(), raw.size(), payload.data(), payload.size());
   if (ZSTD_isError(got) || got != raw.size()) return "payload does not decompress";
-  if (raw.size() < size_t(n)) return "payload too short";
-  size_t expected = size_t(n);
+  if (raw.size() < 2 * size_t(n)) return "payload too short";
+  size_t expected = 2 * size_t(n);
+  size_t expected_bits = 0;
   for (int s = 0; s < n; ++s) {
-    if (raw[s] > 4) return "more than 4 byte planes";
-    expected += size_t(raw[s]) * m;
+    if (raw[2 * s] > 24) return "split beyond 24 bits";
+    if (raw[2 * s + 1] > 4) return "more than 4 byte planes";
+    expected += size_t(raw[2 * s + 1]) * m;
+    expected_bits += PackedBytes(m, raw[2 * s]);
   }
   if (expected != raw.size()) return "payload size does not match its byte planes";
+  if (expected_bits != bits.size()) return "packed bits do not match their split";
 
-  size_t at = size_t(n);
+  size_t at = 2 * size_t(n);
+  size_t bit_at = 0;  // byte offset of the component's packed bits
   int slot = 0;
   for (int ci = 0; ci < kComponents; ++ci) {
     const auto c = Component(ci);
     if (!h.Has(c)) continue;
-    const int planes = raw[slot++];
+    const int split = raw[2 * slot];
+    const int planes = raw[2 * slot + 1];
+    ++slot;
     const uint32_t levels = Levels(h.Bits(c));
     uint32_t* cur = q[c].data() + h.first;
+    uint64_t acc = 0;
+    int filled = 0;
+    size_t next_byte = bit_at;
     for (uint32_t k = 0; k < m; ++k) {
-      uint32_t z = 0;
-      for (int p = 0; p < planes; ++p) z |= uint32_t(raw[at + size_t(p) * m + k]) << (8 * p);
+      uint64_t high = 0;
+      for (int p = 0; p < planes; ++p) high |= uint64_t(raw[at + size_t(p) * m + k]) << (8 * p);
+      while (filled < split) {
+        acc |= uint64_t(bits[next_byte++]) << filled;
+        filled += 8;
+      }
+      const uint64_t low = acc & ((uint64_t{1} << split) - 1);
+      acc >>= split;
+      filled -= split;
+      const uint64_t wide = (high << split) | low;
+      if (wide > 0xFFFFFFFFull) return "residual out of range";
+      const uint32_t z = uint32_t(wide);
       int64_t pred;
       if (h.keyframe()) {
         pred = k == 0 ? 0 : cur[k - 1];
-      } else if (c <= kPosZ && extrapolate) {
-        const int64_t p1 = previous[c][h.first + k], p2 = before_previous[c][h.first + k];
-        pred = std::clamp<int64_t>(2 * p1 - p2, 0, levels);
       } else {
-        pred = previous[c][h.first + k];
+        pred = PredictDelta(c, history, h.first + k, levels);
       }
       const int64_t value = pred + UnZigZag(z);
       if (value < 0 || value > int64_t(levels)) return "decoded value outside its range";
       cur[k] = uint32_t(value);
     }
     at += size_t(planes) * m;
+    bit_at += PackedBytes(m, split);
 
     const double lo = h.Lo(c);
     const double step = (h.Hi(c) - lo) / double(levels);
@@ -561,6 +630,7 @@ std::optional<Frame> FrameDecoder::AddChunks(std::span<const Chunk> chunks) {
       pending_seq_ = h.frame_seq;
       pending_header_.assign(chunks[begin].begin(), chunks[begin].begin() + kHeaderSize);
       Put<uint32_t>(pending_header_.data() + 140, 0);  // a header alone: no payload
+      Put<uint32_t>(pending_header_.data() + 144, 0);
       received_.assign(h.chunk_count, false);
       pending_ = Frame{};
       pending_.frame_seq = h.frame_seq;
@@ -597,13 +667,12 @@ std::optional<Frame> FrameDecoder::AddChunks(std::span<const Chunk> chunks) {
       received_[hc.chunk_index] = true;
       ++end;
     }
-    const bool extrapolate = !first.keyframe() && have_before_previous_;
     std::vector<std::string> errors(end - begin);
 #pragma omp parallel for schedule(dynamic, 1)
     for (int64_t k = int64_t(begin); k < int64_t(end); ++k) {
       std::span<const uint8_t> payload(chunks[k].data() + kHeaderSize, headers[k].payload_size);
-      errors[k - begin] = DecodeBody(headers[k], payload, current_, previous_, before_previous_,
-                                     extrapolate, pending_);
+      std::span<const uint8_t> bits(payload.data() + payload.size(), headers[k].bits_size);
+      errors[k - begin] = DecodeBody(headers[k], payload, bits, current_, history_, pending_);
     }
     for (size_t k = 0; k < errors.size(); ++k) {
       if (!errors[k].empty()) {
@@ -630,13 +699,7 @@ std::optional<Frame> FrameDecoder::AddChunks(std::span<const Chunk> chunks) {
     if (first.fields & kDensity) {
       pending_.density_error = ErrorBound(first.density_min, first.density_max, first.density_bits);
     }
-    if (first.keyframe()) {
-      have_before_previous_ = false;
-    } else {
-      before_previous_ = std::move(previous_);
-      have_before_previous_ = true;
-    }
-    previous_ = std::move(current_);
+    PushHistory(history_, std::move(current_), first.keyframe());
     current_.clear();
     previous_header_ = pending_header_;
     have_previous_ = true;

@@ -95,9 +95,9 @@ class FrameEncoder {
   uint32_t frames_since_keyframe_ = 0;
   uint32_t count_ = 0;
   std::array<double, 8> lo_{}, hi_{};  // the current keyframe's range of each component
-  // The decoder's state: quantised values of the last two frames, per component.
-  std::vector<std::vector<uint32_t>> previous_, before_previous_;
-  bool have_before_previous_ = false;
+  // The decoder's state: quantised values per component of the frames since the last keyframe,
+  // newest first, at most 3 (what delta frames are predicted from).
+  std::vector<std::vector<std::vector<uint32_t>>> history_;
 };
 
 class DecodeError : public std::runtime_error {
@@ -122,12 +122,11 @@ class FrameDecoder {
   std::vector<bool> received_;           // per chunk
   Frame pending_;
   std::vector<std::vector<uint32_t>> current_;  // its quantised values, per component
-  // The last complete frame's header and quantised values, and the one before (delta frames
-  // are predicted from them).
+  // The last complete frame's header, and the quantised values of up to 3 frames since the last
+  // keyframe, newest first (delta frames are predicted from them).
   std::vector<uint8_t> previous_header_;
-  std::vector<std::vector<uint32_t>> previous_, before_previous_;
+  std::vector<std::vector<std::vector<uint32_t>>> history_;
   bool have_previous_ = false;
-  bool have_before_previous_ = false;
 };
 
 }  // namespace dysa::codec

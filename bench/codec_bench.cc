@@ -1,0 +1,185 @@
+// Frame codec on frames from real runs: bytes per particle and encode/decode time for keyframes
+// and delta frames, for every field combination. Writes bench/results/codec.csv.
+//
+//   build/release/bench/codec_bench [--threads 2] [--frames 8] [--large-per-axis 100]
+//
+// Frames: the thesis's 91,125-particle scene after 1 s of simulated time (the splash), then
+// consecutive frames (iterations_per_frame steps apart, as a viewer sees them); and a block of
+// 100^3 = 1,000,000 particles of the thesis fluid falling in a larger box.
+#include <omp.h>
+
+#include <CLI/CLI.hpp>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+
+#include "dysa/codec/frame_codec.h"
+#include "dysa/core/simulation.h"
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+using dysa::codec::Field;
+
+// One frame in id order, as the server will hand it to the encoder.
+struct CapturedFrame {
+  uint64_t step;
+  double time;
+  std::vector<float> positions, velocities, densities;
+};
+
+CapturedFrame Capture(const dysa::Simulation& sim) {
+  const dysa::ParticleArrays& p = sim.state().particles;
+  CapturedFrame f{sim.state().step, sim.state().time, {}, {}, {}};
+  f.positions.resize(3 * p.size());
+  f.velocities.resize(3 * p.size());
+  f.densities.resize(p.size());
+  for (size_t i = 0; i < p.size(); ++i) {
+    const uint32_t id = p.id[i];
+    for (int a = 0; a < 3; ++a) {
+      f.positions[3 * id + a] = p.position[i][a];
+      f.velocities[3 * id + a] = p.velocity[i][a];
+    }
+    f.densities[id] = p.density[i];
+  }
+  return f;
+}
+
+std::vector<CapturedFrame> Record(dysa::Scene scene, double warmup_s, int frames) {
+  dysa::Simulation sim(std::move(scene));
+  while (sim.state().time < warmup_s) sim.Step();
+  std::vector<CapturedFrame> out;
+  for (int f = 0; f < frames; ++f) {
+    sim.StepFrame();
+    out.push_back(Capture(sim));
+  }
+  return out;
+}
+
+struct Combo {
+  const char* name;
+  uint32_t fields;
+};
+
+double Ms(Clock::duration d) { return std::chrono::duration<double, std::milli>(d).count(); }
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"Frame codec: bytes per particle and speed on frames from real runs"};
+  int threads = 2;
+  int frames = 8;
+  int large_per_axis = 100;
+  std::string out_dir = "bench/results";
+  app.add_option("--threads", threads, "OpenMP threads")->check(CLI::Range(1, 1024))->capture_default_str();
+  app.add_option("--frames", frames, "Frames per sequence (1 keyframe + deltas)")
+      ->check(CLI::Range(2, 1000))
+      ->capture_default_str();
+  app.add_option("--large-per-axis", large_per_axis, "Particles per axis of the large block")
+      ->check(CLI::Range(10, 200))
+      ->capture_default_str();
+  app.add_option("--out", out_dir, "Directory for codec.csv")->capture_default_str();
+  CLI11_PARSE(app, argc, argv);
+
+  omp_set_num_threads(threads);
+  struct Sequence {
+    std::string name;
+    dysa::Scene scene;
+    std::vector<CapturedFrame> frames;
+  };
+  std::vector<Sequence> sequences;
+  {
+    dysa::Scene thesis = dysa::LoadScene("seed_test_scene");
+    std::printf("recording %d frames of %s ...\n", frames, thesis.name.c_str());
+    sequences.push_back({"seed_test_scene", thesis, Record(thesis, 1.0, frames)});
+    // A large block of the thesis fluid: the same particle spacing (5 m / 44) and parameters,
+    // 100^3 particles in a box scaled to match.
+    dysa::Scene large = thesis;
+    const double size = 5.0 / 44 * (large_per_axis - 1);
+    large.domain = {dysa::Vec3d::Constant(-size), dysa::Vec3d::Constant(size)};
+    large.params.particle_quantity = large_per_axis;
+    large.params.spawn_size = size;
+    std::printf("recording %d frames of a %d^3 block ...\n", frames, large_per_axis);
+    sequences.push_back({"block_" + std::to_string(large_per_axis) + "^3", large,
+                         Record(large, 0.3, frames)});
+  }
+
+  const std::vector<Combo> combos = {
+      {"positions", Field::kPositions},
+      {"positions+speed", Field::kPositions | Field::kSpeed},
+      {"positions+velocity", Field::kPositions | Field::kVelocity},
+      {"positions+density", Field::kPositions | Field::kDensity},
+      {"all", Field::kPositions | Field::kSpeed | Field::kVelocity | Field::kDensity},
+  };
+  std::filesystem::create_directories(out_dir);
+  std::ofstream csv(std::filesystem::path(out_dir) / "codec.csv");
+  csv << "sequence,particles,fields,threads,kind,bytes_per_particle,encode_ms,decode_ms,"
+         "position_error_m,max_chunk_bytes\n";
+  std::printf("\n%-18s %-20s %8s %11s %11s %11s %11s\n", "frames", "fields", "kind", "B/particle",
+              "encode ms", "decode ms", "max error");
+  for (const Sequence& seq : sequences) {
+    const size_t n = seq.frames.front().densities.size();
+    for (const Combo& combo : combos) {
+      dysa::codec::StreamConfig config;
+      config.fields = combo.fields;
+      config.keyframe_interval = 1000000;  // one keyframe, then deltas
+      dysa::codec::FrameEncoder encoder(config);
+      dysa::codec::FrameDecoder decoder;
+      // kind 0: keyframe, 1: deltas (averaged)
+      double bytes[2] = {0, 0}, enc[2] = {0, 0}, dec[2] = {0, 0};
+      int counts[2] = {0, 0};
+      size_t max_chunk = 0;
+      double max_error = 0;
+      for (const CapturedFrame& f : seq.frames) {
+        dysa::codec::FrameInput in;
+        in.step = f.step;
+        in.time = f.time;
+        for (int a = 0; a < 3; ++a) {
+          in.domain_min[a] = seq.scene.domain.min[a];
+          in.domain_max[a] = seq.scene.domain.max[a];
+        }
+        in.positions = f.positions;
+        in.velocities = f.velocities;
+        in.densities = f.densities;
+        const auto t0 = Clock::now();
+        const std::vector<dysa::codec::Chunk> chunks = encoder.Encode(in);
+        const auto t1 = Clock::now();
+        const std::optional<dysa::codec::Frame> frame = decoder.AddChunks(chunks);
+        const auto t2 = Clock::now();
+        if (!frame) {
+          std::fprintf(stderr, "codec_bench: a frame did not decode\n");
+          return 1;
+        }
+        const int kind = frame->keyframe ? 0 : 1;
+        size_t total = 0;
+        for (const auto& c : chunks) total += c.size(), max_chunk = std::max(max_chunk, c.size());
+        bytes[kind] += double(total) / double(n);
+        enc[kind] += Ms(t1 - t0);
+        dec[kind] += Ms(t2 - t1);
+        ++counts[kind];
+        // Check the bound on every value, as the tests do.
+        for (size_t i = 0; i < 3 * n; ++i) {
+          const double err = std::abs(double(frame->positions[i]) - f.positions[i]);
+          if (err > frame->position_error[i % 3]) {
+            std::fprintf(stderr, "codec_bench: error %g beyond the bound\n", err);
+            return 1;
+          }
+          max_error = std::max(max_error, err);
+        }
+      }
+      for (int kind = 0; kind < 2; ++kind) {
+        if (counts[kind] == 0) continue;
+        const char* kind_name = kind == 0 ? "keyframe" : "delta";
+        const double b = bytes[kind] / counts[kind], e = enc[kind] / counts[kind],
+                     d = dec[kind] / counts[kind];
+        std::printf("%-18s %-20s %8s %11.3f %11.2f %11.2f %11.2e\n", seq.name.c_str(), combo.name,
+                    kind_name, b, e, d, max_error);
+        csv << seq.name << ',' << n << ',' << combo.name << ',' << threads << ',' << kind_name
+            << ',' << b << ',' << e << ',' << d << ',' << max_error << ',' << max_chunk << '\n';
+      }
+    }
+  }
+  std::printf("\nwrote %s/codec.csv\n", out_dir.c_str());
+  return 0;
+}
