@@ -207,10 +207,13 @@ int ComponentCount(const Header& h) {
 
 uint32_t Levels(int bits) { return bits >= 32 ? 0xFFFFFFFFu : (1u << bits) - 1; }
 
-uint32_t Quantize(double v, double lo, double hi, uint32_t levels) {
-  const double x = std::round((v - lo) / (hi - lo) * double(levels));
-  if (!(x >= 0)) return 0;  // also NaN
-  return x >= double(levels) ? levels : uint32_t(x);
+// The nearest level (ties up) to v, clamped to [0, levels]; NaN gives 0. `scale` is
+// levels / (hi - lo). Branch-free so the loop over a component vectorises.
+uint32_t Quantize(double v, double lo, double scale, uint32_t levels) {
+  double x = (v - lo) * scale + 0.5;
+  x = x >= 0 ? x : 0;  // also NaN
+  x = x <= double(levels) ? x : double(levels);
+  return uint32_t(x);
 }
 
 float Dequantize(uint32_t q, double lo, double step) { return float(lo + double(q) * step); }
@@ -228,9 +231,14 @@ int SplitBitsFor(uint64_t sum_z, uint32_t m) {
   return std::min(24, std::max(0, bit_length - 3));
 }
 
+size_t PackedBytes(uint32_t m, int k) { return (uint64_t(m) * uint64_t(k) + 7) / 8; }
+
 // Appends the low k bits of each value, least significant bit first, padded to whole bytes.
 void PackBits(const uint32_t* values, uint32_t m, int k, std::vector<uint8_t>& out) {
   if (k == 0) return;
+  const size_t at = out.size();
+  out.resize(at + PackedBytes(m, k));
+  uint8_t* dst = out.data() + at;
   const uint32_t mask = (1u << k) - 1;
   uint64_t acc = 0;
   int filled = 0;
@@ -238,15 +246,13 @@ void PackBits(const uint32_t* values, uint32_t m, int k, std::vector<uint8_t>& o
     acc |= uint64_t(values[i] & mask) << filled;
     filled += k;
     while (filled >= 8) {
-      out.push_back(uint8_t(acc));
+      *dst++ = uint8_t(acc);
       acc >>= 8;
       filled -= 8;
     }
   }
-  if (filled > 0) out.push_back(uint8_t(acc));
+  if (filled > 0) *dst = uint8_t(acc);
 }
-
-size_t PackedBytes(uint32_t m, int k) { return (uint64_t(m) * uint64_t(k) + 7) / 8; }
 
 int PlanesFor(uint32_t max_z) {
   int planes = 0;
@@ -254,42 +260,116 @@ int PlanesFor(uint32_t max_z) {
   return planes;
 }
 
-// The source value of a component for particle id `i`.
-double SourceValue(const FrameInput& f, Component c, size_t i) {
-  switch (c) {
-    case kPosX:
-    case kPosY:
-    case kPosZ:
-      return f.positions[3 * i + c];
-    case kSpeedC: {
-      const double x = f.velocities[3 * i], y = f.velocities[3 * i + 1],
-                   z = f.velocities[3 * i + 2];
-      return std::sqrt(x * x + y * y + z * z);
-    }
-    case kDensityC:
-      return f.densities[i];
-    default:
-      return f.velocities[3 * i + (c - kVelX)];
+using History = std::vector<std::vector<std::vector<uint32_t>>>;
+
+// Buffers of quantised values: large, allocated once and recycled from frame to frame (fresh
+// multi-megabyte allocations cost more in page faults than the coding itself).
+using Values = std::vector<std::vector<uint32_t>>;
+
+void PushHistory(History& history, Values&& q, bool keyframe, std::vector<Values>& spare) {
+  if (keyframe) {
+    for (Values& old : history) spare.push_back(std::move(old));
+    history.clear();
+  }
+  history.insert(history.begin(), std::move(q));
+  if (history.size() > 3) {
+    spare.push_back(std::move(history.back()));
+    history.pop_back();
   }
 }
 
-using History = std::vector<std::vector<std::vector<uint32_t>>>;
-
-// The prediction of value i of component c in a delta frame from the history (newest first):
-// positions are extrapolated with constant velocity from two frames and with constant
-// acceleration from three; other components are predicted by their previous value.
-int64_t PredictDelta(Component c, const History& history, size_t i, uint32_t levels) {
-  const int64_t p1 = history[0][c][i];
-  if (history.size() == 1) return p1;
-  const int64_t p2 = history[1][c][i];
-  const int64_t pred = history.size() == 2 ? 2 * p1 - p2 : 3 * (p1 - p2) + history[2][c][i];
-  return std::clamp<int64_t>(pred, 0, levels);
+// A recycled buffer (or a new one) sized for `count` values of each component in `fields`.
+Values TakeValues(std::vector<Values>& spare, uint32_t count, const std::array<bool, 8>& present) {
+  Values q;
+  if (!spare.empty()) {
+    q = std::move(spare.back());
+    spare.pop_back();
+  }
+  q.resize(8);
+  for (int c = 0; c < 8; ++c) {
+    if (present[c])
+      q[c].resize(count);  // no zeroing when the size is unchanged
+    else
+      q[c].clear();
+  }
+  return q;
 }
 
-void PushHistory(History& history, std::vector<std::vector<uint32_t>>&& q, bool keyframe) {
-  if (keyframe) history.clear();
-  history.insert(history.begin(), std::move(q));
-  if (history.size() > 3) history.pop_back();
+// Copies component c of the kept particles (ids 0, stride, 2 stride, ...) into `out` (count
+// values) and returns its extremes. Speed is |v| computed in double and rounded to float.
+std::pair<float, float> GatherComponent(const FrameInput& f, Component c, uint32_t stride,
+                                        uint32_t count, float* out) {
+  float mn = std::numeric_limits<float>::infinity();
+  float mx = -std::numeric_limits<float>::infinity();
+  const int64_t n = count;
+  if (c == kSpeedC) {
+    const float* v = f.velocities.data();
+#pragma omp parallel for reduction(min : mn) reduction(max : mx) schedule(static)
+    for (int64_t k = 0; k < n; ++k) {
+      const size_t i = 3 * size_t(k) * stride;
+      const double x = v[i], y = v[i + 1], z = v[i + 2];
+      out[k] = float(std::sqrt(x * x + y * y + z * z));
+      mn = std::min(mn, out[k]);
+      mx = std::max(mx, out[k]);
+    }
+    return {mn, mx};
+  }
+  const float* src = c <= kPosZ       ? f.positions.data() + c
+                     : c == kDensityC ? f.densities.data()
+                                      : f.velocities.data() + (c - kVelX);
+  const size_t step = (c == kDensityC ? 1 : 3) * size_t(stride);
+#pragma omp parallel for reduction(min : mn) reduction(max : mx) schedule(static)
+  for (int64_t k = 0; k < n; ++k) {
+    out[k] = src[size_t(k) * step];
+    mn = std::min(mn, out[k]);
+    mx = std::max(mx, out[k]);
+  }
+  return {mn, mx};
+}
+
+// Residuals of a delta frame, zig-zag mapped: cur[k] minus the prediction from the history
+// (FORMAT.md); loops specialised by the prediction order.
+void DeltaResiduals(const uint32_t* cur, const History& history, Component c, uint32_t first,
+                    uint32_t m, uint32_t levels, uint32_t* z) {
+  const uint32_t* a = history[0][c].data() + first;
+  if (history.size() == 1) {
+    for (uint32_t k = 0; k < m; ++k) z[k] = ZigZag(int32_t(int64_t(cur[k]) - a[k]));
+    return;
+  }
+  const uint32_t* b = history[1][c].data() + first;
+  const int64_t top = levels;
+  if (history.size() == 2) {
+    for (uint32_t k = 0; k < m; ++k) {
+      const int64_t pred = std::clamp<int64_t>(2 * int64_t(a[k]) - b[k], 0, top);
+      z[k] = ZigZag(int32_t(int64_t(cur[k]) - pred));
+    }
+    return;
+  }
+  const uint32_t* c3 = history[2][c].data() + first;
+  for (uint32_t k = 0; k < m; ++k) {
+    const int64_t pred = std::clamp<int64_t>(3 * (int64_t(a[k]) - b[k]) + c3[k], 0, top);
+    z[k] = ZigZag(int32_t(int64_t(cur[k]) - pred));
+  }
+}
+
+// The inverse: values from zig-zag residuals. False if a value leaves [0, levels].
+bool UndoDeltaResiduals(const uint32_t* z, const History& history, Component c, uint32_t first,
+                        uint32_t m, uint32_t levels, uint32_t* cur) {
+  const uint32_t* a = history[0][c].data() + first;
+  const uint32_t* b = history.size() > 1 ? history[1][c].data() + first : a;
+  const uint32_t* c3 = history.size() > 2 ? history[2][c].data() + first : a;
+  const int64_t top = levels;
+  const size_t order = history.size();
+  bool ok = true;
+  for (uint32_t k = 0; k < m; ++k) {
+    int64_t pred = a[k];
+    if (order == 2) pred = std::clamp<int64_t>(2 * int64_t(a[k]) - b[k], 0, top);
+    if (order == 3) pred = std::clamp<int64_t>(3 * (int64_t(a[k]) - b[k]) + c3[k], 0, top);
+    const int64_t value = pred + UnZigZag(z[k]);
+    ok &= value >= 0 && value <= top;
+    cur[k] = uint32_t(value);
+  }
+  return ok;
 }
 
 struct ZstdCCtxDeleter {
@@ -348,19 +428,14 @@ std::vector<Chunk> FrameEncoder::Encode(const FrameInput& f) {
     if (h.Has(Component(c))) comps.push_back(Component(c));
   }
 
-  // Extremes of every component over the kept particles (min and max are exact, so the result
-  // does not depend on the thread count).
+  // Gather each component and its extremes (min and max are exact, so the result does not
+  // depend on the thread count).
   std::array<double, kComponents> lo, hi;
-  lo.fill(std::numeric_limits<double>::infinity());
-  hi.fill(-std::numeric_limits<double>::infinity());
+  std::vector<std::vector<float>>& values = values_;
+  values.resize(kComponents);
   for (Component c : comps) {
-    double mn = lo[c], mx = hi[c];
-#pragma omp parallel for reduction(min : mn) reduction(max : mx) schedule(static)
-    for (int64_t k = 0; k < int64_t(count); ++k) {
-      const double v = SourceValue(f, c, size_t(k) * stride);
-      mn = std::min(mn, v);
-      mx = std::max(mx, v);
-    }
+    values[c].resize(count);
+    const auto [mn, mx] = GatherComponent(f, c, stride, count, values[c].data());
     lo[c] = mn;
     hi[c] = mx;
   }
@@ -405,15 +480,17 @@ std::vector<Chunk> FrameEncoder::Encode(const FrameInput& f) {
   if (h.fields & kDensity) h.density_min = lo_[kDensityC], h.density_max = hi_[kDensityC];
 
   // Quantise. The same values are what the decoder will hold, so prediction never drifts.
-  std::vector<std::vector<uint32_t>> q(kComponents);
+  std::array<bool, 8> present{};
+  for (Component c : comps) present[c] = true;
+  Values q = TakeValues(spare_, count, present);
   for (Component c : comps) {
-    q[c].resize(count);
     const uint32_t levels = Levels(h.Bits(c));
     const double a = h.Lo(c), b = h.Hi(c);
+    const float* v = values[c].data();
+    uint32_t* out = q[c].data();
+    const double scale = double(levels) / (b - a);
 #pragma omp parallel for schedule(static)
-    for (int64_t k = 0; k < int64_t(count); ++k) {
-      q[c][k] = Quantize(SourceValue(f, c, size_t(k) * stride), a, b, levels);
-    }
+    for (int64_t k = 0; k < int64_t(count); ++k) out[k] = Quantize(v[k], a, scale, levels);
   }
 
   h.flags = keyframe ? 1 : 0;
@@ -434,25 +511,27 @@ std::vector<Chunk> FrameEncoder::Encode(const FrameInput& f) {
     ch.chunk_particles = m;
     // Residuals, zig-zag mapped, per component; then split into byte planes of the high parts
     // (compressed) and packed low bits (stored).
-    std::vector<uint32_t> z(size_t(m) * comps.size());
-    std::vector<uint8_t> raw(2 * comps.size());
-    std::vector<uint8_t> low_bits;
+    // Per-thread scratch, kept between calls.
+    thread_local std::vector<uint32_t> z;
+    thread_local std::vector<uint8_t> raw, low_bits;
+    z.resize(size_t(m) * comps.size());
+    raw.assign(2 * comps.size(), 0);
+    raw.reserve(2 * comps.size() + 4 * size_t(m) * comps.size());
+    low_bits.clear();
     for (size_t slot = 0; slot < comps.size(); ++slot) {
       const Component c = comps[slot];
       const uint32_t levels = Levels(h.Bits(c));
       const uint32_t* cur = q[c].data() + ch.first;
       uint32_t* out = z.data() + slot * m;
-      uint64_t sum_z = 0;
-      for (uint32_t k = 0; k < m; ++k) {
-        int64_t pred;
-        if (keyframe) {
-          pred = k == 0 ? 0 : cur[k - 1];
-        } else {
-          pred = PredictDelta(c, history_, ch.first + k, levels);
+      if (keyframe) {
+        for (uint32_t k = 0; k < m; ++k) {
+          out[k] = ZigZag(int32_t(int64_t(cur[k]) - (k == 0 ? 0 : int64_t(cur[k - 1]))));
         }
-        out[k] = ZigZag(int32_t(int64_t(cur[k]) - pred));
-        sum_z += out[k];
+      } else {
+        DeltaResiduals(cur, history_, c, ch.first, m, levels, out);
       }
+      uint64_t sum_z = 0;
+      for (uint32_t k = 0; k < m; ++k) sum_z += out[k];
       const int split = SplitBitsFor(sum_z, m);
       uint32_t max_high = 0;
       for (uint32_t k = 0; k < m; ++k) max_high = std::max(max_high, out[k] >> split);
@@ -466,15 +545,16 @@ std::vector<Chunk> FrameEncoder::Encode(const FrameInput& f) {
       for (int p = 0; p < raw[2 * slot + 1]; ++p) {
         const size_t at = raw.size();
         raw.resize(at + m);
-        for (uint32_t k = 0; k < m; ++k) raw[at + k] = uint8_t((zs[k] >> split) >> (8 * p));
+        uint8_t* plane = raw.data() + at;
+        const int shift = split + 8 * p;
+        for (uint32_t k = 0; k < m; ++k) plane[k] = uint8_t(zs[k] >> shift);
       }
     }
     thread_local std::unique_ptr<ZSTD_CCtx, ZstdCCtxDeleter> cctx(ZSTD_createCCtx());
-    Chunk& chunk = chunks[ci];
-    chunk.resize(kHeaderSize + ZSTD_compressBound(raw.size()) + low_bits.size());
-    const size_t payload =
-        ZSTD_compressCCtx(cctx.get(), chunk.data() + kHeaderSize, chunk.size() - kHeaderSize,
-                          raw.data(), raw.size(), config_.zstd_level);
+    thread_local std::vector<uint8_t> compressed;
+    compressed.resize(std::max(compressed.size(), ZSTD_compressBound(raw.size())));
+    const size_t payload = ZSTD_compressCCtx(cctx.get(), compressed.data(), compressed.size(),
+                                             raw.data(), raw.size(), config_.zstd_level);
     if (ZSTD_isError(payload)) {
       zstd_errors[ci] = payload;
       continue;
@@ -482,15 +562,18 @@ std::vector<Chunk> FrameEncoder::Encode(const FrameInput& f) {
     ch.raw_size = uint32_t(raw.size());
     ch.payload_size = uint32_t(payload);
     ch.bits_size = uint32_t(low_bits.size());
-    std::copy(low_bits.begin(), low_bits.end(), chunk.begin() + kHeaderSize + payload);
-    chunk.resize(kHeaderSize + payload + low_bits.size());
+    Chunk& chunk = chunks[ci];
+    chunk.reserve(kHeaderSize + payload + low_bits.size());
+    chunk.resize(kHeaderSize);
+    chunk.insert(chunk.end(), compressed.begin(), compressed.begin() + payload);
+    chunk.insert(chunk.end(), low_bits.begin(), low_bits.end());
     WriteHeader(ch, chunk.data());
   }
   for (size_t e : zstd_errors) {
     if (e != 0) throw std::runtime_error(std::string("zstd: ") + ZSTD_getErrorName(e));
   }
 
-  PushHistory(history_, std::move(q), keyframe);
+  PushHistory(history_, std::move(q), keyframe, spare_);
   frames_since_keyframe_ = keyframe ? 1 : frames_since_keyframe_ + 1;
   keyframe_requested_ = false;
   count_ = count;
@@ -513,7 +596,8 @@ std::string DecodeBody(const Header& h, std::span<const uint8_t> payload,
   // At most two bytes and 4 planes per component.
   if (h.raw_size > uint64_t(n) * (2 + 4 * uint64_t(m))) return "raw size too large";
   thread_local std::unique_ptr<ZSTD_DCtx, ZstdDCtxDeleter> dctx(ZSTD_createDCtx());
-  std::vector<uint8_t> raw(h.raw_size);
+  thread_local std::vector<uint8_t> raw;
+  raw.resize(h.raw_size);
   const size_t got =
       ZSTD_decompressDCtx(dctx.get(), raw.data(), raw.size(), payload.data(), payload.size());
   if (ZSTD_isError(got) || got != raw.size()) return "payload does not decompress";
@@ -531,6 +615,8 @@ std::string DecodeBody(const Header& h, std::span<const uint8_t> payload,
 
   size_t at = 2 * size_t(n);
   size_t bit_at = 0;  // byte offset of the component's packed bits
+  thread_local std::vector<uint32_t> z;
+  z.resize(m);
   int slot = 0;
   for (int ci = 0; ci < kComponents; ++ci) {
     const auto c = Component(ci);
@@ -540,58 +626,66 @@ std::string DecodeBody(const Header& h, std::span<const uint8_t> payload,
     ++slot;
     const uint32_t levels = Levels(h.Bits(c));
     uint32_t* cur = q[c].data() + h.first;
-    uint64_t acc = 0;
-    int filled = 0;
-    size_t next_byte = bit_at;
-    for (uint32_t k = 0; k < m; ++k) {
-      uint64_t high = 0;
-      for (int p = 0; p < planes; ++p) high |= uint64_t(raw[at + size_t(p) * m + k]) << (8 * p);
-      while (filled < split) {
-        acc |= uint64_t(bits[next_byte++]) << filled;
-        filled += 8;
-      }
-      const uint64_t low = acc & ((uint64_t{1} << split) - 1);
-      acc >>= split;
-      filled -= split;
-      const uint64_t wide = (high << split) | low;
-      if (wide > 0xFFFFFFFFull) return "residual out of range";
-      const uint32_t z = uint32_t(wide);
-      int64_t pred;
-      if (h.keyframe()) {
-        pred = k == 0 ? 0 : cur[k - 1];
+    // z = (high << split) | low, high from the byte planes, low from the packed bits.
+    if (split + 8 * planes > 32) return "residual wider than 32 bits";
+    if (planes == 0) std::fill(z.begin(), z.end(), 0u);
+    for (int p = 0; p < planes; ++p) {
+      const uint8_t* plane = raw.data() + at + size_t(p) * m;
+      const int shift = split + 8 * p;
+      if (p == 0) {
+        for (uint32_t k = 0; k < m; ++k) z[k] = uint32_t(plane[k]) << shift;
       } else {
-        pred = PredictDelta(c, history, h.first + k, levels);
+        for (uint32_t k = 0; k < m; ++k) z[k] |= uint32_t(plane[k]) << shift;
       }
-      const int64_t value = pred + UnZigZag(z);
-      if (value < 0 || value > int64_t(levels)) return "decoded value outside its range";
-      cur[k] = uint32_t(value);
     }
+    if (split > 0) {
+      const uint8_t* packed = bits.data() + bit_at;
+      const uint64_t mask = (uint64_t{1} << split) - 1;
+      uint64_t acc = 0;
+      int filled = 0;
+      for (uint32_t k = 0; k < m; ++k) {
+        while (filled < split) {
+          acc |= uint64_t(*packed++) << filled;
+          filled += 8;
+        }
+        z[k] |= uint32_t(acc & mask);
+        acc >>= split;
+        filled -= split;
+      }
+    }
+    bool in_range = true;
+    if (h.keyframe()) {
+      int64_t value = 0;
+      for (uint32_t k = 0; k < m && in_range; ++k) {
+        value += UnZigZag(z[k]);
+        in_range = value >= 0 && value <= int64_t(levels);
+        cur[k] = uint32_t(value);
+      }
+    } else {
+      in_range = UndoDeltaResiduals(z.data(), history, c, h.first, m, levels, cur);
+    }
+    if (!in_range) return "decoded value outside its range";
     at += size_t(planes) * m;
     bit_at += PackedBytes(m, split);
 
     const double lo = h.Lo(c);
     const double step = (h.Hi(c) - lo) / double(levels);
-    for (uint32_t k = 0; k < m; ++k) {
-      const size_t i = size_t(h.first) + k;
-      const float v = Dequantize(cur[k], lo, step);
-      if (c <= kPosZ)
-        frame.positions[3 * i + c] = v;
-      else if (c == kSpeedC)
-        frame.speed[i] = v;
-      else if (c == kDensityC)
-        frame.densities[i] = v;
-      else
-        frame.velocities[3 * i + (c - kVelX)] = v;
-    }
+    float* out = c <= kPosZ       ? frame.positions.data() + 3 * size_t(h.first) + c
+                 : c == kSpeedC   ? frame.speed.data() + h.first
+                 : c == kDensityC ? frame.densities.data() + h.first
+                                  : frame.velocities.data() + 3 * size_t(h.first) + (c - kVelX);
+    const size_t out_stride = (c <= kPosZ || (c >= kVelX && c <= kVelZ)) ? 3 : 1;
+    for (uint32_t k = 0; k < m; ++k) out[k * out_stride] = Dequantize(cur[k], lo, step);
   }
   return {};
 }
 
-// Half a quantisation step plus the float rounding of the decoded value.
+// Half a quantisation step plus float rounding: of the decoded value, and of the speed, which is
+// rounded to float before it is quantised (half a float ulp of the range's magnitude each).
 double ErrorBound(double lo, double hi, int bits) {
   const double half_step = 0.5 * (hi - lo) / double(Levels(bits));
   const double magnitude = std::max(std::abs(lo), std::abs(hi));
-  return half_step + magnitude * std::numeric_limits<float>::epsilon() * 0.5;
+  return half_step + magnitude * std::numeric_limits<float>::epsilon();
 }
 
 }  // namespace
@@ -602,10 +696,16 @@ std::optional<Frame> FrameDecoder::AddChunk(std::span<const uint8_t> chunk) {
 }
 
 std::optional<Frame> FrameDecoder::AddChunks(std::span<const Chunk> chunks) {
+  Frame frame;
+  if (!AddChunks(chunks, frame)) return std::nullopt;
+  return frame;
+}
+
+bool FrameDecoder::AddChunks(std::span<const Chunk> chunks, Frame& out) {
   std::vector<Header> headers;
   headers.reserve(chunks.size());
   for (const Chunk& chunk : chunks) headers.push_back(ReadHeader(chunk));
-  std::optional<Frame> done;
+  bool done = false;
   // Chunks are taken in order; each group of consecutive chunks of one frame decodes in
   // parallel. A frame left incomplete when the next one starts is dropped.
   size_t begin = 0;
@@ -632,7 +732,6 @@ std::optional<Frame> FrameDecoder::AddChunks(std::span<const Chunk> chunks) {
       Put<uint32_t>(pending_header_.data() + 140, 0);  // a header alone: no payload
       Put<uint32_t>(pending_header_.data() + 144, 0);
       received_.assign(h.chunk_count, false);
-      pending_ = Frame{};
       pending_.frame_seq = h.frame_seq;
       pending_.step = h.step;
       pending_.time = h.time;
@@ -640,14 +739,16 @@ std::optional<Frame> FrameDecoder::AddChunks(std::span<const Chunk> chunks) {
       pending_.count = h.count;
       pending_.stride = h.stride;
       pending_.fields = h.fields;
+      // Sized without zeroing when the size is unchanged: every value is overwritten.
       pending_.positions.resize(3 * size_t(h.count));
-      if (h.fields & kSpeed) pending_.speed.resize(h.count);
-      if (h.fields & kVelocity) pending_.velocities.resize(3 * size_t(h.count));
-      if (h.fields & kDensity) pending_.densities.resize(h.count);
-      current_.assign(kComponents, {});
-      for (int c = 0; c < kComponents; ++c) {
-        if (h.Has(Component(c))) current_[c].resize(h.count);
-      }
+      pending_.speed.resize((h.fields & kSpeed) ? h.count : 0);
+      pending_.velocities.resize((h.fields & kVelocity) ? 3 * size_t(h.count) : 0);
+      pending_.densities.resize((h.fields & kDensity) ? h.count : 0);
+      pending_.speed_error = pending_.velocity_error = pending_.density_error = 0;
+      std::array<bool, 8> present{};
+      for (int c = 0; c < kComponents; ++c) present[c] = h.Has(Component(c));
+      if (!current_.empty()) spare_.push_back(std::move(current_));
+      current_ = TakeValues(spare_, h.count, present);
     }
     const Header first = ReadHeader(pending_header_);
     size_t end = begin;
@@ -699,12 +800,14 @@ std::optional<Frame> FrameDecoder::AddChunks(std::span<const Chunk> chunks) {
     if (first.fields & kDensity) {
       pending_.density_error = ErrorBound(first.density_min, first.density_max, first.density_bits);
     }
-    PushHistory(history_, std::move(current_), first.keyframe());
+    PushHistory(history_, std::move(current_), first.keyframe(), spare_);
     current_.clear();
     previous_header_ = pending_header_;
     have_previous_ = true;
     pending_seq_.reset();
-    done = std::move(pending_);
+    // Hand the frame over and keep the caller's old buffers for the next one.
+    std::swap(pending_, out);
+    done = true;
   }
   return done;
 }

@@ -98,6 +98,8 @@ class FrameEncoder {
   // The decoder's state: quantised values per component of the frames since the last keyframe,
   // newest first, at most 3 (what delta frames are predicted from).
   std::vector<std::vector<std::vector<uint32_t>>> history_;
+  std::vector<std::vector<std::vector<uint32_t>>> spare_;  // recycled buffers
+  std::vector<std::vector<float>> values_;                 // gathered source values
 };
 
 class DecodeError : public std::runtime_error {
@@ -112,6 +114,9 @@ class FrameDecoder {
   std::optional<Frame> AddChunk(std::span<const uint8_t> chunk);
   // All chunks of one frame at once, decoded in parallel.
   std::optional<Frame> AddChunks(std::span<const Chunk> chunks);
+  // The same, writing a completed frame into `out` and returning true. Reusing one `out` for a
+  // stream recycles its buffers: no allocation per frame once sizes settle.
+  bool AddChunks(std::span<const Chunk> chunks, Frame& out);
   // True while a delta frame cannot be decoded (no keyframe yet, or a frame was missed).
   bool waiting_for_keyframe() const { return !have_previous_; }
 
@@ -126,6 +131,7 @@ class FrameDecoder {
   // keyframe, newest first (delta frames are predicted from them).
   std::vector<uint8_t> previous_header_;
   std::vector<std::vector<std::vector<uint32_t>>> history_;
+  std::vector<std::vector<std::vector<uint32_t>>> spare_;  // recycled buffers
   bool have_previous_ = false;
 };
 
