@@ -21,10 +21,11 @@ PACKAGES=(
   libgtest-dev
   libgmock-dev
   libbenchmark-dev
-  # Python (bench plots)
+  # Python (bench plots, the Python client and its tests)
   python3
   python3-numpy
   python3-matplotlib
+  python3-zstandard
 )
 
 missing=()

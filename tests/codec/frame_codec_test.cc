@@ -209,6 +209,15 @@ TEST(FrameCodecTest, EmptyFrame) {
   EXPECT_EQ(frame.count, 0u);
 }
 
+TEST(FrameCodecTest, EmptyFrameWithEveryField) {
+  StreamConfig config;
+  config.fields = kAllFields;
+  FrameEncoder encoder(config);
+  FrameDecoder decoder;
+  const std::vector<float> none;
+  EXPECT_EQ(DecodeAll(decoder, encoder.Encode(Input(none, none, none, 0, 0))).count, 0u);
+}
+
 TEST(FrameCodecTest, EncodingIsIdenticalWithOneAndTwoThreads) {
   SyntheticFrames source(3000);
   std::vector<float> x, v, rho;
@@ -353,6 +362,43 @@ TEST(FrameDecoderTest, DuplicateChunkIsRejected) {
   FrameDecoder decoder;
   EXPECT_FALSE(decoder.AddChunk(chunks[0]));
   EXPECT_THAT(DecodeErrorOf(decoder, chunks[0]), HasSubstr("received twice"));
+}
+
+TEST(FrameDecoderTest, ARejectedGroupLeavesNoChunkMarkedAsReceived) {
+  SyntheticFrames source(1000);
+  std::vector<float> x, v, rho;
+  source.Make(0, x, v, rho);
+  StreamConfig config;
+  config.chunk_particles = 400;
+  FrameEncoder encoder(config);
+  const std::vector<Chunk> chunks = encoder.Encode(Input(x, v, rho, 0, 0));
+  ASSERT_EQ(chunks.size(), 3u);
+  FrameDecoder decoder;
+  const std::vector<Chunk> bad = {chunks[0], chunks[1], chunks[1]};
+  EXPECT_THROW(decoder.AddChunks(bad), DecodeError);
+  // Chunks 0 and 1 were not decoded: the frame is complete only once they come again.
+  EXPECT_FALSE(decoder.AddChunk(chunks[2]));
+  EXPECT_FALSE(decoder.AddChunk(chunks[0]));
+  const std::optional<Frame> frame = decoder.AddChunk(chunks[1]);
+  ASSERT_TRUE(frame);
+  ExpectWithinBounds(*frame, x, v, rho);
+}
+
+TEST(FrameDecoderTest, ChunksMustCoverTheFrameExactlyOnce) {
+  SyntheticFrames source(1000);
+  std::vector<float> x, v, rho;
+  source.Make(0, x, v, rho);
+  StreamConfig config;
+  config.chunk_particles = 400;
+  FrameEncoder encoder(config);
+  const std::vector<Chunk> chunks = encoder.Encode(Input(x, v, rho, 0, 0));
+  // Chunk 1 claiming to start at particle 300 would overlap chunk 0 and leave 700-799 undecoded.
+  Chunk shifted = chunks[1];
+  const uint32_t first = 300;
+  std::memcpy(shifted.data() + 36, &first, sizeof(first));
+  FrameDecoder decoder;
+  EXPECT_FALSE(decoder.AddChunk(chunks[0]));
+  EXPECT_THAT(DecodeErrorOf(decoder, shifted), HasSubstr("does not fit the frame's other chunks"));
 }
 
 }  // namespace

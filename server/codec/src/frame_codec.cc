@@ -443,9 +443,10 @@ std::vector<Chunk> FrameEncoder::Encode(const FrameInput& f) {
                   frames_since_keyframe_ >= uint32_t(config_.keyframe_interval);
   for (Component c : comps) keyframe |= count > 0 && (lo[c] < lo_[c] || hi[c] > hi_[c]);
   if (keyframe) {
-    // New ranges, with headroom where values move (so later delta frames stay inside).
+    // New ranges, with headroom where values move (so later delta frames stay inside). An
+    // empty frame has no extremes: any valid range will do.
+    if (count == 0) lo.fill(0), hi.fill(1);
     for (Component c : comps) {
-      if (count == 0) lo[c] = 0, hi[c] = 1;
       double a = lo[c], b = hi[c];
       if (c <= kPosZ) {
         // The domain when particles are inside it (walls keep them there); with headroom
@@ -680,6 +681,36 @@ std::string DecodeBody(const Header& h, std::span<const uint8_t> payload,
   return {};
 }
 
+// The encoder's layout: chunk i covers particles [i P, min((i + 1) P, count)) for one chunk
+// size P per frame. Checking every chunk against it (P is learnt from the first chunk that
+// shows it) means the chunks of a frame cover it exactly once: no particle is left undecoded
+// and no two chunks write the same values.
+void CheckChunkRange(const Header& h, uint32_t& chunk_size) {
+  const bool last = h.chunk_index + 1 == h.chunk_count;
+  const uint32_t m = h.chunk_particles;
+  bool ok = last ? uint64_t{h.first} + m == h.count : m > 0;
+  uint32_t size = 0;  // the P this chunk implies; 0: none (a frame of one chunk)
+  if (!last) {
+    size = m;
+  } else if (h.chunk_index > 0) {
+    ok &= h.first % h.chunk_index == 0;
+    size = h.first / h.chunk_index;
+  }
+  if (size != 0) {
+    ok &= uint64_t{size} * h.chunk_index == h.first && (chunk_size == 0 || chunk_size == size);
+    ok &= !last || m <= size;
+  } else {
+    ok &= h.first == 0;
+  }
+  if (!ok) {
+    throw DecodeError("chunk " + std::to_string(h.chunk_index) + " of frame " +
+                      std::to_string(h.frame_seq) + " covers particles [" +
+                      std::to_string(h.first) + ", " + std::to_string(uint64_t{h.first} + m) +
+                      "), which does not fit the frame's other chunks");
+  }
+  if (size != 0) chunk_size = size;
+}
+
 // Half a quantisation step plus float rounding: of the decoded value, and of the speed, which is
 // rounded to float before it is quantised (half a float ulp of the range's magnitude each).
 double ErrorBound(double lo, double hi, int bits) {
@@ -732,6 +763,7 @@ bool FrameDecoder::AddChunks(std::span<const Chunk> chunks, Frame& out) {
       Put<uint32_t>(pending_header_.data() + 140, 0);  // a header alone: no payload
       Put<uint32_t>(pending_header_.data() + 144, 0);
       received_.assign(h.chunk_count, false);
+      chunk_size_ = 0;
       pending_.frame_seq = h.frame_seq;
       pending_.step = h.step;
       pending_.time = h.time;
@@ -752,8 +784,12 @@ bool FrameDecoder::AddChunks(std::span<const Chunk> chunks, Frame& out) {
     }
     const Header first = ReadHeader(pending_header_);
     size_t end = begin;
+    // Check the whole group before marking anything received, so a bad chunk leaves the
+    // pending frame as it was.
+    std::vector<uint16_t> group;
     while (end < chunks.size() && headers[end].frame_seq == first.frame_seq) {
       const Header& hc = headers[end];
+      CheckChunkRange(hc, chunk_size_);
       if (hc.flags != first.flags || hc.count != first.count || hc.step != first.step ||
           hc.chunk_count != first.chunk_count || !hc.SameLayout(first) ||
           !(hc.time == first.time)) {
@@ -761,13 +797,15 @@ bool FrameDecoder::AddChunks(std::span<const Chunk> chunks, Frame& out) {
                           " does not match the other chunks of frame " +
                           std::to_string(hc.frame_seq));
       }
-      if (received_[hc.chunk_index]) {
+      if (received_[hc.chunk_index] ||
+          std::find(group.begin(), group.end(), hc.chunk_index) != group.end()) {
         throw DecodeError("chunk " + std::to_string(hc.chunk_index) + " of frame " +
                           std::to_string(hc.frame_seq) + " received twice");
       }
-      received_[hc.chunk_index] = true;
+      group.push_back(hc.chunk_index);
       ++end;
     }
+    for (uint16_t index : group) received_[index] = true;
     std::vector<std::string> errors(end - begin);
 #pragma omp parallel for schedule(dynamic, 1)
     for (int64_t k = int64_t(begin); k < int64_t(end); ++k) {

@@ -125,6 +125,7 @@ class FrameDecoder {
   std::optional<uint32_t> pending_seq_;
   std::vector<uint8_t> pending_header_;  // its first chunk's header
   std::vector<bool> received_;           // per chunk
+  uint32_t chunk_size_ = 0;              // its chunks' particle count (all but the last)
   Frame pending_;
   std::vector<std::vector<uint32_t>> current_;  // its quantised values, per component
   // The last complete frame's header, and the quantised values of up to 3 frames since the last

@@ -1,0 +1,588 @@
+"""Decoder of DySAQUASIMs particle frames, format version 1.
+
+The wire format is server/codec/FORMAT.md. This decoder gives the same floats, bit for bit, as
+the C++ one (dysa::codec::FrameDecoder in server/codec/src/frame_codec.cc) and follows the same
+state machine: chunks of one frame are collected until the frame is complete, a delta frame is
+predicted from up to three frames since the last keyframe, and after a lost chunk, a corrupt
+chunk or a late join the decoder waits for the next keyframe.
+
+Example::
+
+    decoder = FrameDecoder()
+    for chunk in stream:
+        frame = decoder.add_chunk(chunk)
+        if frame is not None:
+            draw(frame.positions)
+"""
+
+from __future__ import annotations
+
+import math
+import struct
+from dataclasses import dataclass
+from typing import Iterable, List, Optional, Sequence, Tuple
+
+import numpy as np
+import zstandard
+
+__all__ = [
+    "DecodeError",
+    "FIELD_DENSITY",
+    "FIELD_POSITIONS",
+    "FIELD_SPEED",
+    "FIELD_VELOCITY",
+    "FORMAT_VERSION",
+    "Frame",
+    "FrameDecoder",
+]
+
+MAGIC = 0x46535944  # "DYSF"
+FORMAT_VERSION = 1
+HEADER_SIZE = 152
+
+FIELD_POSITIONS = 1
+FIELD_SPEED = 2
+FIELD_VELOCITY = 4
+FIELD_DENSITY = 8
+
+# Components in payload order (FORMAT.md).
+_POS_X, _POS_Y, _POS_Z, _SPEED, _VEL_X, _VEL_Y, _VEL_Z, _DENSITY = range(8)
+_COMPONENTS = 8
+
+# A decoder never allocates more than this many particles, whatever a header claims.
+_MAX_COUNT = 1 << 26
+
+# std::numeric_limits<float>::epsilon().
+_FLOAT_EPSILON = 2.0**-23
+
+# The chunk header, FORMAT.md's table in order.
+_HEADER = struct.Struct("<IHHIIQdHHIIIBBBBI3d3dddddIIII")
+assert _HEADER.size == HEADER_SIZE
+
+_ZSTD_MAGIC = 0xFD2FB528
+_ZSTD_SKIPPABLE_MASK = 0xFFFFFFF0
+_ZSTD_SKIPPABLE_START = 0x184D2A50
+
+
+class DecodeError(Exception):
+    """Malformed, truncated or hostile input, or a newer format version.
+
+    After it the decoder waits for the next keyframe where the stream cannot go on.
+    """
+
+
+@dataclass(eq=False)
+class Frame:
+    """The decoded content of a frame, in id order of the kept particles (id = k * stride).
+
+    Arrays are numpy float32. Fields absent from the stream are None. The errors are the
+    largest possible |decoded - original| of each field, from the header's ranges and bits
+    (0 for an absent field).
+    """
+
+    frame_seq: int
+    step: int
+    time: float
+    keyframe: bool
+    count: int
+    stride: int
+    fields: int
+    positions: np.ndarray
+    speed: Optional[np.ndarray] = None
+    velocities: Optional[np.ndarray] = None
+    densities: Optional[np.ndarray] = None
+    position_error: Tuple[float, float, float] = (0.0, 0.0, 0.0)
+    speed_error: float = 0.0
+    velocity_error: float = 0.0
+    density_error: float = 0.0
+
+
+def _str(value: float) -> str:
+    """Formats a double like C++'s ostream with its default settings."""
+    return "%g" % value
+
+
+def _levels(bits: int) -> int:
+    """L = 2^bits - 1, the largest quantised value."""
+    return 0xFFFFFFFF if bits >= 32 else (1 << bits) - 1
+
+
+def _error_bound(lo: float, hi: float, bits: int) -> float:
+    """Half a quantisation step plus float rounding: of the decoded value, and of the speed,
+    which the encoder rounds to float before it quantises it."""
+    half_step = 0.5 * (hi - lo) / float(_levels(bits))
+    magnitude = max(abs(lo), abs(hi))
+    return half_step + magnitude * _FLOAT_EPSILON
+
+
+class _Header:
+    """A parsed chunk header."""
+
+    __slots__ = (
+        "version", "flags", "frame_seq", "count", "step", "time", "chunk_index", "chunk_count",
+        "first", "chunk_particles", "fields", "position_bits", "speed_bits", "velocity_bits",
+        "density_bits", "stride", "position_min", "position_max", "speed_max", "velocity_max",
+        "density_min", "density_max", "raw_size", "payload_size", "bits_size", "reserved",
+    )
+
+    def __init__(self, values: tuple) -> None:
+        (_, self.version, self.flags, self.frame_seq, self.count, self.step, self.time,
+         self.chunk_index, self.chunk_count, self.first, self.chunk_particles, self.fields,
+         self.position_bits, self.speed_bits, self.velocity_bits, self.density_bits,
+         self.stride) = values[:17]
+        self.position_min = values[17:20]
+        self.position_max = values[20:23]
+        (self.speed_max, self.velocity_max, self.density_min, self.density_max,
+         self.raw_size, self.payload_size, self.bits_size, self.reserved) = values[23:31]
+
+    @property
+    def keyframe(self) -> bool:
+        """Whether the frame is a keyframe (decodes without earlier frames)."""
+        return (self.flags & 1) != 0
+
+    def has(self, c: int) -> bool:
+        """Whether component c is in the payload."""
+        if c <= _POS_Z:
+            return True
+        if c == _SPEED:
+            return (self.fields & FIELD_SPEED) != 0
+        if c == _DENSITY:
+            return (self.fields & FIELD_DENSITY) != 0
+        return (self.fields & FIELD_VELOCITY) != 0
+
+    def bits(self, c: int) -> int:
+        """Bit width of component c."""
+        if c <= _POS_Z:
+            return self.position_bits
+        if c == _SPEED:
+            return self.speed_bits
+        if c == _DENSITY:
+            return self.density_bits
+        return self.velocity_bits
+
+    def lo(self, c: int) -> float:
+        """Lower end of component c's range."""
+        if c <= _POS_Z:
+            return self.position_min[c]
+        if c == _SPEED:
+            return 0.0
+        if c == _DENSITY:
+            return self.density_min
+        return -self.velocity_max
+
+    def hi(self, c: int) -> float:
+        """Upper end of component c's range."""
+        if c <= _POS_Z:
+            return self.position_max[c]
+        if c == _SPEED:
+            return self.speed_max
+        if c == _DENSITY:
+            return self.density_max
+        return self.velocity_max
+
+    def component_count(self) -> int:
+        """Components in the payload."""
+        return sum(1 for c in range(_COMPONENTS) if self.has(c))
+
+    def same_layout(self, o: "_Header") -> bool:
+        """Same stream layout: what a delta frame must share with its reference frame.
+
+        Floats compare with ==, so a NaN never matches (as in C++).
+        """
+        return (self.count == o.count and self.stride == o.stride and self.fields == o.fields
+                and self.position_bits == o.position_bits and self.speed_bits == o.speed_bits
+                and self.velocity_bits == o.velocity_bits
+                and self.density_bits == o.density_bits
+                and all(a == b for a, b in zip(self.position_min, o.position_min))
+                and all(a == b for a, b in zip(self.position_max, o.position_max))
+                and self.speed_max == o.speed_max and self.velocity_max == o.velocity_max
+                and self.density_min == o.density_min and self.density_max == o.density_max)
+
+
+def _read_header(chunk: bytes) -> _Header:
+    """Parses and checks everything in a header that does not depend on other chunks."""
+    if len(chunk) < HEADER_SIZE:
+        raise DecodeError("truncated chunk: %d bytes, the header alone is %d"
+                          % (len(chunk), HEADER_SIZE))
+    values = _HEADER.unpack_from(chunk)
+    if values[0] != MAGIC:
+        raise DecodeError("not a DySAQUASIMs frame (bad magic)")
+    h = _Header(values)
+    if h.version != FORMAT_VERSION:
+        relation = "is newer than" if h.version > FORMAT_VERSION else "is not supported by"
+        raise DecodeError("frame format version %d %s this decoder (version %d); update the "
+                          "client" % (h.version, relation, FORMAT_VERSION))
+    if h.reserved != 0:
+        raise DecodeError("corrupt frame header: reserved bytes set")
+
+    def fail(what: str) -> None:
+        raise DecodeError("corrupt frame header: " + what)
+
+    if (h.flags & ~1) != 0:
+        fail("unknown flags %d" % h.flags)
+    if not (h.fields & FIELD_POSITIONS) or (h.fields & ~0xF) != 0:
+        fail("fields %d (positions must be present, bits 0-3 only)" % h.fields)
+    if h.count > _MAX_COUNT:
+        fail("count %d over the limit" % h.count)
+    if h.stride == 0:
+        fail("stride 0")
+    if h.chunk_count == 0 or h.chunk_index >= h.chunk_count:
+        fail("chunk index out of range")
+    if h.first + h.chunk_particles > h.count:
+        fail("chunk particles out of range")
+    if h.count > 0 and h.chunk_particles == 0:
+        fail("empty chunk")
+    if h.chunk_particles > 0 and not math.isfinite(h.time):
+        fail("time is not finite")
+    for c in range(_COMPONENTS):
+        bits = h.bits(c)
+        max_bits = 24 if c <= _POS_Z else 16
+        if not h.has(c):
+            # The three velocity components share one bit width: checked once.
+            if bits != 0 and c != _VEL_Y and c != _VEL_Z:
+                fail("bits set for an absent field")
+            continue
+        if bits < 1 or bits > max_bits:
+            fail("bit width %d" % bits)
+        lo, hi = h.lo(c), h.hi(c)
+        if not math.isfinite(lo) or not math.isfinite(hi) or not hi > lo:
+            fail("range [%s, %s]" % (_str(lo), _str(hi)))
+    if HEADER_SIZE + h.payload_size + h.bits_size != len(chunk):
+        raise DecodeError("truncated or oversized chunk: header says %d payload bytes, %d "
+                          "present" % (h.payload_size + h.bits_size, len(chunk) - HEADER_SIZE))
+    return h
+
+
+def _zstd_frame_end(data: bytes, start: int) -> Optional[int]:
+    """End of the zstd frame at data[start:] (as ZSTD_findFrameCompressedSize), None if it is
+    not a whole zstd frame."""
+    if len(data) - start < 5 or int.from_bytes(data[start:start + 4], "little") != _ZSTD_MAGIC:
+        return None
+    try:
+        at = start + zstandard.frame_header_size(data[start:start + 18])
+    except zstandard.ZstdError:
+        return None
+    checksum = (data[start + 4] & 4) != 0
+    while True:
+        if at + 3 > len(data):
+            return None
+        block = int.from_bytes(data[at:at + 3], "little")
+        last, kind, size = block & 1, (block >> 1) & 3, block >> 3
+        if kind == 3:
+            return None
+        at += 3 + (1 if kind == 1 else size)
+        if last:
+            break
+    if checksum:
+        at += 4
+    return at if at <= len(data) else None
+
+
+def _decompress(payload: bytes, raw_size: int) -> Optional[bytes]:
+    """The payload decompressed to exactly raw_size bytes, or None.
+
+    The caller has checked that the first zstd frame declares raw_size bytes. Like the C++
+    decoder (ZSTD_decompressDCtx), the payload may go on with skippable frames; anything else
+    after the first frame is refused (C++ would also take zstd frames of no content there).
+    """
+    try:
+        raw = zstandard.ZstdDecompressor().decompress(payload, max_output_size=raw_size)
+    except zstandard.ZstdError:
+        return None
+    if len(raw) != raw_size:
+        return None
+    at = _zstd_frame_end(payload, 0)
+    if at is None:
+        return None
+    while at < len(payload):
+        if len(payload) - at < 8:
+            return None
+        magic = int.from_bytes(payload[at:at + 4], "little")
+        if (magic & _ZSTD_SKIPPABLE_MASK) != _ZSTD_SKIPPABLE_START:
+            return None
+        at += 8 + int.from_bytes(payload[at + 4:at + 8], "little")
+        if at > len(payload):
+            return None
+    return raw
+
+
+class FrameDecoder:
+    """Decodes a stream of chunks into frames (the C++ dysa::codec::FrameDecoder).
+
+    One decoder per stream: delta frames are predicted from the frames decoded before.
+
+    Two differences from the C++ decoder, on malformed input only: when add_chunks refuses a
+    chunk as a duplicate or as not matching its frame, none of the chunks of that frame in the
+    same call are marked received (C++ marks the ones before it without decoding them), and
+    particles no chunk covers are 0 (C++ may leave values of an earlier frame there).
+    """
+
+    def __init__(self) -> None:
+        # The frame being assembled from its chunks.
+        self._pending_seq: Optional[int] = None
+        self._pending_header: Optional[_Header] = None  # its first chunk's header
+        self._received: List[bool] = []  # per chunk
+        self._chunk_size = 0  # the pending frame's chunk size (all but the last chunk)
+        self._pending: Optional[Frame] = None
+        self._current: List[Optional[np.ndarray]] = []  # its quantised values, per component
+        # The last complete frame's header, and the quantised values of up to 3 frames since
+        # the last keyframe, newest first (delta frames are predicted from them).
+        self._previous_header: Optional[_Header] = None
+        self._history: List[List[Optional[np.ndarray]]] = []
+        self._have_previous = False
+
+    @property
+    def waiting_for_keyframe(self) -> bool:
+        """True while a delta frame cannot be decoded (no keyframe yet, or a frame was missed)."""
+        return not self._have_previous
+
+    def add_chunk(self, data: bytes) -> Optional[Frame]:
+        """Adds one chunk; returns the frame once all its chunks have arrived, else None.
+
+        Raises DecodeError with a clear message for malformed, truncated or hostile input and
+        for a newer format version.
+        """
+        return self.add_chunks([data])
+
+    def add_chunks(self, chunks: Iterable[bytes]) -> Optional[Frame]:
+        """Adds chunks in order (typically all chunks of one frame); returns the last frame
+        they complete, else None. A frame left incomplete when the next one starts is dropped.
+        """
+        chunks = [c if isinstance(c, bytes) else bytes(c) for c in chunks]
+        # Every header is checked before anything changes.
+        headers = [_read_header(c) for c in chunks]
+        done: Optional[Frame] = None
+        begin = 0
+        while begin < len(chunks):
+            h = headers[begin]
+            if self._pending_seq != h.frame_seq:
+                if self._pending_seq is not None:
+                    self._have_previous = False  # the incomplete frame is lost
+                self._pending_seq = None
+                if not h.keyframe and not self._reference_ok(h):
+                    self._have_previous = False  # wait for a keyframe
+                    begin += 1
+                    continue
+                self._start_frame(h)
+            end = self._take_group(headers, begin)
+            self._decode_group(chunks, headers, begin, end)
+            begin = end
+            if all(self._received):
+                done = self._complete()
+        return done
+
+    def _reference_ok(self, h: _Header) -> bool:
+        """Whether delta frame h can be decoded against the last complete frame."""
+        if not self._have_previous:
+            return False
+        previous = self._previous_header
+        return previous.frame_seq + 1 == h.frame_seq and previous.same_layout(h)
+
+    def _start_frame(self, h: _Header) -> None:
+        """Makes h's frame the pending one, with zeroed arrays."""
+        n = h.count
+        self._pending_seq = h.frame_seq
+        self._pending_header = h
+        self._received = [False] * h.chunk_count
+        self._chunk_size = 0
+        self._pending = Frame(
+            frame_seq=h.frame_seq, step=h.step, time=h.time, keyframe=h.keyframe, count=n,
+            stride=h.stride, fields=h.fields, positions=np.zeros((n, 3), np.float32),
+            speed=np.zeros(n, np.float32) if h.fields & FIELD_SPEED else None,
+            velocities=np.zeros((n, 3), np.float32) if h.fields & FIELD_VELOCITY else None,
+            densities=np.zeros(n, np.float32) if h.fields & FIELD_DENSITY else None)
+        self._current = [np.zeros(n, np.uint32) if h.has(c) else None
+                         for c in range(_COMPONENTS)]
+
+    def _check_chunk_range(self, h: _Header) -> None:
+        """The encoder's layout: chunk i covers particles [i P, min((i + 1) P, count)) for one
+        chunk size P per frame, so the chunks of a frame cover it exactly once."""
+        last = h.chunk_index + 1 == h.chunk_count
+        m = h.chunk_particles
+        ok = h.first + m == h.count if last else m > 0
+        size = 0
+        if not last:
+            size = m
+        elif h.chunk_index > 0:
+            ok = ok and h.first % h.chunk_index == 0
+            size = h.first // h.chunk_index
+        if size != 0:
+            ok = ok and size * h.chunk_index == h.first and self._chunk_size in (0, size)
+            ok = ok and (not last or m <= size)
+        else:
+            ok = ok and h.first == 0
+        if not ok:
+            raise DecodeError("chunk %d of frame %d covers particles [%d, %d), which does not fit "
+                              "the frame's other chunks"
+                              % (h.chunk_index, h.frame_seq, h.first, h.first + m))
+        if size != 0:
+            self._chunk_size = size
+
+    def _take_group(self, headers: Sequence[_Header], begin: int) -> int:
+        """Checks the consecutive chunks of the pending frame from `begin` and marks them
+        received; returns the end of the group. Nothing is marked if one of them is refused."""
+        first = self._pending_header
+        end = begin
+        seen = set()
+        while end < len(headers) and headers[end].frame_seq == first.frame_seq:
+            hc = headers[end]
+            self._check_chunk_range(hc)
+            if (hc.flags != first.flags or hc.count != first.count or hc.step != first.step
+                    or hc.chunk_count != first.chunk_count or not hc.same_layout(first)
+                    or not hc.time == first.time):
+                raise DecodeError("chunk %d does not match the other chunks of frame %d"
+                                  % (hc.chunk_index, hc.frame_seq))
+            if self._received[hc.chunk_index] or hc.chunk_index in seen:
+                raise DecodeError("chunk %d of frame %d received twice"
+                                  % (hc.chunk_index, hc.frame_seq))
+            seen.add(hc.chunk_index)
+            end += 1
+        for index in seen:
+            self._received[index] = True
+        return end
+
+    def _decode_group(self, chunks: Sequence[bytes], headers: Sequence[_Header], begin: int,
+                      end: int) -> None:
+        """Decodes chunks[begin:end] into the pending frame; on a corrupt one the frame is
+        dropped and the decoder waits for a keyframe."""
+        for k in range(begin, end):
+            h = headers[k]
+            payload_end = HEADER_SIZE + h.payload_size
+            error = self._decode_body(h, chunks[k][HEADER_SIZE:payload_end],
+                                      chunks[k][payload_end:payload_end + h.bits_size])
+            if error is not None:
+                self._pending_seq = None
+                self._have_previous = False
+                raise DecodeError("corrupt chunk %d of frame %d: %s"
+                                  % (h.chunk_index, self._pending_header.frame_seq, error))
+
+    def _decode_body(self, h: _Header, payload: bytes, bits: bytes) -> Optional[str]:
+        """Decodes one chunk into the pending frame; returns an error message, or None on
+        success."""
+        n = h.component_count()
+        m = h.chunk_particles
+        try:
+            content = zstandard.frame_content_size(payload)
+        except zstandard.ZstdError:
+            content = None
+        if content != h.raw_size:
+            return "payload size does not match the header"
+        # At most two bytes and 4 planes per component.
+        if h.raw_size > n * (2 + 4 * m):
+            return "raw size too large"
+        raw = _decompress(payload, h.raw_size)
+        if raw is None:
+            return "payload does not decompress"
+        if len(raw) < 2 * n:
+            return "payload too short"
+        raw = np.frombuffer(raw, np.uint8)
+        splits = [int(v) for v in raw[0:2 * n:2]]
+        planes = [int(v) for v in raw[1:2 * n:2]]
+        expected = 2 * n
+        expected_bits = 0
+        for split, count in zip(splits, planes):
+            if split > 24:
+                return "split beyond 24 bits"
+            if count > 4:
+                return "more than 4 byte planes"
+            expected += count * m
+            expected_bits += (m * split + 7) // 8
+        if expected != len(raw):
+            return "payload size does not match its byte planes"
+        if expected_bits != len(bits):
+            return "packed bits do not match their split"
+        packed = np.frombuffer(bits, np.uint8)
+
+        frame = self._pending
+        at = 2 * n
+        bit_at = 0
+        slot = 0
+        first, last = h.first, h.first + m
+        for c in range(_COMPONENTS):
+            if not h.has(c):
+                continue
+            split, count = splits[slot], planes[slot]
+            slot += 1
+            levels = _levels(h.bits(c))
+            if split + 8 * count > 32:
+                return "residual wider than 32 bits"
+            z = self._residuals(raw[at:at + count * m], count,
+                                packed[bit_at:bit_at + (m * split + 7) // 8], split, m)
+            at += count * m
+            bit_at += (m * split + 7) // 8
+            residual = (z >> 1) ^ -(z & 1)  # zig-zag, in [-2^31, 2^31 - 1]
+            if h.keyframe:
+                value = np.cumsum(residual)  # the chunk's first particle is predicted as 0
+            else:
+                value = self._prediction(c, first, last, levels) + residual
+            if m > 0 and (value.min() < 0 or value.max() > levels):
+                return "decoded value outside its range"
+            self._current[c][first:last] = value
+
+            lo = h.lo(c)
+            step = (h.hi(c) - lo) / float(levels)
+            with np.errstate(over="ignore"):  # huge ranges round to inf, as in C++
+                decoded = (lo + value.astype(np.float64) * step).astype(np.float32)
+            if c <= _POS_Z:
+                frame.positions[first:last, c] = decoded
+            elif c == _SPEED:
+                frame.speed[first:last] = decoded
+            elif c == _DENSITY:
+                frame.densities[first:last] = decoded
+            else:
+                frame.velocities[first:last, c - _VEL_X] = decoded
+        return None
+
+    @staticmethod
+    def _residuals(planes: np.ndarray, count: int, packed: np.ndarray, split: int,
+                   m: int) -> np.ndarray:
+        """z = (high << split) | low of m particles as int64: high from `count` byte planes
+        (least significant first), low from the little-endian bit stream `packed`."""
+        words = np.zeros((m, 4), np.uint8)
+        words[:, :count] = planes.reshape(count, m).T
+        z = words.view("<u4").reshape(m).astype(np.int64) << split
+        if split > 0:
+            stream = np.unpackbits(packed, bitorder="little")[:m * split].reshape(m, split)
+            low_bits = np.zeros((m, 32), np.uint8)
+            low_bits[:, :split] = stream
+            low = np.packbits(low_bits, axis=1, bitorder="little").view("<u4").reshape(m)
+            z |= low.astype(np.int64)
+        return z
+
+    def _prediction(self, c: int, first: int, last: int, levels: int) -> np.ndarray:
+        """The prediction of component c of particles first .. last - 1 of a delta frame from
+        the frames since the last keyframe (FORMAT.md), as int64."""
+        a = self._history[0][c][first:last].astype(np.int64)
+        if len(self._history) == 1:
+            return a
+        b = self._history[1][c][first:last].astype(np.int64)
+        if len(self._history) == 2:
+            return np.clip(2 * a - b, 0, levels)
+        c3 = self._history[2][c][first:last].astype(np.int64)
+        return np.clip(3 * (a - b) + c3, 0, levels)
+
+    def _complete(self) -> Frame:
+        """Finishes the pending frame: it becomes the reference of the next delta frame."""
+        first = self._pending_header
+        frame = self._pending
+        frame.position_error = tuple(
+            _error_bound(first.position_min[a], first.position_max[a], first.position_bits)
+            for a in range(3))
+        if first.fields & FIELD_SPEED:
+            frame.speed_error = _error_bound(0.0, first.speed_max, first.speed_bits)
+        if first.fields & FIELD_VELOCITY:
+            frame.velocity_error = _error_bound(-first.velocity_max, first.velocity_max,
+                                                first.velocity_bits)
+        if first.fields & FIELD_DENSITY:
+            frame.density_error = _error_bound(first.density_min, first.density_max,
+                                               first.density_bits)
+        if first.keyframe:
+            self._history = []
+        self._history.insert(0, self._current)
+        del self._history[3:]
+        self._current = []
+        self._previous_header = first
+        self._have_previous = True
+        self._pending_seq = None
+        self._pending = None
+        return frame
