@@ -344,9 +344,15 @@ TEST(FrameDecoderTest, HostileHeaderValuesAreRejected) {
   };
   FrameDecoder decoder;
   EXPECT_THAT(DecodeErrorOf(decoder, with(12, uint32_t{0xFFFFFFFF})), HasSubstr("count"));
+  EXPECT_THAT(DecodeErrorOf(decoder, with(12, uint32_t{1u << 26})), HasSubstr("over the limit"));
   EXPECT_THAT(DecodeErrorOf(decoder, with(48, uint8_t{40})), HasSubstr("bit width"));
   EXPECT_THAT(DecodeErrorOf(decoder, with(52, uint32_t{0})), HasSubstr("stride"));
   EXPECT_THAT(DecodeErrorOf(decoder, with(56, std::nan(""))), HasSubstr("range"));
+  // Finite bounds whose difference is not: the step would be infinite and values NaN.
+  Chunk wide = with(56, -1e308);
+  const double huge = 1e308;
+  std::memcpy(wide.data() + 80, &huge, sizeof(huge));
+  EXPECT_THAT(DecodeErrorOf(decoder, wide), HasSubstr("range"));
   EXPECT_THAT(DecodeErrorOf(decoder, with(136, uint32_t{1u << 30})), HasSubstr("corrupt"));
   EXPECT_THAT(DecodeErrorOf(decoder, with(34, uint16_t{0})), HasSubstr("chunk index"));
 }

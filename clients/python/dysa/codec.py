@@ -50,7 +50,7 @@ _POS_X, _POS_Y, _POS_Z, _SPEED, _VEL_X, _VEL_Y, _VEL_Z, _DENSITY = range(8)
 _COMPONENTS = 8
 
 # A decoder never allocates more than this many particles, whatever a header claims.
-_MAX_COUNT = 1 << 26
+_MAX_COUNT = 20_000_000  # the solver's particle limit, as in the C++ decoder
 
 # std::numeric_limits<float>::epsilon().
 _FLOAT_EPSILON = 2.0**-23
@@ -245,7 +245,7 @@ def _read_header(chunk: bytes) -> _Header:
         if bits < 1 or bits > max_bits:
             fail("bit width %d" % bits)
         lo, hi = h.lo(c), h.hi(c)
-        if not math.isfinite(lo) or not math.isfinite(hi) or not hi > lo:
+        if not math.isfinite(lo) or not math.isfinite(hi) or not hi > lo or not math.isfinite(hi - lo):
             fail("range [%s, %s]" % (_str(lo), _str(hi)))
     if HEADER_SIZE + h.payload_size + h.bits_size != len(chunk):
         raise DecodeError("truncated or oversized chunk: header says %d payload bytes, %d "

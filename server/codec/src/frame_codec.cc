@@ -16,8 +16,9 @@ namespace {
 // Components in payload order (FORMAT.md).
 enum Component { kPosX, kPosY, kPosZ, kSpeedC, kVelX, kVelY, kVelZ, kDensityC, kComponents };
 
-// A decoder never allocates more than this many particles, whatever a header claims.
-constexpr uint32_t kMaxCount = 1u << 26;
+// A decoder never allocates for more particles than this, whatever a header claims: the
+// solver's own limit (kMaxParticles in dysa/core/scene.h), about 1 GB of decoder buffers.
+constexpr uint32_t kMaxCount = 20'000'000;
 
 struct Header {
   uint16_t version = kVersion;
@@ -187,7 +188,7 @@ Header ReadHeader(std::span<const uint8_t> chunk) {
     }
     if (bits < 1 || bits > max_bits) fail("bit width " + std::to_string(bits));
     const double lo = h.Lo(comp), hi = h.Hi(comp);
-    if (!std::isfinite(lo) || !std::isfinite(hi) || !(hi > lo)) {
+    if (!std::isfinite(lo) || !std::isfinite(hi) || !(hi > lo) || !std::isfinite(hi - lo)) {
       fail("range [" + Str(lo) + ", " + Str(hi) + "]");
     }
   }
@@ -302,6 +303,7 @@ std::pair<float, float> GatherComponent(const FrameInput& f, Component c, uint32
   float mn = std::numeric_limits<float>::infinity();
   float mx = -std::numeric_limits<float>::infinity();
   const int64_t n = count;
+  if (n == 0) return {mn, mx};  // the arrays may be empty: no pointer arithmetic on them
   if (c == kSpeedC) {
     const float* v = f.velocities.data();
 #pragma omp parallel for reduction(min : mn) reduction(max : mx) schedule(static)
@@ -409,7 +411,7 @@ std::vector<Chunk> FrameEncoder::Encode(const FrameInput& f) {
   if ((config_.fields & kDensity) && f.densities.size() != ids) {
     throw std::invalid_argument("densities: count values needed for density");
   }
-  if (ids > kMaxCount) throw std::invalid_argument("count over the limit of 2^26 particles");
+  if (ids > kMaxCount) throw std::invalid_argument("count over the limit of 20,000,000 particles");
   const uint32_t stride = config_.stride;
   const uint32_t count = uint32_t((ids + stride - 1) / stride);
   const uint32_t per_chunk = config_.chunk_particles;
@@ -669,6 +671,7 @@ std::string DecodeBody(const Header& h, std::span<const uint8_t> payload,
     at += size_t(planes) * m;
     bit_at += PackedBytes(m, split);
 
+    if (m == 0) continue;  // an empty frame: its arrays may be empty
     const double lo = h.Lo(c);
     const double step = (h.Hi(c) - lo) / double(levels);
     float* out = c <= kPosZ       ? frame.positions.data() + 3 * size_t(h.first) + c
