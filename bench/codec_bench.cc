@@ -11,9 +11,11 @@
 
 #include <CLI/CLI.hpp>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
 
 #include "dysa/codec/frame_codec.h"
 #include "dysa/core/simulation.h"
@@ -64,6 +66,35 @@ struct Combo {
 };
 
 double Ms(Clock::duration d) { return std::chrono::duration<double, std::milli>(d).count(); }
+
+// Order-0 entropy (bits per value) of the residuals of 16-bit positions quantised over the
+// domain, for the last frame of the sequence predicted with constant velocity (from 2 frames)
+// and constant acceleration (from 3): a lower bound for any coder of those residuals.
+std::pair<double, double> PositionResidualEntropy(const std::vector<CapturedFrame>& frames,
+                                                  const dysa::Aabb& domain) {
+  const size_t last = frames.size() - 1;
+  auto q = [&](size_t f, size_t i) {
+    const int a = int(i % 3);
+    const double t = (frames[f].positions[i] - domain.min[a]) / (domain.max[a] - domain.min[a]);
+    return std::llround(t * 65535.0);
+  };
+  std::map<long long, size_t> linear, quadratic;
+  const size_t n = frames[last].positions.size();
+  for (size_t i = 0; i < n; ++i) {
+    const long long a = q(last - 1, i), b = q(last - 2, i), c = q(last - 3, i);
+    ++linear[q(last, i) - (2 * a - b)];
+    ++quadratic[q(last, i) - (3 * (a - b) + c)];
+  }
+  auto entropy = [&](const std::map<long long, size_t>& histogram) {
+    double bits = 0;
+    for (const auto& [value, count] : histogram) {
+      const double p = double(count) / double(n);
+      bits -= p * std::log2(p);
+    }
+    return bits;
+  };
+  return {entropy(linear), entropy(quadratic)};
+}
 
 }  // namespace
 
@@ -191,6 +222,12 @@ int main(int argc, char** argv) {
             << ',' << b << ',' << e << ',' << d << ',' << max_error << ',' << max_chunk << '\n';
       }
     }
+  }
+  std::printf("\norder-0 entropy of 16-bit position residuals, bits per axis (the last frame):\n");
+  for (const Sequence& seq : sequences) {
+    const auto [linear, quadratic] = PositionResidualEntropy(seq.frames, seq.scene.domain);
+    std::printf("  %-18s constant velocity %.2f, constant acceleration %.2f\n", seq.name.c_str(),
+                linear, quadratic);
   }
   std::printf("\nwrote %s/codec.csv\n", out_dir.c_str());
   return 0;
