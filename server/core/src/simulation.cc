@@ -1,5 +1,6 @@
 #include "dysa/core/simulation.h"
 
+#include <algorithm>
 #include <chrono>
 
 namespace dysa {
@@ -34,12 +35,38 @@ void Simulation::Step() {
 
 void Simulation::StepFrame() {
   for (int i = 0; i < model_.params.iterations_per_frame; ++i) Step();
+  ++state_.frame;
 }
 
 void Simulation::Reset() {
   SpawnParticles(scene_, model_.params, state_.particles);
   state_.time = 0;
   state_.step = 0;
+  state_.frame = 0;
+}
+
+size_t Checkpoint::bytes() const {
+  return sizeof(Checkpoint) + id.capacity() * sizeof(uint32_t) +
+         (position.capacity() + velocity.capacity()) * sizeof(Vec3);
+}
+
+Checkpoint Simulation::SaveCheckpoint() const {
+  const ParticleArrays& p = state_.particles;
+  return Checkpoint{model_.params, state_.time, state_.step, state_.frame,
+                    p.id,          p.position,  p.velocity};
+}
+
+void Simulation::RestoreCheckpoint(const Checkpoint& checkpoint) {
+  model_ = MakeModel(scene_, checkpoint.params);
+  Rebuild();
+  ParticleArrays& p = state_.particles;
+  p.Resize(checkpoint.id.size());
+  std::copy(checkpoint.id.begin(), checkpoint.id.end(), p.id.begin());
+  std::copy(checkpoint.position.begin(), checkpoint.position.end(), p.position.begin());
+  std::copy(checkpoint.velocity.begin(), checkpoint.velocity.end(), p.velocity.begin());
+  state_.time = checkpoint.time;
+  state_.step = checkpoint.step;
+  state_.frame = checkpoint.frame;
 }
 
 bool Simulation::SetParam(std::string_view name, double value) {

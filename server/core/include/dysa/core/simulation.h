@@ -22,6 +22,22 @@ struct PassProfile {
   uint64_t calls = 0;
 };
 
+// Everything a simulation needs to carry on from a given moment, bit for bit: the parameters
+// and the particles' ids, positions and velocities in storage order (the order decides the next
+// neighbour sort, so restoring it reproduces the following steps exactly). Every other per-
+// particle array is recomputed by the step before it is read.
+struct Checkpoint {
+  Params params;
+  double time = 0;
+  uint64_t step = 0;
+  uint64_t frame = 0;
+  std::vector<uint32_t> id;
+  std::vector<Vec3> position;
+  std::vector<Vec3> velocity;
+
+  size_t bytes() const;
+};
+
 class Simulation {
  public:
   // Validates the scene (throws ConfigError) and spawns its particles.
@@ -46,6 +62,13 @@ class Simulation {
   bool SetParam(std::string_view name, double value);
   // Applies a whole parameter set at once, all validated before any is applied.
   bool SetParams(const Params& params);
+
+  // Saves the state the next steps depend on; RestoreCheckpoint(SaveCheckpoint()) followed by
+  // the same steps gives bit-identical states.
+  Checkpoint SaveCheckpoint() const;
+  // Restores particles, time, step, frame and the checkpoint's parameters (the pass list is
+  // rebuilt for them). The checkpoint must come from this simulation's scene.
+  void RestoreCheckpoint(const Checkpoint& checkpoint);
 
   void ResetProfile();
 

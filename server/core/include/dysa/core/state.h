@@ -33,12 +33,17 @@ struct State {
   std::vector<Real> real_scratch;
   std::vector<uint32_t> index_scratch;
 
-  double time = 0;    // s, simulated
-  uint64_t step = 0;  // steps since the last reset
+  double time = 0;     // s, simulated
+  uint64_t step = 0;   // steps since the last reset
+  uint64_t frame = 0;  // frames (Simulation::StepFrame) since the last reset
 };
 
 // FNV-1a over ids, positions and velocities in id order: equal hashes mean bit-identical
 // particle states whatever the storage order.
 uint64_t StateHash(const State& state);
+
+// True when every position and velocity is finite. A NaN or Inf means the step diverged; callers
+// stop instead of integrating (or showing) garbage.
+bool StateIsFinite(const ParticleArrays& particles);
 
 }  // namespace dysa
