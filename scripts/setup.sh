@@ -17,6 +17,11 @@ PACKAGES=(
   nlohmann-json3-dev
   libcli11-dev
   libzstd-dev
+  # gRPC service and network clients
+  libgrpc++-dev
+  libprotobuf-dev
+  protobuf-compiler
+  protobuf-compiler-grpc
   # tests and benchmarks
   libgtest-dev
   libgmock-dev
@@ -26,6 +31,8 @@ PACKAGES=(
   python3-numpy
   python3-matplotlib
   python3-zstandard
+  python3-grpcio
+  python3-protobuf
 )
 
 missing=()
