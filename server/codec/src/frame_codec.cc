@@ -579,6 +579,7 @@ std::vector<Chunk> FrameEncoder::Encode(const FrameInput& f) {
   PushHistory(history_, std::move(q), keyframe, spare_);
   frames_since_keyframe_ = keyframe ? 1 : frames_since_keyframe_ + 1;
   keyframe_requested_ = false;
+  last_was_keyframe_ = keyframe;
   count_ = count;
   ++frame_seq_;
   return chunks;

@@ -87,10 +87,13 @@ class FrameEncoder {
   std::vector<Chunk> Encode(const FrameInput& frame);
   // The next frame will be a keyframe (a subscriber joined or dropped a frame, a reset).
   void RequestKeyframe() { keyframe_requested_ = true; }
+  // Whether the last Encode() wrote a keyframe.
+  bool last_was_keyframe() const { return last_was_keyframe_; }
 
  private:
   StreamConfig config_;
   bool keyframe_requested_ = true;
+  bool last_was_keyframe_ = false;
   uint32_t frame_seq_ = 0;
   uint32_t frames_since_keyframe_ = 0;
   uint32_t count_ = 0;

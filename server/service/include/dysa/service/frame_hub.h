@@ -1,0 +1,131 @@
+// Frame fan-out: each simulated frame is encoded once per distinct stream configuration and
+// offered to every subscriber of that configuration, newest first.
+//
+// Each subscriber holds at most one frame waiting (the newest) besides the one it is sending, so
+// a slow or stalled reader skips frames and never slows the simulation or grows memory. A delta
+// frame only decodes after the frame before it, so a subscriber that missed one (or just joined)
+// waits for a keyframe and asks its group for one.
+//
+// Threads: Publish() runs on the simulation thread (it encodes, with OpenMP over chunks);
+// Subscribe(), Unsubscribe() and Subscription::Take() run on RPC threads.
+#pragma once
+
+#include <array>
+#include <chrono>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <stdexcept>
+#include <vector>
+
+#include "dysa/codec/frame_codec.h"
+
+namespace dysa::service {
+
+// One frame as subscribers see it: every array in particle-id order. Only the arrays some
+// subscriber needs are filled (FrameHub::NeededFields()).
+struct FrameSnapshot {
+  uint64_t frame = 0;  // frames since the last reset
+  uint64_t step = 0;
+  double time = 0;                                   // s
+  std::array<double, 3> domain_min{}, domain_max{};  // m
+  std::vector<float> positions;                      // 3 per particle, m
+  std::vector<float> velocities;                     // 3 per particle, m/s
+  std::vector<float> densities;                      // kg/m^3
+  int64_t produced_unix_us = 0;                      // wall clock, microseconds since the epoch
+};
+
+struct EncodedFrame {
+  uint64_t frame = 0;
+  uint64_t seq = 0;  // position in its group's encoded sequence
+  bool keyframe = false;
+  std::vector<codec::Chunk> chunks;
+  size_t bytes = 0;
+  int64_t produced_unix_us = 0;
+};
+
+struct SubscriptionOptions {
+  codec::StreamConfig stream;
+  double max_fps = 0;  // frames per wall second at most; 0: every frame
+  bool operator==(const SubscriptionOptions& other) const;
+};
+
+// Told by the hub that a subscriber has something new: a frame to take, or the end.
+class FrameListener {
+ public:
+  virtual ~FrameListener() = default;
+  virtual void OnFrameReady() = 0;
+  // The hub is closing (server shutdown): end the stream.
+  virtual void OnHubClosed() = 0;
+};
+
+// Thrown by Subscribe when the subscriber limit is reached.
+class SubscriberLimitError : public std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+class FrameHub;
+struct FrameGroup;
+
+class Subscription {
+ public:
+  // The newest frame this subscriber can decode, or nullptr when there is none yet (OnFrameReady
+  // follows when one arrives). `skipped`: frames of its stream it never received.
+  std::shared_ptr<const EncodedFrame> Take(uint32_t* skipped);
+
+ private:
+  friend class FrameHub;
+  FrameHub* hub_ = nullptr;
+  std::shared_ptr<FrameGroup> group_;
+
+  std::mutex listener_mu_;  // held while the listener is called; Unsubscribe waits on it
+  FrameListener* listener_ = nullptr;
+
+  std::mutex frame_mu_;
+  std::shared_ptr<const EncodedFrame> pending_;
+  std::optional<uint64_t> last_seq_;  // the last frame taken
+};
+
+class FrameHub {
+ public:
+  explicit FrameHub(size_t max_subscribers) : max_subscribers_(max_subscribers) {}
+
+  // Throws std::invalid_argument (bad options, naming the field) or SubscriberLimitError.
+  // The subscriber's first frame is a keyframe; the hub asks for one (see set_frame_needed).
+  std::shared_ptr<Subscription> Subscribe(const SubscriptionOptions& options,
+                                          FrameListener* listener);
+  // After it returns, the listener is never called again.
+  void Unsubscribe(const std::shared_ptr<Subscription>& subscription);
+  // Ends every stream (OnHubClosed) and refuses new subscribers.
+  void Close();
+
+  size_t subscribers() const;
+  // The codec fields some subscriber wants; 0 when no one subscribes (nothing to publish).
+  uint32_t NeededFields() const;
+  uint64_t frames_encoded() const;
+
+  // Encodes `snapshot` for every group that is due and offers it to the group's subscribers.
+  // `force`: ignore frame-rate caps (a frame the user asked for: a step, a step back, a reset).
+  // `discontinuity`: the frame does not follow the previous one (back, reset, new scene).
+  void Publish(const FrameSnapshot& snapshot, bool force, bool discontinuity);
+
+  // Called (from any thread) when a subscriber needs a frame published although the simulation
+  // may be paused: a late joiner or a subscriber waiting for a keyframe.
+  void set_frame_needed(std::function<void()> callback) { frame_needed_ = std::move(callback); }
+
+ private:
+  friend class Subscription;
+  void RequestKeyframe(FrameGroup& group);
+
+  const size_t max_subscribers_;
+  std::function<void()> frame_needed_;
+  mutable std::mutex mu_;
+  bool closed_ = false;
+  std::vector<std::shared_ptr<FrameGroup>> groups_;
+  std::vector<std::shared_ptr<Subscription>> subscriptions_;
+  uint64_t frames_encoded_ = 0;
+};
+
+}  // namespace dysa::service

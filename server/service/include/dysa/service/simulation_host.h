@@ -1,0 +1,162 @@
+// The simulation thread of the server: runs frames at the chosen rate, applies controls between
+// frames in the order they arrive, keeps the step-back history and publishes frames to the hub.
+//
+// No RPC types here: the gRPC adapter (simulation_service.cc) converts its requests into
+// Controls and ControlResults back into replies. Nothing a caller does waits for a step:
+// Submit() queues and returns; Status() and Params() read a copy refreshed after every frame.
+#pragma once
+
+#include <condition_variable>
+#include <cstdint>
+#include <deque>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <utility>
+#include <variant>
+#include <vector>
+
+#include "dysa/core/history.h"
+#include "dysa/core/scene.h"
+#include "dysa/core/simulation.h"
+#include "dysa/service/frame_hub.h"
+
+namespace dysa::service {
+
+struct HostOptions {
+  double frame_rate = 60;  // frames per wall second the thread aims for; 0: as fast as possible
+  HistoryConfig history;
+  uint64_t max_particles = kMaxParticles;  // scenes and parameter sets beyond it are refused
+  size_t max_subscribers = 64;
+  bool start_paused = false;
+  // One line per significant event (scene loaded, reset, alarm, ...); may be empty.
+  std::function<void(const std::string&)> log;
+};
+
+struct PassStatus {
+  std::string name;
+  double last_ms = 0;
+  double mean_ms = 0;
+  uint64_t calls = 0;
+};
+
+struct HostStatus {
+  bool running = false;
+  uint64_t step = 0;
+  uint64_t frame = 0;
+  double time = 0;  // s
+  uint32_t particles = 0;
+  std::string solver;
+  std::string scene;
+  double frames_per_second = 0;  // simulated frames per wall second, over the last second
+  double target_frame_rate = 0;
+  std::vector<PassStatus> passes;
+  uint32_t subscribers = 0;
+  std::string alarm;  // empty when healthy
+  uint64_t history_frames = 0;
+  uint64_t history_bytes = 0;
+  uint64_t frames_encoded = 0;
+};
+
+// Controls, applied between two frames.
+struct PauseControl {};
+struct ResumeControl {};
+struct StepControl {
+  uint32_t count = 1;  // frames
+};
+struct StepBackControl {
+  uint32_t count = 1;  // frames
+};
+struct ResetControl {};
+struct UpdateParamsControl {
+  std::vector<std::pair<std::string, double>> values;  // name, value in the declared unit
+};
+struct LoadSceneControl {
+  Scene scene;  // parsed and validated by the caller (ParseScene/LoadScene)
+};
+using Control = std::variant<PauseControl, ResumeControl, StepControl, StepBackControl,
+                             ResetControl, UpdateParamsControl, LoadSceneControl>;
+
+enum class ControlCode {
+  kOk,
+  kInvalidArgument,
+  kResourceExhausted,
+  kFailedPrecondition,
+  kUnavailable
+};
+
+struct ControlResult {
+  ControlCode code = ControlCode::kOk;
+  std::string message;  // for errors: names the field and its allowed range
+  bool reset = false;   // the fluid was re-spawned
+  uint32_t frames_moved = 0;
+  HostStatus status;  // after the control
+  Params params;      // after the control
+};
+
+// Frames one Step control may advance at most (the thread does nothing else meanwhile).
+inline constexpr uint32_t kMaxStepCount = 10000;
+
+class SimulationHost {
+ public:
+  // Throws ConfigError for an invalid scene or one over options.max_particles.
+  SimulationHost(Scene scene, HostOptions options);
+  ~SimulationHost();  // Stop()
+  SimulationHost(const SimulationHost&) = delete;
+  SimulationHost& operator=(const SimulationHost&) = delete;
+
+  void Start();
+  // Stops the thread after the current frame; queued controls are answered kUnavailable.
+  void Stop();
+
+  FrameHub& hub() { return hub_; }
+  HostStatus Status() const;
+  Params CurrentParams() const;
+  const HostOptions& options() const { return options_; }
+
+  // Queues a control; `done` runs on the simulation thread once it is applied (or refused).
+  void Submit(Control control, std::function<void(ControlResult)> done);
+
+ private:
+  struct Job {
+    Control control;
+    std::function<void(ControlResult)> done;
+  };
+
+  void Loop();
+  ControlResult Apply(Control& control);
+  void AdvanceFrame();
+  // A scene or parameter set over the particle limit: the message, or "" when it fits.
+  std::string CheckParticleLimit(const Scene& scene, const Params& params) const;
+  void StartScene();
+  void Publish(bool force, bool discontinuity);
+  void RefreshStatus();
+  void Log(const std::string& line) const;
+
+  const HostOptions options_;
+  FrameHub hub_;
+
+  // Simulation thread only.
+  std::unique_ptr<Simulation> sim_;
+  History history_;
+  bool running_ = false;
+  std::string alarm_;
+  FrameSnapshot snapshot_;  // reused buffers
+  std::deque<std::chrono::steady_clock::time_point> recent_frames_;
+
+  std::mutex mu_;
+  std::condition_variable wake_;
+  std::deque<Job> queue_;
+  bool stop_ = false;
+  bool frame_needed_ = false;  // a subscriber waits for a frame (see FrameHub::set_frame_needed)
+
+  mutable std::mutex status_mu_;
+  HostStatus status_;
+  Params params_;
+
+  std::thread thread_;
+};
+
+}  // namespace dysa::service

@@ -1,0 +1,193 @@
+// dysa-server: runs a scene and serves dysa.v1.Simulation. Argument parsing and wiring only.
+//
+// Phases: parse flags -> read files (scene, token, TLS) -> block SIGINT/SIGTERM for every
+// thread -> start host and server -> wait for a signal -> shut down in reverse order.
+#include <omp.h>
+#include <pthread.h>
+#include <signal.h>
+
+#include <CLI/CLI.hpp>
+#include <chrono>
+#include <cstdio>
+#include <ctime>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <mutex>
+#include <sstream>
+
+#include "dysa/core/scene.h"
+#include "dysa/core/types.h"
+#include "dysa/service/server.h"
+#include "dysa/service/simulation_host.h"
+
+namespace {
+
+// "2026-11-22T10:00:00.123Z dysa-server: <line>" on stderr; whole lines from any thread.
+void Log(const std::string& line) {
+  static std::mutex mu;
+  const auto now = std::chrono::system_clock::now();
+  const std::time_t seconds = std::chrono::system_clock::to_time_t(now);
+  const int ms = int(
+      std::chrono::duration_cast<std::chrono::milliseconds>(now.time_since_epoch()).count() % 1000);
+  std::tm utc{};
+  gmtime_r(&seconds, &utc);
+  char stamp[40];
+  std::strftime(stamp, sizeof(stamp), "%Y-%m-%dT%H:%M:%S", &utc);
+  std::lock_guard lock(mu);
+  std::fprintf(stderr, "%s.%03dZ dysa-server: %s\n", stamp, ms, line.c_str());
+  std::fflush(stderr);
+}
+
+std::string ReadFile(const std::string& path, const std::string& flag) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw std::runtime_error(flag + ": cannot read '" + path + "'");
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+std::string ReadToken(const std::string& path) {
+  std::string token = ReadFile(path, "--token-file");
+  const auto end = token.find_last_not_of(" \t\r\n");
+  token.erase(end == std::string::npos ? 0 : end + 1);
+  token.erase(0, token.find_first_not_of(" \t\r\n"));
+  if (token.empty()) throw std::runtime_error("--token-file: '" + path + "' holds no token");
+  if (token.find_first_of(" \t\r\n") != std::string::npos) {
+    throw std::runtime_error("--token-file: the token must be one word without spaces");
+  }
+  return token;
+}
+
+// Written then renamed, so a reader polling for the file never sees a partial number.
+void WritePortFile(const std::string& path, int port) {
+  const std::string partial = path + ".partial";
+  {
+    std::ofstream out(partial);
+    out << port << "\n";
+    if (!out) throw std::runtime_error("--port-file: cannot write '" + path + "'");
+  }
+  std::filesystem::rename(partial, path);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  // Phase 1: flags.
+  CLI::App app{"dysa-server: runs a DySAQUASIMs simulation and serves it over gRPC"};
+  std::string scene_arg = "seed_test_scene";
+  std::string listen = "127.0.0.1:50051";
+  int threads = 0;
+  double frame_rate = 60;
+  uint64_t history_frames = 600;
+  uint64_t history_mib = 256;
+  std::string token_file, tls_cert, tls_key, port_file;
+  bool protect_watch = false;
+  bool paused = false;
+  uint64_t max_particles = dysa::kMaxParticles;
+  size_t max_subscribers = 64;
+  app.add_option("--scene", scene_arg, "Built-in scene name or scene JSON file")
+      ->capture_default_str();
+  app.add_option("--listen", listen, "ADDR:PORT to listen on (port 0: any free port)")
+      ->capture_default_str();
+  app.add_option("--threads", threads, "OpenMP threads for the solver (default: all cores)")
+      ->check(CLI::Range(1, 1024));
+  app.add_option("--frame-rate", frame_rate,
+                 "Frames simulated per wall second at most; 0: as fast as possible")
+      ->check(CLI::Range(0.0, 10000.0))
+      ->capture_default_str();
+  app.add_option("--history-frames", history_frames, "Frames StepBack can reach")
+      ->check(CLI::Range(uint64_t{1}, uint64_t{1000000}))
+      ->capture_default_str();
+  app.add_option("--history-mib", history_mib, "Memory for the step-back history, MiB")
+      ->check(CLI::Range(uint64_t{1}, uint64_t{1} << 20))
+      ->capture_default_str();
+  auto* token_opt = app.add_option("--token-file", token_file,
+                                   "File holding a token; control RPCs then need "
+                                   "'authorization: Bearer <token>'")
+                        ->check(CLI::ExistingFile);
+  app.add_flag("--protect-watch", protect_watch,
+               "With --token-file: watching (status, params, scenes, frames) needs the token too")
+      ->needs(token_opt);
+  auto* cert_opt = app.add_option("--tls-cert", tls_cert, "PEM certificate chain: serve TLS")
+                       ->check(CLI::ExistingFile);
+  auto* key_opt = app.add_option("--tls-key", tls_key, "PEM private key of --tls-cert")
+                      ->check(CLI::ExistingFile);
+  cert_opt->needs(key_opt);
+  key_opt->needs(cert_opt);
+  app.add_option("--max-particles", max_particles,
+                 "Refuse scenes and parameters with more particles (RESOURCE_EXHAUSTED)")
+      ->check(CLI::Range(uint64_t{1}, uint64_t{dysa::kMaxParticles}))
+      ->capture_default_str();
+  app.add_option("--max-subscribers", max_subscribers, "Frame streams open at once at most")
+      ->check(CLI::Range(size_t{1}, size_t{100000}))
+      ->capture_default_str();
+  app.add_option("--port-file", port_file, "Write the port listened on to this file");
+  app.add_flag("--paused", paused, "Start paused");
+  CLI11_PARSE(app, argc, argv);
+
+  // Phase 2: inputs. Every error here names its flag or field and exits 2.
+  dysa::service::HostOptions host_options;
+  dysa::service::ServerOptions server_options;
+  dysa::Scene scene;
+  try {
+    scene = dysa::LoadScene(scene_arg);
+    if (!token_file.empty()) server_options.token = ReadToken(token_file);
+    if (!tls_cert.empty()) {
+      server_options.tls_cert_pem = ReadFile(tls_cert, "--tls-cert");
+      server_options.tls_key_pem = ReadFile(tls_key, "--tls-key");
+    }
+  } catch (const std::exception& e) {
+    std::cerr << "dysa-server: error: " << e.what() << "\n";
+    return 2;
+  }
+  if (threads > 0) omp_set_num_threads(threads);
+  host_options.frame_rate = frame_rate;
+  host_options.history.frames = history_frames;
+  host_options.history.max_bytes = size_t(history_mib) << 20;
+  host_options.max_particles = max_particles;
+  host_options.max_subscribers = max_subscribers;
+  host_options.start_paused = paused;
+  host_options.log = Log;
+  server_options.listen = listen;
+  server_options.protect_watch = protect_watch;
+
+  // Phase 3: signals. Blocked before any thread starts, so every thread inherits the mask and
+  // only sigwait below receives them.
+  sigset_t signals;
+  sigemptyset(&signals);
+  sigaddset(&signals, SIGINT);
+  sigaddset(&signals, SIGTERM);
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+
+  // Phase 4: run.
+  std::unique_ptr<dysa::service::SimulationHost> host;
+  std::unique_ptr<dysa::service::Server> server;
+  try {
+    host = std::make_unique<dysa::service::SimulationHost>(std::move(scene), host_options);
+    server = std::make_unique<dysa::service::Server>(*host, server_options);
+    if (!port_file.empty()) WritePortFile(port_file, server->port());
+  } catch (const std::exception& e) {
+    std::cerr << "dysa-server: error: " << e.what() << "\n";
+    return 1;
+  }
+  const std::string address = listen.substr(0, listen.rfind(':'));
+  Log("listening on " + address + ":" + std::to_string(server->port()) +
+      (server_options.tls_cert_pem.empty() ? "" : " (TLS)") +
+      (server_options.token.empty()
+           ? ""
+           : (protect_watch ? ", token for every call" : ", token for controls")) +
+      ", " + std::to_string(omp_get_max_threads()) + " solver threads");
+
+  int signal_number = 0;
+  sigwait(&signals, &signal_number);
+  Log(std::string("received ") + (signal_number == SIGINT ? "SIGINT" : "SIGTERM") +
+      ", shutting down");
+
+  // Phase 5: cleanup, in reverse order.
+  server->Shutdown();
+  server.reset();
+  host.reset();
+  Log("stopped");
+  return 0;
+}

@@ -1,0 +1,182 @@
+#include "dysa/service/frame_hub.h"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+
+namespace dysa::service {
+
+using Clock = std::chrono::steady_clock;
+
+// Subscribers with equal options share one encoder: one encoded sequence, decodable by each of
+// them as long as they take every frame of it.
+struct FrameGroup {
+  explicit FrameGroup(const SubscriptionOptions& o) : options(o), encoder(o.stream) {}
+
+  const SubscriptionOptions options;
+  std::atomic<bool> keyframe_needed{true};
+  // Publishing thread only.
+  codec::FrameEncoder encoder;
+  uint64_t next_seq = 0;
+  std::optional<Clock::time_point> last_encoded;
+  // Guarded by FrameHub::mu_.
+  std::vector<std::shared_ptr<Subscription>> members;
+};
+
+bool SubscriptionOptions::operator==(const SubscriptionOptions& o) const {
+  const codec::StreamConfig& a = stream;
+  const codec::StreamConfig& b = o.stream;
+  return a.fields == b.fields && a.position_bits == b.position_bits &&
+         a.speed_bits == b.speed_bits && a.velocity_bits == b.velocity_bits &&
+         a.density_bits == b.density_bits && a.keyframe_interval == b.keyframe_interval &&
+         a.stride == b.stride && a.chunk_particles == b.chunk_particles &&
+         a.zstd_level == b.zstd_level && max_fps == o.max_fps;
+}
+
+std::shared_ptr<const EncodedFrame> Subscription::Take(uint32_t* skipped) {
+  std::shared_ptr<const EncodedFrame> frame;
+  {
+    std::lock_guard lock(frame_mu_);
+    if (!pending_) return nullptr;
+    frame = std::move(pending_);
+    pending_.reset();
+    const bool follows = last_seq_ && *last_seq_ + 1 == frame->seq;
+    if (frame->keyframe || follows) {
+      if (skipped) *skipped = last_seq_ ? uint32_t(frame->seq - *last_seq_ - 1) : 0;
+      last_seq_ = frame->seq;
+      return frame;
+    }
+  }
+  // A delta frame after a gap: undecodable here. Wait for a keyframe.
+  hub_->RequestKeyframe(*group_);
+  return nullptr;
+}
+
+std::shared_ptr<Subscription> FrameHub::Subscribe(const SubscriptionOptions& options,
+                                                  FrameListener* listener) {
+  options.stream.Validate();
+  if (!std::isfinite(options.max_fps) || options.max_fps < 0 || options.max_fps > 1000) {
+    throw std::invalid_argument("max_fps: allowed range [0, 1000] frames per second");
+  }
+  auto subscription = std::make_shared<Subscription>();
+  subscription->hub_ = this;
+  subscription->listener_ = listener;
+  {
+    std::lock_guard lock(mu_);
+    if (closed_) throw SubscriberLimitError("the server is shutting down");
+    if (subscriptions_.size() >= max_subscribers_) {
+      throw SubscriberLimitError("subscriber limit reached: at most " +
+                                 std::to_string(max_subscribers_) +
+                                 " streams at once (dysa-server --max-subscribers)");
+    }
+    auto it = std::find_if(groups_.begin(), groups_.end(),
+                           [&](const auto& g) { return g->options == options; });
+    if (it == groups_.end())
+      it = groups_.insert(groups_.end(), std::make_shared<FrameGroup>(options));
+    subscription->group_ = *it;
+    (*it)->members.push_back(subscription);
+    subscriptions_.push_back(subscription);
+  }
+  RequestKeyframe(*subscription->group_);
+  return subscription;
+}
+
+void FrameHub::Unsubscribe(const std::shared_ptr<Subscription>& subscription) {
+  {
+    std::lock_guard lock(subscription->listener_mu_);
+    subscription->listener_ = nullptr;
+  }
+  std::lock_guard lock(mu_);
+  std::erase(subscriptions_, subscription);
+  FrameGroup& group = *subscription->group_;
+  std::erase(group.members, subscription);
+  if (group.members.empty()) {
+    std::erase_if(groups_, [&](const auto& g) { return g.get() == &group; });
+  }
+}
+
+void FrameHub::Close() {
+  std::vector<std::shared_ptr<Subscription>> subscriptions;
+  {
+    std::lock_guard lock(mu_);
+    closed_ = true;
+    subscriptions = subscriptions_;
+  }
+  for (const auto& s : subscriptions) {
+    std::lock_guard lock(s->listener_mu_);
+    if (s->listener_) s->listener_->OnHubClosed();
+  }
+}
+
+size_t FrameHub::subscribers() const {
+  std::lock_guard lock(mu_);
+  return subscriptions_.size();
+}
+
+uint32_t FrameHub::NeededFields() const {
+  std::lock_guard lock(mu_);
+  uint32_t fields = 0;
+  for (const auto& g : groups_) fields |= g->options.stream.fields;
+  return fields;
+}
+
+uint64_t FrameHub::frames_encoded() const {
+  std::lock_guard lock(mu_);
+  return frames_encoded_;
+}
+
+void FrameHub::RequestKeyframe(FrameGroup& group) {
+  group.keyframe_needed = true;
+  if (frame_needed_) frame_needed_();
+}
+
+void FrameHub::Publish(const FrameSnapshot& snapshot, bool force, bool discontinuity) {
+  std::vector<std::pair<std::shared_ptr<FrameGroup>, std::vector<std::shared_ptr<Subscription>>>>
+      work;
+  {
+    std::lock_guard lock(mu_);
+    for (const auto& g : groups_) work.emplace_back(g, g->members);
+  }
+  const auto now = Clock::now();
+  for (auto& [group, members] : work) {
+    const double max_fps = group->options.max_fps;
+    if (!force && max_fps > 0 && group->last_encoded &&
+        now - *group->last_encoded < std::chrono::duration<double>(1.0 / max_fps)) {
+      continue;
+    }
+    group->last_encoded = now;
+    if (group->keyframe_needed.exchange(false) || discontinuity) group->encoder.RequestKeyframe();
+
+    const uint32_t fields = group->options.stream.fields;
+    codec::FrameInput input;
+    input.step = snapshot.step;
+    input.time = snapshot.time;
+    input.domain_min = snapshot.domain_min;
+    input.domain_max = snapshot.domain_max;
+    input.positions = snapshot.positions;
+    if (fields & (codec::kSpeed | codec::kVelocity)) input.velocities = snapshot.velocities;
+    if (fields & codec::kDensity) input.densities = snapshot.densities;
+
+    auto encoded = std::make_shared<EncodedFrame>();
+    encoded->chunks = group->encoder.Encode(input);
+    encoded->keyframe = group->encoder.last_was_keyframe();
+    encoded->frame = snapshot.frame;
+    encoded->seq = group->next_seq++;
+    encoded->produced_unix_us = snapshot.produced_unix_us;
+    for (const codec::Chunk& c : encoded->chunks) encoded->bytes += c.size();
+    {
+      std::lock_guard lock(mu_);
+      ++frames_encoded_;
+    }
+    for (const auto& s : members) {
+      {
+        std::lock_guard lock(s->frame_mu_);
+        s->pending_ = encoded;  // replaces an older frame not taken yet: latest wins
+      }
+      std::lock_guard lock(s->listener_mu_);
+      if (s->listener_) s->listener_->OnFrameReady();
+    }
+  }
+}
+
+}  // namespace dysa::service

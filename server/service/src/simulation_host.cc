@@ -1,0 +1,355 @@
+#include "dysa/service/simulation_host.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <sstream>
+
+#include "dysa/core/types.h"
+
+namespace dysa::service {
+
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+template <class... Ts>
+struct Overloaded : Ts... {
+  using Ts::operator()...;
+};
+
+ControlResult Error(ControlCode code, std::string message) {
+  ControlResult result;
+  result.code = code;
+  result.message = std::move(message);
+  return result;
+}
+
+int64_t UnixMicros() {
+  return std::chrono::duration_cast<std::chrono::microseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+}  // namespace
+
+SimulationHost::SimulationHost(Scene scene, HostOptions options)
+    : options_(std::move(options)), hub_(options_.max_subscribers), history_(options_.history) {
+  if (const std::string over = CheckParticleLimit(scene, scene.params); !over.empty()) {
+    throw ConfigError("max_particles", over);
+  }
+  sim_ = std::make_unique<Simulation>(std::move(scene));
+  running_ = !options_.start_paused;
+  StartScene();
+  // A late joiner (or a subscriber that lost a frame) needs a frame even while paused.
+  hub_.set_frame_needed([this] {
+    std::lock_guard lock(mu_);
+    frame_needed_ = true;
+    wake_.notify_one();
+  });
+}
+
+SimulationHost::~SimulationHost() { Stop(); }
+
+void SimulationHost::Start() {
+  if (!thread_.joinable()) thread_ = std::thread([this] { Loop(); });
+}
+
+void SimulationHost::Stop() {
+  {
+    std::lock_guard lock(mu_);
+    stop_ = true;
+  }
+  wake_.notify_one();
+  if (thread_.joinable()) thread_.join();
+  // Answer what the thread left (or everything, if it never ran).
+  std::deque<Job> left;
+  {
+    std::lock_guard lock(mu_);
+    left.swap(queue_);
+  }
+  for (Job& job : left) {
+    job.done(Error(ControlCode::kUnavailable, "the server is shutting down"));
+  }
+}
+
+HostStatus SimulationHost::Status() const {
+  HostStatus status;
+  {
+    std::lock_guard lock(status_mu_);
+    status = status_;
+  }
+  status.subscribers = uint32_t(hub_.subscribers());
+  status.frames_encoded = hub_.frames_encoded();
+  return status;
+}
+
+Params SimulationHost::CurrentParams() const {
+  std::lock_guard lock(status_mu_);
+  return params_;
+}
+
+void SimulationHost::Submit(Control control, std::function<void(ControlResult)> done) {
+  {
+    std::lock_guard lock(mu_);
+    if (!stop_) {
+      queue_.push_back(Job{std::move(control), std::move(done)});
+      wake_.notify_one();
+      return;
+    }
+  }
+  done(Error(ControlCode::kUnavailable, "the server is shutting down"));
+}
+
+void SimulationHost::Loop() {
+  auto next_frame = Clock::now();
+  while (true) {
+    std::deque<Job> jobs;
+    bool frame_needed = false;
+    {
+      std::unique_lock lock(mu_);
+      auto ready = [&] { return stop_ || !queue_.empty() || frame_needed_; };
+      if (!running_) {
+        wake_.wait(lock, ready);
+      } else if (options_.frame_rate > 0) {
+        wake_.wait_until(lock, next_frame, ready);
+      }
+      if (stop_) return;
+      jobs.swap(queue_);
+      std::swap(frame_needed, frame_needed_);
+    }
+    for (Job& job : jobs) job.done(Apply(job.control));
+    // While running, the next frame serves whoever waits for one.
+    if (frame_needed && !running_) Publish(/*force=*/true, /*discontinuity=*/false);
+
+    const auto now = Clock::now();
+    if (running_ && now >= next_frame) {
+      AdvanceFrame();
+      if (options_.frame_rate > 0) {
+        const auto period = std::chrono::duration_cast<Clock::duration>(
+            std::chrono::duration<double>(1.0 / options_.frame_rate));
+        // Catch up after a short hiccup, but never burst after a long one (a slow frame).
+        next_frame = std::max(next_frame + period, Clock::now() - period);
+      }
+    }
+  }
+}
+
+void SimulationHost::AdvanceFrame() {
+  sim_->StepFrame();
+  if (!StateIsFinite(sim_->state().particles)) {
+    const State& s = sim_->state();
+    alarm_ = "non-finite particle state at step " + std::to_string(s.step) + " (frame " +
+             std::to_string(s.frame) +
+             "): the solver diverged; paused. Step back, reset, or lower the time step";
+    running_ = false;
+    Log("alarm: " + alarm_);
+    RefreshStatus();
+    return;  // never recorded, never streamed
+  }
+  history_.Record(*sim_);
+  recent_frames_.push_back(Clock::now());
+  while (recent_frames_.front() < recent_frames_.back() - std::chrono::seconds(1)) {
+    recent_frames_.pop_front();
+  }
+  Publish(/*force=*/!running_, /*discontinuity=*/false);
+  RefreshStatus();
+}
+
+ControlResult SimulationHost::Apply(Control& control) {
+  ControlResult result = std::visit(
+      Overloaded{
+          [&](PauseControl&) {
+            if (running_) Log("paused at frame " + std::to_string(sim_->state().frame));
+            running_ = false;
+            return ControlResult{};
+          },
+          [&](ResumeControl&) {
+            if (!alarm_.empty()) {
+              return Error(ControlCode::kFailedPrecondition,
+                           "cannot resume: " + alarm_ + " (StepBack or Reset first)");
+            }
+            if (!running_) Log("resumed at frame " + std::to_string(sim_->state().frame));
+            running_ = true;
+            return ControlResult{};
+          },
+          [&](StepControl& c) {
+            if (c.count < 1 || c.count > kMaxStepCount) {
+              return Error(
+                  ControlCode::kInvalidArgument,
+                  "count: allowed range [1, " + std::to_string(kMaxStepCount) + "] frames");
+            }
+            if (!alarm_.empty()) {
+              return Error(ControlCode::kFailedPrecondition,
+                           "cannot step: " + alarm_ + " (StepBack or Reset first)");
+            }
+            running_ = false;
+            ControlResult r;
+            for (uint32_t i = 0; i < c.count && alarm_.empty(); ++i) {
+              AdvanceFrame();
+              if (alarm_.empty()) ++r.frames_moved;
+            }
+            return r;
+          },
+          [&](StepBackControl& c) {
+            if (c.count < 1 || c.count > kMaxStepCount) {
+              return Error(
+                  ControlCode::kInvalidArgument,
+                  "count: allowed range [1, " + std::to_string(kMaxStepCount) + "] frames");
+            }
+            running_ = false;
+            // A diverged state is not in the history: the last good frame is the one before.
+            const uint64_t from = sim_->state().frame;
+            const uint64_t target = from > c.count ? from - c.count : 0;
+            const uint64_t reached = history_.Restore(*sim_, target);
+            alarm_.clear();
+            ControlResult r;
+            r.frames_moved = uint32_t(from - reached);
+            Publish(/*force=*/true, /*discontinuity=*/true);
+            return r;
+          },
+          [&](ResetControl&) {
+            sim_->Reset();
+            StartScene();
+            Log("reset");
+            ControlResult r;
+            r.reset = true;
+            return r;
+          },
+          [&](UpdateParamsControl& c) {
+            Params next = sim_->params();
+            try {
+              for (const auto& [name, value] : c.values) SetParam(next, name, value);
+              if (const std::string over = CheckParticleLimit(sim_->scene(), next); !over.empty()) {
+                return Error(ControlCode::kResourceExhausted, over);
+              }
+              ControlResult r;
+              r.reset = sim_->SetParams(next);
+              std::ostringstream changed;
+              for (const auto& [name, value] : c.values) changed << " " << name << "=" << value;
+              Log("parameters changed:" + changed.str() + (r.reset ? " (reset)" : ""));
+              if (r.reset) {
+                StartScene();
+              } else {
+                history_.RecordParameterChange(*sim_);
+              }
+              return r;
+            } catch (const ConfigError& e) {
+              return Error(ControlCode::kInvalidArgument, e.what());
+            }
+          },
+          [&](LoadSceneControl& c) {
+            if (const std::string over = CheckParticleLimit(c.scene, c.scene.params);
+                !over.empty()) {
+              return Error(ControlCode::kResourceExhausted, over);
+            }
+            try {
+              auto next = std::make_unique<Simulation>(std::move(c.scene));
+              sim_ = std::move(next);
+            } catch (const ConfigError& e) {
+              return Error(ControlCode::kInvalidArgument, e.what());
+            }
+            StartScene();
+            ControlResult r;
+            r.reset = true;
+            return r;
+          },
+      },
+      control);
+  RefreshStatus();
+  result.status = Status();
+  result.params = sim_->params();
+  return result;
+}
+
+std::string SimulationHost::CheckParticleLimit(const Scene& scene, const Params& params) const {
+  uint64_t total = 0;
+  for (const auto& n : BlockParticleCounts(scene, params)) {
+    total += uint64_t(n.x()) * uint64_t(n.y()) * uint64_t(n.z());
+  }
+  if (total <= options_.max_particles) return "";
+  return "the scene would have " + std::to_string(total) +
+         " particles; this server allows at most " + std::to_string(options_.max_particles) +
+         " (dysa-server --max-particles)";
+}
+
+void SimulationHost::StartScene() {
+  alarm_.clear();
+  history_.Start(*sim_);
+  recent_frames_.clear();
+  const Scene& scene = sim_->scene();
+  Log("scene '" + scene.name + "': " + std::to_string(sim_->state().particles.size()) +
+      " particles, solver " + scene.solver + ", history " + std::to_string(history_.window()) +
+      " frames (a checkpoint every " + std::to_string(history_.interval()) + ")");
+  Publish(/*force=*/true, /*discontinuity=*/true);
+  RefreshStatus();
+}
+
+void SimulationHost::Publish(bool force, bool discontinuity) {
+  const uint32_t fields = hub_.NeededFields();
+  if (fields == 0) return;  // no one watches: nothing gathered, nothing encoded
+  const State& state = sim_->state();
+  const ParticleArrays& p = state.particles;
+  const size_t n = p.size();
+  FrameSnapshot& s = snapshot_;
+  s.frame = state.frame;
+  s.step = state.step;
+  s.time = state.time;
+  const Aabb& domain = sim_->model().domain;
+  for (int a = 0; a < 3; ++a) {
+    s.domain_min[a] = domain.min[a];
+    s.domain_max[a] = domain.max[a];
+  }
+  s.produced_unix_us = UnixMicros();
+  // Scatter from storage order (cell order, changes every step) into id order.
+  const bool velocities = fields & (codec::kSpeed | codec::kVelocity);
+  const bool densities = fields & codec::kDensity;
+  s.positions.resize(3 * n);
+  s.velocities.resize(velocities ? 3 * n : 0);
+  s.densities.resize(densities ? n : 0);
+#pragma omp parallel for schedule(static)
+  for (size_t i = 0; i < n; ++i) {
+    const size_t k = p.id[i];
+    for (int a = 0; a < 3; ++a) s.positions[3 * k + a] = p.position[i][a];
+    if (velocities) {
+      for (int a = 0; a < 3; ++a) s.velocities[3 * k + a] = p.velocity[i][a];
+    }
+    if (densities) s.densities[k] = p.density[i];
+  }
+  hub_.Publish(s, force, discontinuity);
+}
+
+void SimulationHost::RefreshStatus() {
+  HostStatus s;
+  const State& state = sim_->state();
+  s.running = running_;
+  s.step = state.step;
+  s.frame = state.frame;
+  s.time = state.time;
+  s.particles = uint32_t(state.particles.size());
+  s.solver = sim_->scene().solver;
+  s.scene = sim_->scene().name;
+  if (recent_frames_.size() >= 2 && running_) {
+    const double span =
+        std::chrono::duration<double>(recent_frames_.back() - recent_frames_.front()).count();
+    if (span > 0) s.frames_per_second = double(recent_frames_.size() - 1) / span;
+  }
+  s.target_frame_rate = options_.frame_rate;
+  for (const PassProfile& prof : sim_->profile()) {
+    s.passes.push_back(PassStatus{prof.name, prof.last_ms,
+                                  prof.calls ? prof.total_ms / double(prof.calls) : 0.0,
+                                  prof.calls});
+  }
+  s.alarm = alarm_;
+  s.history_frames = history_.available(state.frame);
+  s.history_bytes = history_.bytes();
+  std::lock_guard lock(status_mu_);
+  status_ = std::move(s);
+  params_ = sim_->params();
+}
+
+void SimulationHost::Log(const std::string& line) const {
+  if (options_.log) options_.log(line);
+}
+
+}  // namespace dysa::service

@@ -1,0 +1,448 @@
+#include "simulation_service.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "dysa/core/params.h"
+#include "dysa/core/scene.h"
+#include "dysa/core/types.h"
+
+namespace dysa::service {
+
+namespace {
+
+// Messages stay under gRPC's 4 MiB default whatever the client's limit; chunks are far smaller
+// (65,536 particles each), so a frame is cut at chunk boundaries.
+constexpr size_t kMaxMessageBytes = size_t{3} << 20;
+
+grpc::Status ToGrpc(ControlCode code, const std::string& message) {
+  switch (code) {
+    case ControlCode::kOk:
+      return grpc::Status::OK;
+    case ControlCode::kInvalidArgument:
+      return {grpc::StatusCode::INVALID_ARGUMENT, message};
+    case ControlCode::kResourceExhausted:
+      return {grpc::StatusCode::RESOURCE_EXHAUSTED, message};
+    case ControlCode::kFailedPrecondition:
+      return {grpc::StatusCode::FAILED_PRECONDITION, message};
+    case ControlCode::kUnavailable:
+      return {grpc::StatusCode::UNAVAILABLE, message};
+  }
+  return {grpc::StatusCode::INTERNAL, message};
+}
+
+void ToProto(const HostStatus& s, v1::Status& out) {
+  out.set_state(s.running ? v1::RUN_STATE_RUNNING : v1::RUN_STATE_PAUSED);
+  out.set_step(s.step);
+  out.set_frame(s.frame);
+  out.set_time(s.time);
+  out.set_particles(s.particles);
+  out.set_solver(s.solver);
+  out.set_scene(s.scene);
+  out.set_frames_per_second(s.frames_per_second);
+  out.set_target_frame_rate(s.target_frame_rate);
+  out.clear_passes();
+  for (const PassStatus& p : s.passes) {
+    v1::PassTiming& t = *out.add_passes();
+    t.set_name(p.name);
+    t.set_last_ms(p.last_ms);
+    t.set_mean_ms(p.mean_ms);
+    t.set_calls(p.calls);
+  }
+  out.set_subscribers(s.subscribers);
+  out.set_alarm(s.alarm);
+  out.set_history_frames(s.history_frames);
+  out.set_history_bytes(s.history_bytes);
+  out.set_frames_encoded(s.frames_encoded);
+}
+
+void ToProto(const Params& params, google::protobuf::RepeatedPtrField<v1::ParamInfo>& out) {
+  out.Clear();
+  for (const ParamDecl& d : ParamTable()) {
+    v1::ParamInfo& p = *out.Add();
+    p.set_name(std::string(d.name));
+    p.set_value(d.get(params));
+    p.set_unit(std::string(d.unit));
+    p.set_min(d.min);
+    p.set_max(d.max);
+    p.set_default_value(d.DefaultValue());
+    p.set_integer(d.integer);
+    p.set_needs_reset(d.needs_reset);
+    p.set_description(std::string(d.description));
+  }
+}
+
+// Codec stream settings from a request; zero means the default. Throws std::invalid_argument
+// naming the request field.
+SubscriptionOptions ToOptions(const v1::StreamFramesRequest& r) {
+  SubscriptionOptions o;
+  codec::StreamConfig& c = o.stream;
+  if (r.fields_size() > 0) c.fields = codec::kPositions;
+  for (int f : r.fields()) {
+    switch (f) {
+      case v1::FIELD_POSITIONS:
+        c.fields |= codec::kPositions;
+        break;
+      case v1::FIELD_SPEED:
+        c.fields |= codec::kSpeed;
+        break;
+      case v1::FIELD_VELOCITY:
+        c.fields |= codec::kVelocity;
+        break;
+      case v1::FIELD_DENSITY:
+        c.fields |= codec::kDensity;
+        break;
+      default:
+        throw std::invalid_argument(
+            "fields: allowed values FIELD_POSITIONS, FIELD_SPEED, FIELD_VELOCITY, FIELD_DENSITY "
+            "(got " +
+            std::to_string(f) + ")");
+    }
+  }
+  // Out-of-range values must fail, not wrap: compare before narrowing to int.
+  auto bits = [](uint32_t value, int fallback, int max, const char* field) {
+    if (value == 0) return fallback;
+    if (value > uint32_t(max)) {
+      throw std::invalid_argument(std::string(field) + ": allowed range [1, " +
+                                  std::to_string(max) + "] bits, or 0 for the default");
+    }
+    return int(value);
+  };
+  c.position_bits = bits(r.position_bits(), c.position_bits, 24, "position_bits");
+  c.speed_bits = bits(r.speed_bits(), c.speed_bits, 16, "speed_bits");
+  c.velocity_bits = bits(r.velocity_bits(), c.velocity_bits, 16, "velocity_bits");
+  c.density_bits = bits(r.density_bits(), c.density_bits, 16, "density_bits");
+  if (r.keyframe_interval() > 1000000) {
+    throw std::invalid_argument("keyframe_interval: allowed range [1, 1000000] frames, or 0");
+  }
+  if (r.keyframe_interval() != 0) c.keyframe_interval = int(r.keyframe_interval());
+  if (r.stride() != 0) c.stride = r.stride();
+  if (!std::isfinite(r.max_fps()) || r.max_fps() < 0 || r.max_fps() > 1000) {
+    throw std::invalid_argument("max_fps: allowed range [0, 1000] frames per second");
+  }
+  o.max_fps = r.max_fps();
+  c.Validate();
+  return o;
+}
+
+// One StreamFrames call: takes the newest decodable frame from its subscription whenever no
+// write is in flight, and sends it as one or more messages.
+class FrameStream final : public grpc::ServerWriteReactor<v1::FrameMessage>, public FrameListener {
+ public:
+  explicit FrameStream(FrameHub& hub) : hub_(hub) {}
+
+  // Subscribes, or finishes the call with the reason it cannot.
+  void Begin(const SubscriptionOptions& options) {
+    // Held so that a frame published before subscription_ is set waits for it.
+    std::lock_guard lock(mu_);
+    try {
+      subscription_ = hub_.Subscribe(options, this);
+    } catch (const SubscriberLimitError& e) {
+      FinishLocked({grpc::StatusCode::RESOURCE_EXHAUSTED, e.what()});
+    }
+  }
+  void FinishNow(const grpc::Status& status) {
+    std::lock_guard lock(mu_);
+    FinishLocked(status);
+  }
+
+  void OnFrameReady() override {
+    std::lock_guard lock(mu_);
+    if (!writing_ && !finished_ && subscription_) WriteNextLocked();
+  }
+  void OnHubClosed() override {
+    std::lock_guard lock(mu_);
+    closing_ = true;
+    if (!writing_) FinishLocked({grpc::StatusCode::UNAVAILABLE, "the server is shutting down"});
+  }
+
+  void OnWriteDone(bool ok) override {
+    std::lock_guard lock(mu_);
+    writing_ = false;
+    if (!ok) {
+      FinishLocked({grpc::StatusCode::CANCELLED, "the stream was cancelled"});
+    } else if (closing_) {
+      FinishLocked({grpc::StatusCode::UNAVAILABLE, "the server is shutting down"});
+    } else if (!finished_) {
+      WriteNextLocked();
+    }
+  }
+  void OnCancel() override {
+    std::lock_guard lock(mu_);
+    if (!writing_) FinishLocked({grpc::StatusCode::CANCELLED, "the stream was cancelled"});
+  }
+  void OnDone() override {
+    if (subscription_) hub_.Unsubscribe(subscription_);  // no callback after this returns
+    delete this;
+  }
+
+ private:
+  void FinishLocked(const grpc::Status& status) {
+    if (finished_) return;
+    finished_ = true;
+    Finish(status);
+  }
+
+  // The rest of the current frame, or the next frame.
+  void WriteNextLocked() {
+    if (!frame_ || next_chunk_ == frame_->chunks.size()) {
+      uint32_t skipped = 0;
+      frame_ = subscription_->Take(&skipped);
+      next_chunk_ = 0;
+      if (!frame_) return;  // OnFrameReady will follow
+      skipped_ = skipped;
+    }
+    message_.Clear();
+    size_t bytes = 0;
+    while (next_chunk_ < frame_->chunks.size()) {
+      const codec::Chunk& chunk = frame_->chunks[next_chunk_];
+      if (message_.chunks_size() > 0 && bytes + chunk.size() > kMaxMessageBytes) break;
+      message_.add_chunks(chunk.data(), chunk.size());
+      bytes += chunk.size();
+      ++next_chunk_;
+    }
+    message_.set_frame(frame_->frame);
+    message_.set_last_of_frame(next_chunk_ == frame_->chunks.size());
+    message_.set_frame_bytes(frame_->bytes);
+    message_.set_produced_unix_us(frame_->produced_unix_us);
+    message_.set_frames_skipped(skipped_);
+    writing_ = true;
+    StartWrite(&message_);
+  }
+
+  FrameHub& hub_;
+  std::shared_ptr<Subscription> subscription_;
+  std::mutex mu_;
+  bool writing_ = false;
+  bool finished_ = false;
+  bool closing_ = false;
+  std::shared_ptr<const EncodedFrame> frame_;  // being sent
+  size_t next_chunk_ = 0;
+  uint32_t skipped_ = 0;
+  v1::FrameMessage message_;  // the write in flight
+};
+
+}  // namespace
+
+grpc::Status SimulationService::CheckAccess(const grpc::CallbackServerContext* context,
+                                            Access access) const {
+  if (access_.token.empty() || (access == Access::kWatch && !access_.protect_watch)) {
+    return grpc::Status::OK;
+  }
+  const auto& metadata = context->client_metadata();
+  const auto it = metadata.find("authorization");
+  if (it == metadata.end()) {
+    return {grpc::StatusCode::UNAUTHENTICATED,
+            "this server needs a token: metadata 'authorization: Bearer <token>' (dysa --token)"};
+  }
+  const std::string expected = "Bearer " + access_.token;
+  const std::string_view given(it->second.data(), it->second.size());
+  // Compare in time independent of where the first difference is.
+  unsigned diff = given.size() != expected.size();
+  for (size_t i = 0; i < std::min(given.size(), expected.size()); ++i) {
+    diff |= unsigned(given[i] ^ expected[i]);
+  }
+  if (diff != 0) return {grpc::StatusCode::UNAUTHENTICATED, "wrong token"};
+  return grpc::Status::OK;
+}
+
+grpc::ServerUnaryReactor* SimulationService::SubmitControl(grpc::CallbackServerContext* context,
+                                                           Control control,
+                                                           v1::ControlReply* reply) {
+  grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
+  if (grpc::Status s = CheckAccess(context, Access::kControl); !s.ok()) {
+    reactor->Finish(s);
+    return reactor;
+  }
+  host_.Submit(std::move(control), [reactor, reply](ControlResult r) {
+    if (r.code == ControlCode::kOk) {
+      ToProto(r.status, *reply->mutable_status());
+      reply->set_reset(r.reset);
+      reply->set_frames_moved(r.frames_moved);
+    }
+    reactor->Finish(ToGrpc(r.code, r.message));
+  });
+  return reactor;
+}
+
+grpc::ServerUnaryReactor* SimulationService::GetStatus(grpc::CallbackServerContext* context,
+                                                       const v1::GetStatusRequest*,
+                                                       v1::Status* reply) {
+  grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
+  grpc::Status s = CheckAccess(context, Access::kWatch);
+  if (s.ok()) ToProto(host_.Status(), *reply);
+  reactor->Finish(s);
+  return reactor;
+}
+
+grpc::ServerUnaryReactor* SimulationService::Pause(grpc::CallbackServerContext* context,
+                                                   const v1::PauseRequest*,
+                                                   v1::ControlReply* reply) {
+  return SubmitControl(context, PauseControl{}, reply);
+}
+
+grpc::ServerUnaryReactor* SimulationService::Resume(grpc::CallbackServerContext* context,
+                                                    const v1::ResumeRequest*,
+                                                    v1::ControlReply* reply) {
+  return SubmitControl(context, ResumeControl{}, reply);
+}
+
+grpc::ServerUnaryReactor* SimulationService::Step(grpc::CallbackServerContext* context,
+                                                  const v1::StepRequest* request,
+                                                  v1::ControlReply* reply) {
+  return SubmitControl(context, StepControl{std::max(request->count(), 1u)}, reply);
+}
+
+grpc::ServerUnaryReactor* SimulationService::StepBack(grpc::CallbackServerContext* context,
+                                                      const v1::StepBackRequest* request,
+                                                      v1::ControlReply* reply) {
+  return SubmitControl(context, StepBackControl{std::max(request->count(), 1u)}, reply);
+}
+
+grpc::ServerUnaryReactor* SimulationService::Reset(grpc::CallbackServerContext* context,
+                                                   const v1::ResetRequest*,
+                                                   v1::ControlReply* reply) {
+  return SubmitControl(context, ResetControl{}, reply);
+}
+
+grpc::ServerUnaryReactor* SimulationService::GetParams(grpc::CallbackServerContext* context,
+                                                       const v1::GetParamsRequest*,
+                                                       v1::ParamsReply* reply) {
+  grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
+  grpc::Status s = CheckAccess(context, Access::kWatch);
+  if (s.ok()) ToProto(host_.CurrentParams(), *reply->mutable_params());
+  reactor->Finish(s);
+  return reactor;
+}
+
+grpc::ServerUnaryReactor* SimulationService::UpdateParams(grpc::CallbackServerContext* context,
+                                                          const v1::UpdateParamsRequest* request,
+                                                          v1::UpdateParamsReply* reply) {
+  grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
+  if (grpc::Status s = CheckAccess(context, Access::kControl); !s.ok()) {
+    reactor->Finish(s);
+    return reactor;
+  }
+  const auto& values = request->params().values();
+  UpdateParamsControl control;
+  if (request->update_mask().paths_size() == 0) {
+    for (const auto& [name, value] : values) control.values.emplace_back(name, value);
+  } else {
+    for (const std::string& path : request->update_mask().paths()) {
+      const std::string name = path.starts_with("values.") ? path.substr(7) : path;
+      const auto it = values.find(name);
+      if (it == values.end()) {
+        reactor->Finish({grpc::StatusCode::INVALID_ARGUMENT,
+                         "update_mask: '" + path + "' has no value in params.values"});
+        return reactor;
+      }
+      control.values.emplace_back(name, it->second);
+    }
+  }
+  if (control.values.empty()) {
+    reactor->Finish({grpc::StatusCode::INVALID_ARGUMENT,
+                     "params.values: no parameter given (see GetParams for the names)"});
+    return reactor;
+  }
+  // Map order is unspecified; apply in a fixed order so logs and errors are reproducible.
+  std::sort(control.values.begin(), control.values.end());
+  host_.Submit(std::move(control), [reactor, reply](ControlResult r) {
+    if (r.code == ControlCode::kOk) {
+      reply->set_reset(r.reset);
+      ToProto(r.params, *reply->mutable_params());
+      ToProto(r.status, *reply->mutable_status());
+    }
+    reactor->Finish(ToGrpc(r.code, r.message));
+  });
+  return reactor;
+}
+
+grpc::ServerUnaryReactor* SimulationService::LoadScene(grpc::CallbackServerContext* context,
+                                                       const v1::LoadSceneRequest* request,
+                                                       v1::ControlReply* reply) {
+  grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
+  if (grpc::Status s = CheckAccess(context, Access::kControl); !s.ok()) {
+    reactor->Finish(s);
+    return reactor;
+  }
+  // Parsed here, off the simulation thread; the old scene runs on if this fails. Only built-in
+  // names are looked up: a remote caller never makes the server read its files.
+  Scene scene;
+  try {
+    switch (request->source_case()) {
+      case v1::LoadSceneRequest::kName: {
+        const std::vector<std::string> names = BuiltinSceneNames();
+        if (std::find(names.begin(), names.end(), request->name()) == names.end()) {
+          std::string known;
+          for (const std::string& n : names) known += (known.empty() ? "" : ", ") + n;
+          reactor->Finish({grpc::StatusCode::INVALID_ARGUMENT,
+                           "name: no built-in scene '" + request->name() + "' (known: " + known +
+                               "); send a scene file's content as json_text"});
+          return reactor;
+        }
+        scene = dysa::LoadScene(request->name());
+        break;
+      }
+      case v1::LoadSceneRequest::kJsonText:
+        scene = ParseScene(request->json_text());
+        break;
+      default:
+        reactor->Finish({grpc::StatusCode::INVALID_ARGUMENT,
+                         "source: give a built-in scene name or json_text"});
+        return reactor;
+    }
+  } catch (const ConfigError& e) {
+    reactor->Finish({grpc::StatusCode::INVALID_ARGUMENT, std::string("scene: ") + e.what()});
+    return reactor;
+  }
+  host_.Submit(LoadSceneControl{std::move(scene)}, [reactor, reply](ControlResult r) {
+    if (r.code == ControlCode::kOk) {
+      ToProto(r.status, *reply->mutable_status());
+      reply->set_reset(true);
+    }
+    reactor->Finish(ToGrpc(r.code, r.message));
+  });
+  return reactor;
+}
+
+grpc::ServerUnaryReactor* SimulationService::ListScenes(grpc::CallbackServerContext* context,
+                                                        const v1::ListScenesRequest*,
+                                                        v1::ListScenesReply* reply) {
+  grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
+  if (grpc::Status s = CheckAccess(context, Access::kWatch); !s.ok()) {
+    reactor->Finish(s);
+    return reactor;
+  }
+  for (const BuiltinSceneText& builtin : BuiltinSceneTexts()) {
+    const Scene scene = ParseScene(builtin.json);
+    uint64_t particles = 0;
+    for (const auto& n : BlockParticleCounts(scene, scene.params)) {
+      particles += uint64_t(n.x()) * uint64_t(n.y()) * uint64_t(n.z());
+    }
+    v1::SceneInfo& info = *reply->add_scenes();
+    info.set_name(std::string(builtin.name));
+    info.set_description(scene.description);
+    info.set_particles(uint32_t(particles));
+    info.set_solver(scene.solver);
+  }
+  reply->set_current(host_.Status().scene);
+  reactor->Finish(grpc::Status::OK);
+  return reactor;
+}
+
+grpc::ServerWriteReactor<v1::FrameMessage>* SimulationService::StreamFrames(
+    grpc::CallbackServerContext* context, const v1::StreamFramesRequest* request) {
+  auto* stream = new FrameStream(host_.hub());  // deletes itself in OnDone
+  if (grpc::Status s = CheckAccess(context, Access::kWatch); !s.ok()) {
+    stream->FinishNow(s);
+    return stream;
+  }
+  try {
+    stream->Begin(ToOptions(*request));
+  } catch (const std::invalid_argument& e) {
+    stream->FinishNow({grpc::StatusCode::INVALID_ARGUMENT, e.what()});
+  }
+  return stream;
+}
+
+}  // namespace dysa::service

@@ -1,0 +1,67 @@
+// The gRPC adapter of dysa.v1.Simulation (callback API): checks credentials, converts requests
+// into SimulationHost controls and hub subscriptions, and results back into replies. No
+// simulation logic lives here.
+#pragma once
+
+#include <string>
+
+#include "dysa/service/simulation_host.h"
+#include "dysa/v1/simulation.grpc.pb.h"
+
+namespace dysa::service {
+
+struct AccessPolicy {
+  std::string token;           // empty: no token needed
+  bool protect_watch = false;  // the token is needed for reading RPCs and streams too
+};
+
+class SimulationService final : public v1::Simulation::CallbackService {
+ public:
+  SimulationService(SimulationHost& host, AccessPolicy access)
+      : host_(host), access_(std::move(access)) {}
+
+  grpc::ServerUnaryReactor* GetStatus(grpc::CallbackServerContext* context,
+                                      const v1::GetStatusRequest* request,
+                                      v1::Status* reply) override;
+  grpc::ServerUnaryReactor* Pause(grpc::CallbackServerContext* context,
+                                  const v1::PauseRequest* request,
+                                  v1::ControlReply* reply) override;
+  grpc::ServerUnaryReactor* Resume(grpc::CallbackServerContext* context,
+                                   const v1::ResumeRequest* request,
+                                   v1::ControlReply* reply) override;
+  grpc::ServerUnaryReactor* Step(grpc::CallbackServerContext* context,
+                                 const v1::StepRequest* request, v1::ControlReply* reply) override;
+  grpc::ServerUnaryReactor* StepBack(grpc::CallbackServerContext* context,
+                                     const v1::StepBackRequest* request,
+                                     v1::ControlReply* reply) override;
+  grpc::ServerUnaryReactor* Reset(grpc::CallbackServerContext* context,
+                                  const v1::ResetRequest* request,
+                                  v1::ControlReply* reply) override;
+  grpc::ServerUnaryReactor* GetParams(grpc::CallbackServerContext* context,
+                                      const v1::GetParamsRequest* request,
+                                      v1::ParamsReply* reply) override;
+  grpc::ServerUnaryReactor* UpdateParams(grpc::CallbackServerContext* context,
+                                         const v1::UpdateParamsRequest* request,
+                                         v1::UpdateParamsReply* reply) override;
+  grpc::ServerUnaryReactor* LoadScene(grpc::CallbackServerContext* context,
+                                      const v1::LoadSceneRequest* request,
+                                      v1::ControlReply* reply) override;
+  grpc::ServerUnaryReactor* ListScenes(grpc::CallbackServerContext* context,
+                                       const v1::ListScenesRequest* request,
+                                       v1::ListScenesReply* reply) override;
+  grpc::ServerWriteReactor<v1::FrameMessage>* StreamFrames(
+      grpc::CallbackServerContext* context, const v1::StreamFramesRequest* request) override;
+
+ private:
+  enum class Access { kWatch, kControl };
+  // OK, or UNAUTHENTICATED when the call lacks the token the policy asks for.
+  grpc::Status CheckAccess(const grpc::CallbackServerContext* context, Access access) const;
+  // Queues a control; the reply is filled and the call finished once it is applied.
+  grpc::ServerUnaryReactor* SubmitControl(grpc::CallbackServerContext* context, Control control,
+                                          v1::ControlReply* reply);
+
+  SimulationHost& host_;
+  const AccessPolicy access_;
+};
+
+}  // namespace dysa::service
