@@ -157,7 +157,12 @@ void FrameHub::Publish(const FrameSnapshot& snapshot, bool force, bool discontin
     if (fields & (codec::kSpeed | codec::kVelocity)) input.velocities = snapshot.velocities;
     if (fields & codec::kDensity) input.densities = snapshot.densities;
 
-    auto encoded = std::make_shared<EncodedFrame>();
+    ++*frames_alive_;
+    std::shared_ptr<EncodedFrame> encoded(new EncodedFrame,
+                                          [alive = frames_alive_](EncodedFrame* frame) {
+                                            --*alive;
+                                            delete frame;
+                                          });
     encoded->chunks = group->encoder.Encode(input);
     encoded->keyframe = group->encoder.last_was_keyframe();
     encoded->frame = snapshot.frame;

@@ -343,6 +343,7 @@ void SimulationHost::RefreshStatus() {
   s.alarm = alarm_;
   s.history_frames = history_.available(state.frame);
   s.history_bytes = history_.bytes();
+  if (!running_) s.state_hash = StateHash(state);
   std::lock_guard lock(status_mu_);
   status_ = std::move(s);
   params_ = sim_->params();

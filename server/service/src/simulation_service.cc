@@ -54,6 +54,7 @@ void ToProto(const HostStatus& s, v1::Status& out) {
   out.set_history_frames(s.history_frames);
   out.set_history_bytes(s.history_bytes);
   out.set_frames_encoded(s.frames_encoded);
+  out.set_state_hash(s.state_hash);
 }
 
 void ToProto(const Params& params, google::protobuf::RepeatedPtrField<v1::ParamInfo>& out) {

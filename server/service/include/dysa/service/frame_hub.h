@@ -11,6 +11,7 @@
 #pragma once
 
 #include <array>
+#include <atomic>
 #include <chrono>
 #include <cstdint>
 #include <functional>
@@ -105,6 +106,9 @@ class FrameHub {
   // The codec fields some subscriber wants; 0 when no one subscribes (nothing to publish).
   uint32_t NeededFields() const;
   uint64_t frames_encoded() const;
+  // Encoded frames alive (held by the hub, subscribers or writes in flight): at most two per
+  // subscriber plus one per group, whatever the subscribers do.
+  int64_t frames_alive() const { return *frames_alive_; }
 
   // Encodes `snapshot` for every group that is due and offers it to the group's subscribers.
   // `force`: ignore frame-rate caps (a frame the user asked for: a step, a step back, a reset).
@@ -126,6 +130,8 @@ class FrameHub {
   std::vector<std::shared_ptr<FrameGroup>> groups_;
   std::vector<std::shared_ptr<Subscription>> subscriptions_;
   uint64_t frames_encoded_ = 0;
+  // Shared with each frame's deleter, which may run after the hub is gone.
+  std::shared_ptr<std::atomic<int64_t>> frames_alive_ = std::make_shared<std::atomic<int64_t>>(0);
 };
 
 }  // namespace dysa::service

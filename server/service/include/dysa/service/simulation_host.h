@@ -58,6 +58,7 @@ struct HostStatus {
   uint64_t history_frames = 0;
   uint64_t history_bytes = 0;
   uint64_t frames_encoded = 0;
+  uint64_t state_hash = 0;  // StateHash while paused (0 while running: not worth a frame's time)
 };
 
 // Controls, applied between two frames.

@@ -1,0 +1,233 @@
+// Tests of dysa/service/frame_hub.h: one encoding per stream configuration, latest-wins
+// delivery, keyframes for late joiners and after gaps, bounded memory for a stalled subscriber,
+// limits, and that what a subscriber takes decodes to the published frame.
+#include "dysa/service/frame_hub.h"
+
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <cmath>
+#include <thread>
+
+namespace dysa::service {
+namespace {
+
+class CountingListener : public FrameListener {
+ public:
+  void OnFrameReady() override { ++ready; }
+  void OnHubClosed() override { ++closed; }
+  std::atomic<int> ready{0};
+  std::atomic<int> closed{0};
+};
+
+// A block of n particles drifting along x, frame by frame.
+FrameSnapshot Snapshot(uint64_t frame, size_t n = 1000) {
+  FrameSnapshot s;
+  s.frame = frame;
+  s.step = 3 * frame;
+  s.time = frame / 60.0;
+  s.domain_min = {-1, -1, -1};
+  s.domain_max = {1, 1, 1};
+  for (size_t i = 0; i < n; ++i) {
+    const float x = -0.5f + 0.001f * float(i % 100) + 0.002f * float(frame);
+    s.positions.insert(s.positions.end(), {x, 0.001f * float(i / 100), 0.1f});
+    s.velocities.insert(s.velocities.end(), {0.12f, 0.0f, 0.0f});
+    s.densities.push_back(1000.0f);
+  }
+  return s;
+}
+
+SubscriptionOptions Options(uint32_t fields = codec::kPositions | codec::kSpeed) {
+  SubscriptionOptions o;
+  o.stream.fields = fields;
+  return o;
+}
+
+TEST(FrameHubTest, NothingIsEncodedWithoutSubscribers) {
+  FrameHub hub(8);
+  EXPECT_EQ(hub.NeededFields(), 0u);
+  hub.Publish(Snapshot(0), false, false);
+  EXPECT_EQ(hub.frames_encoded(), 0u);
+}
+
+TEST(FrameHubTest, SubscribersWithEqualOptionsShareOneEncoding) {
+  FrameHub hub(8);
+  CountingListener la, lb, lc;
+  auto a = hub.Subscribe(Options(), &la);
+  auto b = hub.Subscribe(Options(), &lb);
+  auto c = hub.Subscribe(Options(codec::kPositions | codec::kDensity), &lc);
+  EXPECT_EQ(hub.NeededFields(), codec::kPositions | codec::kSpeed | codec::kDensity);
+  hub.Publish(Snapshot(0), false, false);
+  EXPECT_EQ(hub.frames_encoded(), 2u);  // two configurations, three subscribers
+  EXPECT_EQ(la.ready, 1);
+  EXPECT_EQ(lc.ready, 1);
+  const auto fa = a->Take(nullptr);
+  const auto fb = b->Take(nullptr);
+  const auto fc = c->Take(nullptr);
+  ASSERT_TRUE(fa && fb && fc);
+  EXPECT_EQ(fa, fb);  // the same encoded bytes
+  EXPECT_NE(fa, fc);
+  EXPECT_TRUE(fa->keyframe);
+  hub.Unsubscribe(a);
+  hub.Unsubscribe(b);
+  EXPECT_EQ(hub.NeededFields(), codec::kPositions | codec::kDensity);
+  hub.Unsubscribe(c);
+  EXPECT_EQ(hub.subscribers(), 0u);
+}
+
+TEST(FrameHubTest, TakenFramesDecodeToThePublishedPositions) {
+  FrameHub hub(8);
+  CountingListener l;
+  auto sub = hub.Subscribe(Options(), &l);
+  codec::FrameDecoder decoder;
+  for (uint64_t f = 0; f < 5; ++f) {
+    const FrameSnapshot s = Snapshot(f);
+    hub.Publish(s, false, false);
+    const auto frame = sub->Take(nullptr);
+    ASSERT_TRUE(frame);
+    EXPECT_EQ(frame->keyframe, f == 0);
+    const std::optional<codec::Frame> decoded = decoder.AddChunks(frame->chunks);
+    ASSERT_TRUE(decoded);
+    ASSERT_EQ(decoded->count, 1000u);
+    EXPECT_EQ(decoded->step, s.step);
+    for (size_t k = 0; k < s.positions.size(); ++k) {
+      ASSERT_LE(std::abs(decoded->positions[k] - s.positions[k]),
+                decoded->position_error[k % 3] * 1.0001);
+    }
+  }
+  hub.Unsubscribe(sub);
+}
+
+TEST(FrameHubTest, ALateJoinerAsksForAFrameAndStartsFromAKeyframe) {
+  FrameHub hub(8);
+  int frames_needed = 0;
+  hub.set_frame_needed([&] { ++frames_needed; });
+  CountingListener la, lb;
+  auto a = hub.Subscribe(Options(), &la);
+  EXPECT_EQ(frames_needed, 1);
+  for (uint64_t f = 0; f < 3; ++f) {
+    hub.Publish(Snapshot(f), false, false);
+    ASSERT_TRUE(a->Take(nullptr));
+  }
+  auto b = hub.Subscribe(Options(), &lb);
+  EXPECT_EQ(frames_needed, 2);  // the server republishes even when paused
+  hub.Publish(Snapshot(3), false, false);
+  const auto fa = a->Take(nullptr);
+  const auto fb = b->Take(nullptr);
+  ASSERT_TRUE(fa && fb);
+  EXPECT_TRUE(fb->keyframe);
+  EXPECT_EQ(fa, fb);  // still one encoding for both
+  hub.Unsubscribe(a);
+  hub.Unsubscribe(b);
+}
+
+TEST(FrameHubTest, ASubscriberThatMissedFramesGetsTheNewestOnlyAfterAKeyframe) {
+  FrameHub hub(8);
+  int frames_needed = 0;
+  hub.set_frame_needed([&] { ++frames_needed; });
+  CountingListener l;
+  auto sub = hub.Subscribe(Options(), &l);
+  hub.Publish(Snapshot(0), false, false);
+  ASSERT_TRUE(sub->Take(nullptr));
+  for (uint64_t f = 1; f <= 3; ++f) hub.Publish(Snapshot(f), false, false);
+  // Frame 3 is a delta on frame 2, which this subscriber never had: it is not handed out.
+  const int needed_before = frames_needed;
+  EXPECT_FALSE(sub->Take(nullptr));
+  EXPECT_EQ(frames_needed, needed_before + 1);
+  hub.Publish(Snapshot(4), false, false);
+  uint32_t skipped = 0;
+  const auto frame = sub->Take(&skipped);
+  ASSERT_TRUE(frame);
+  EXPECT_TRUE(frame->keyframe);
+  EXPECT_EQ(frame->frame, 4u);
+  EXPECT_EQ(skipped, 3u);
+  hub.Unsubscribe(sub);
+}
+
+TEST(FrameHubTest, AStalledSubscriberHoldsOneFrameAndDoesNotHoldBackOthers) {
+  FrameHub hub(8);
+  CountingListener stalled_listener, reader_listener;
+  auto stalled = hub.Subscribe(Options(), &stalled_listener);
+  auto reader = hub.Subscribe(Options(), &reader_listener);
+  codec::FrameDecoder decoder;
+  for (uint64_t f = 0; f < 200; ++f) {
+    hub.Publish(Snapshot(f), false, false);
+    const auto frame = reader->Take(nullptr);
+    ASSERT_TRUE(frame) << f;
+    ASSERT_TRUE(decoder.AddChunks(frame->chunks)) << f;
+    ASSERT_LE(hub.frames_alive(), 2);  // the stalled one's pending frame, the reader's
+  }
+  EXPECT_EQ(hub.frames_encoded(), 200u);
+  hub.Unsubscribe(stalled);
+  hub.Unsubscribe(reader);
+  stalled.reset();  // a subscription owns its pending frame
+  reader.reset();
+  EXPECT_EQ(hub.frames_alive(), 0);
+}
+
+TEST(FrameHubTest, AFrameRateCapSkipsFramesUnlessForced) {
+  FrameHub hub(8);
+  CountingListener l;
+  SubscriptionOptions capped = Options();
+  capped.max_fps = 1;  // one frame per wall second
+  auto sub = hub.Subscribe(capped, &l);
+  for (uint64_t f = 0; f < 5; ++f) hub.Publish(Snapshot(f), false, false);
+  EXPECT_EQ(hub.frames_encoded(), 1u);
+  hub.Publish(Snapshot(5), /*force=*/true, false);  // a step the user asked for
+  EXPECT_EQ(hub.frames_encoded(), 2u);
+  hub.Unsubscribe(sub);
+}
+
+TEST(FrameHubTest, LimitsAndBadOptionsAreRefusedWithTheirReason) {
+  FrameHub hub(1);
+  CountingListener l;
+  SubscriptionOptions bad = Options();
+  bad.stream.position_bits = 30;
+  try {
+    hub.Subscribe(bad, &l);
+    FAIL() << "accepted 30 position bits";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("position_bits"), std::string::npos) << e.what();
+  }
+  bad = Options();
+  bad.max_fps = -1;
+  EXPECT_THROW(hub.Subscribe(bad, &l), std::invalid_argument);
+  auto sub = hub.Subscribe(Options(), &l);
+  EXPECT_THROW(hub.Subscribe(Options(), &l), SubscriberLimitError);
+  hub.Unsubscribe(sub);
+  EXPECT_NO_THROW(hub.Unsubscribe(hub.Subscribe(Options(), &l)));
+}
+
+TEST(FrameHubTest, CloseEndsEveryStreamAndRefusesNewOnes) {
+  FrameHub hub(8);
+  CountingListener la, lb;
+  auto a = hub.Subscribe(Options(), &la);
+  auto b = hub.Subscribe(Options(codec::kPositions), &lb);
+  hub.Close();
+  EXPECT_EQ(la.closed, 1);
+  EXPECT_EQ(lb.closed, 1);
+  EXPECT_THROW(hub.Subscribe(Options(), &la), SubscriberLimitError);
+  hub.Unsubscribe(a);
+  hub.Unsubscribe(b);
+}
+
+TEST(FrameHubTest, PublishingWhileSubscribersComeAndGoIsSafe) {
+  FrameHub hub(64);
+  std::atomic<bool> stop{false};
+  std::thread publisher([&] {
+    for (uint64_t f = 0; !stop; ++f) hub.Publish(Snapshot(f, 200), false, f % 7 == 0);
+  });
+  for (int i = 0; i < 200; ++i) {
+    CountingListener l;
+    auto sub =
+        hub.Subscribe(Options(i % 2 ? codec::kPositions : codec::kPositions | codec::kSpeed), &l);
+    sub->Take(nullptr);
+    hub.Unsubscribe(sub);  // after this, `l` is never called: it goes out of scope
+  }
+  stop = true;
+  publisher.join();
+  EXPECT_EQ(hub.subscribers(), 0u);
+}
+
+}  // namespace
+}  // namespace dysa::service

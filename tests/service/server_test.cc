@@ -1,0 +1,434 @@
+// Integration tests of dysa-server's service over real gRPC on a free loopback port: every RPC,
+// invalid arguments, tokens, TLS, step back and forward bit-identical, subscribers with
+// different fields, a stalled subscriber, limits, and shutdown in the middle of a stream.
+#include "dysa/service/server.h"
+
+#include <grpcpp/grpcpp.h>
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <chrono>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+#include <thread>
+
+#include "dysa/codec/frame_codec.h"
+#include "dysa/v1/simulation.grpc.pb.h"
+#include "support/temp_dir.h"
+
+namespace dysa::service {
+namespace {
+
+using v1::Simulation;
+
+Scene SmallScene() {
+  Scene scene = LoadScene("seed_basic");
+  SetParam(scene.params, "particle_quantity", 10);
+  SetParam(scene.params, "spawn_size", 1.2);
+  return scene;
+}
+
+// A host and a server on a free port, and a client stub.
+class Fixture {
+ public:
+  explicit Fixture(HostOptions host_options = {}, ServerOptions server_options = {},
+                   Scene scene = SmallScene()) {
+    server_options.listen = "127.0.0.1:0";
+    host_ = std::make_unique<SimulationHost>(std::move(scene), host_options);
+    server_ = std::make_unique<Server>(*host_, server_options);
+    channel_ = grpc::CreateChannel(address(), grpc::InsecureChannelCredentials());
+    stub_ = Simulation::NewStub(channel_);
+  }
+  ~Fixture() {
+    server_.reset();
+    host_.reset();
+  }
+  std::string address() const { return "127.0.0.1:" + std::to_string(server_->port()); }
+  Simulation::Stub& stub() { return *stub_; }
+  Server& server() { return *server_; }
+  SimulationHost& host() { return *host_; }
+
+ private:
+  std::unique_ptr<SimulationHost> host_;
+  std::unique_ptr<Server> server_;
+  std::shared_ptr<grpc::Channel> channel_;
+  std::unique_ptr<Simulation::Stub> stub_;
+};
+
+HostOptions Paused() {
+  HostOptions o;
+  o.start_paused = true;
+  return o;
+}
+
+std::unique_ptr<grpc::ClientContext> Context(const std::string& token = "") {
+  auto context = std::make_unique<grpc::ClientContext>();
+  context->set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(60));
+  if (!token.empty()) context->AddMetadata("authorization", "Bearer " + token);
+  return context;
+}
+
+v1::Status GetStatus(Simulation::Stub& stub) {
+  v1::Status status;
+  EXPECT_TRUE(stub.GetStatus(Context().get(), {}, &status).ok());
+  return status;
+}
+
+const v1::ParamInfo& Find(const google::protobuf::RepeatedPtrField<v1::ParamInfo>& params,
+                          const std::string& name) {
+  for (const v1::ParamInfo& p : params) {
+    if (p.name() == name) return p;
+  }
+  ADD_FAILURE() << "no parameter " << name;
+  return params.Get(0);
+}
+
+// Reads frames from a stream until `count` decoded (or the stream ends).
+std::vector<codec::Frame> ReadFrames(grpc::ClientReader<v1::FrameMessage>& reader, int count) {
+  codec::FrameDecoder decoder;
+  std::vector<codec::Frame> frames;
+  v1::FrameMessage message;
+  while (int(frames.size()) < count && reader.Read(&message)) {
+    for (const std::string& chunk : message.chunks()) {
+      auto frame = decoder.AddChunk({reinterpret_cast<const uint8_t*>(chunk.data()), chunk.size()});
+      if (frame) frames.push_back(std::move(*frame));
+    }
+  }
+  return frames;
+}
+
+TEST(ServerTest, EveryControlRpcAppliesAndReports) {
+  Fixture fx(Paused());
+  Simulation::Stub& stub = fx.stub();
+  v1::Status status = GetStatus(stub);
+  EXPECT_EQ(status.state(), v1::RUN_STATE_PAUSED);
+  EXPECT_EQ(status.particles(), 1000u);
+  EXPECT_EQ(status.solver(), "seed");
+  EXPECT_EQ(status.scene(), "seed_basic");
+
+  v1::ControlReply reply;
+  v1::StepRequest step;
+  step.set_count(4);
+  ASSERT_TRUE(stub.Step(Context().get(), step, &reply).ok());
+  EXPECT_EQ(reply.status().frame(), 4u);
+  EXPECT_EQ(reply.frames_moved(), 4u);
+  // seed_basic has no obstacles: external_forces, neighbour_grid, density, pressure_force,
+  // viscosity, integrate.
+  ASSERT_EQ(reply.status().passes_size(), 6);
+  EXPECT_EQ(reply.status().passes(0).name(), "external_forces");
+  EXPECT_EQ(reply.status().passes(0).calls(), 4u * 3);
+  v1::StepBackRequest back;
+  back.set_count(3);
+  ASSERT_TRUE(stub.StepBack(Context().get(), back, &reply).ok());
+  EXPECT_EQ(reply.status().frame(), 1u);
+  ASSERT_TRUE(stub.Reset(Context().get(), {}, &reply).ok());
+  EXPECT_TRUE(reply.reset());
+  EXPECT_EQ(reply.status().frame(), 0u);
+
+  ASSERT_TRUE(stub.Resume(Context().get(), {}, &reply).ok());
+  EXPECT_EQ(reply.status().state(), v1::RUN_STATE_RUNNING);
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  ASSERT_TRUE(stub.Pause(Context().get(), {}, &reply).ok());
+  EXPECT_EQ(reply.status().state(), v1::RUN_STATE_PAUSED);
+  EXPECT_GT(reply.status().frame(), 0u);
+
+  v1::ParamsReply params;
+  ASSERT_TRUE(stub.GetParams(Context().get(), {}, &params).ok());
+  ASSERT_EQ(size_t(params.params_size()), ParamTable().size());
+  const v1::ParamInfo& viscosity = Find(params.params(), "viscosity");
+  EXPECT_EQ(viscosity.name(), "viscosity");
+  EXPECT_EQ(viscosity.unit(), "m^3/s");
+  EXPECT_EQ(viscosity.max(), 10);
+  EXPECT_FALSE(viscosity.needs_reset());
+
+  v1::UpdateParamsRequest update;
+  (*update.mutable_params()->mutable_values())["viscosity"] = 0.02;
+  (*update.mutable_params()->mutable_values())["gravity"] = -3;  // not in the mask: ignored
+  update.mutable_update_mask()->add_paths("values.viscosity");
+  v1::UpdateParamsReply updated;
+  ASSERT_TRUE(stub.UpdateParams(Context().get(), update, &updated).ok());
+  EXPECT_FALSE(updated.reset());
+  EXPECT_EQ(Find(updated.params(), "viscosity").value(), 0.02);
+  EXPECT_EQ(Find(updated.params(), "gravity").value(), -10);
+
+  v1::ListScenesReply scenes;
+  ASSERT_TRUE(stub.ListScenes(Context().get(), {}, &scenes).ok());
+  EXPECT_EQ(scenes.current(), "seed_basic");
+  ASSERT_GE(scenes.scenes_size(), 3);
+  bool thesis = false;
+  for (const auto& s : scenes.scenes())
+    thesis |= s.name() == "seed_test_scene" && s.particles() == 91125;
+  EXPECT_TRUE(thesis);
+
+  v1::LoadSceneRequest load;
+  load.set_json_text(R"({"name": "tiny", "fluid_blocks": [{"particles_per_axis": 5}]})");
+  ASSERT_TRUE(stub.LoadScene(Context().get(), load, &reply).ok());
+  EXPECT_EQ(reply.status().scene(), "tiny");
+  EXPECT_EQ(reply.status().particles(), 125u);
+  load.set_name("seed_basic");
+  ASSERT_TRUE(stub.LoadScene(Context().get(), load, &reply).ok());
+  EXPECT_EQ(reply.status().particles(), 27000u);
+}
+
+TEST(ServerTest, InvalidArgumentsNameTheFieldAndChangeNothing) {
+  Fixture fx(Paused());
+  Simulation::Stub& stub = fx.stub();
+  v1::UpdateParamsRequest update;
+  (*update.mutable_params()->mutable_values())["viscosity"] = 0.5;
+  (*update.mutable_params()->mutable_values())["target_density"] = -7;
+  v1::UpdateParamsReply updated;
+  grpc::Status s = stub.UpdateParams(Context().get(), update, &updated);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(s.error_message().find("target_density"), std::string::npos) << s.error_message();
+  v1::ParamsReply params;
+  ASSERT_TRUE(stub.GetParams(Context().get(), {}, &params).ok());
+  EXPECT_EQ(Find(params.params(), "viscosity").value(), 0.001);  // untouched
+
+  update.mutable_update_mask()->add_paths("values.smoothing");
+  s = stub.UpdateParams(Context().get(), update, &updated);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(s.error_message().find("update_mask"), std::string::npos) << s.error_message();
+
+  // A scene that does not validate: the error names the field; the old scene runs on.
+  v1::LoadSceneRequest load;
+  load.set_json_text(R"({"name": "bad", "fluid_blocks": [{"particles_per_axis": -2}]})");
+  v1::ControlReply reply;
+  s = stub.LoadScene(Context().get(), load, &reply);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(s.error_message().find("particles_per_axis"), std::string::npos) << s.error_message();
+  load.set_json_text("{not json");
+  EXPECT_EQ(stub.LoadScene(Context().get(), load, &reply).error_code(),
+            grpc::StatusCode::INVALID_ARGUMENT);
+  load.set_name("/etc/passwd");  // never read from the server's disk
+  s = stub.LoadScene(Context().get(), load, &reply);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(s.error_message().find("no built-in scene"), std::string::npos) << s.error_message();
+  EXPECT_EQ(GetStatus(stub).scene(), "seed_basic");
+  EXPECT_EQ(GetStatus(stub).particles(), 1000u);
+
+  v1::StepRequest step;
+  step.set_count(kMaxStepCount + 1);
+  s = stub.Step(Context().get(), step, &reply);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(s.error_message().find("count"), std::string::npos);
+
+  v1::StreamFramesRequest stream_request;
+  stream_request.set_position_bits(40);
+  auto context = Context();
+  auto reader = stub.StreamFrames(context.get(), stream_request);
+  v1::FrameMessage message;
+  EXPECT_FALSE(reader->Read(&message));
+  s = reader->Finish();
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(s.error_message().find("position_bits"), std::string::npos) << s.error_message();
+}
+
+TEST(ServerTest, StepBackThenForwardStreamsBitIdenticalStates) {
+  Fixture fx(Paused());
+  Simulation::Stub& stub = fx.stub();
+  std::vector<uint64_t> first;
+  v1::ControlReply reply;
+  for (int f = 0; f < 10; ++f) {
+    ASSERT_TRUE(stub.Step(Context().get(), {}, &reply).ok());
+    first.push_back(reply.status().state_hash());
+  }
+  v1::StepBackRequest back;
+  back.set_count(7);
+  ASSERT_TRUE(stub.StepBack(Context().get(), back, &reply).ok());
+  EXPECT_EQ(reply.status().frame(), 3u);
+  EXPECT_EQ(reply.status().state_hash(), first[2]);
+  for (int f = 3; f < 10; ++f) {
+    ASSERT_TRUE(stub.Step(Context().get(), {}, &reply).ok());
+    EXPECT_EQ(reply.status().state_hash(), first[f]) << "frame " << f + 1;
+  }
+}
+
+TEST(ServerTest, TokensGuardControlsAndOptionallyWatching) {
+  ServerOptions options;
+  options.token = "s3cret";
+  Fixture fx(Paused(), options);
+  Simulation::Stub& stub = fx.stub();
+  v1::ControlReply reply;
+  grpc::Status s = stub.Step(Context().get(), {}, &reply);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::UNAUTHENTICATED);
+  EXPECT_EQ(stub.Step(Context("wrong").get(), {}, &reply).error_code(),
+            grpc::StatusCode::UNAUTHENTICATED);
+  EXPECT_EQ(GetStatus(stub).frame(), 0u);  // watching needs no token by default
+  EXPECT_TRUE(stub.Step(Context("s3cret").get(), {}, &reply).ok());
+  EXPECT_EQ(reply.status().frame(), 1u);
+
+  ServerOptions protect = options;
+  protect.protect_watch = true;
+  Fixture guarded(Paused(), protect);
+  v1::Status status;
+  EXPECT_EQ(guarded.stub().GetStatus(Context().get(), {}, &status).error_code(),
+            grpc::StatusCode::UNAUTHENTICATED);
+  EXPECT_TRUE(guarded.stub().GetStatus(Context("s3cret").get(), {}, &status).ok());
+  auto context = Context();
+  auto reader = guarded.stub().StreamFrames(context.get(), {});
+  v1::FrameMessage message;
+  EXPECT_FALSE(reader->Read(&message));
+  EXPECT_EQ(reader->Finish().error_code(), grpc::StatusCode::UNAUTHENTICATED);
+}
+
+TEST(ServerTest, TwoSubscribersWithDifferentFieldsEachGetTheirFields) {
+  HostOptions running;
+  running.frame_rate = 120;
+  Fixture fx(running);
+  v1::StreamFramesRequest positions_only;
+  positions_only.add_fields(v1::FIELD_POSITIONS);
+  v1::StreamFramesRequest everything;
+  everything.add_fields(v1::FIELD_VELOCITY);
+  everything.add_fields(v1::FIELD_DENSITY);
+  everything.set_stride(2);
+  std::vector<codec::Frame> a, b;
+  std::thread ta([&] {
+    auto context = Context();
+    auto reader = fx.stub().StreamFrames(context.get(), positions_only);
+    a = ReadFrames(*reader, 15);
+    context->TryCancel();
+  });
+  std::thread tb([&] {
+    auto context = Context();
+    auto reader = fx.stub().StreamFrames(context.get(), everything);
+    b = ReadFrames(*reader, 15);
+    context->TryCancel();
+  });
+  ta.join();
+  tb.join();
+  ASSERT_EQ(a.size(), 15u);
+  ASSERT_EQ(b.size(), 15u);
+  EXPECT_TRUE(a.front().keyframe);
+  EXPECT_TRUE(b.front().keyframe);
+  EXPECT_EQ(a.back().fields, uint32_t(codec::kPositions));
+  EXPECT_EQ(a.back().count, 1000u);
+  EXPECT_TRUE(a.back().velocities.empty());
+  EXPECT_EQ(b.back().fields, uint32_t(codec::kPositions | codec::kVelocity | codec::kDensity));
+  EXPECT_EQ(b.back().count, 500u);  // stride 2
+  EXPECT_EQ(b.back().velocities.size(), 3u * 500);
+  EXPECT_EQ(b.back().densities.size(), 500u);
+  // Frames advance, and every position lies in seed_basic's domain, [-5, 5] x [-3, 3] x [-5, 5].
+  EXPECT_GT(a.back().step, a.front().step);
+  const float half[3] = {5, 3, 5};
+  for (size_t k = 0; k < a.back().positions.size(); ++k) {
+    ASSERT_LE(std::abs(a.back().positions[k]), half[k % 3] + 1e-3f) << k;
+  }
+}
+
+TEST(ServerTest, AStalledSubscriberSlowsNobodyAndHoldsBoundedMemory) {
+  HostOptions running;
+  running.frame_rate = 0;  // as fast as possible: the most frames a stalled reader could pile up
+  Fixture fx(running);
+  // Opens a stream and never reads from it.
+  auto stalled_context = Context();
+  auto stalled = fx.stub().StreamFrames(stalled_context.get(), {});
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  while (fx.host().Status().subscribers < 1 && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  // Another subscriber reads 40 frames meanwhile.
+  auto context = Context();
+  auto reader = fx.stub().StreamFrames(context.get(), {});
+  const std::vector<codec::Frame> frames = ReadFrames(*reader, 40);
+  ASSERT_EQ(frames.size(), 40u);
+  EXPECT_GE(fx.host().Status().frames_encoded, 40u);
+  // Two subscribers: at most two frames each, one per group.
+  EXPECT_LE(fx.host().hub().frames_alive(), 5);
+  context->TryCancel();
+  // With only the stalled reader left (its transport window long full), the simulation runs on
+  // and every frame is still encoded, yet what is held stays bounded.
+  const v1::Status before = GetStatus(fx.stub());
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  const v1::Status after = GetStatus(fx.stub());
+  EXPECT_GT(after.frame(), before.frame() + 5);
+  EXPECT_GT(after.frames_encoded(), before.frames_encoded() + 5);
+  EXPECT_LE(fx.host().hub().frames_alive(), 3);
+  stalled_context->TryCancel();
+}
+
+TEST(ServerTest, LimitsAreReportedAsResourceExhausted) {
+  HostOptions limits = Paused();
+  limits.max_subscribers = 1;
+  limits.max_particles = 2000;
+  Fixture fx(limits);
+  auto first_context = Context();
+  auto first = fx.stub().StreamFrames(first_context.get(), {});
+  v1::FrameMessage message;
+  ASSERT_TRUE(first->Read(&message));  // the first stream is open
+  auto second_context = Context();
+  auto second = fx.stub().StreamFrames(second_context.get(), {});
+  EXPECT_FALSE(second->Read(&message));
+  grpc::Status s = second->Finish();
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_NE(s.error_message().find("subscriber"), std::string::npos) << s.error_message();
+  first_context->TryCancel();
+
+  v1::UpdateParamsRequest update;
+  (*update.mutable_params()->mutable_values())["particle_quantity"] = 20;
+  v1::UpdateParamsReply updated;
+  s = fx.stub().UpdateParams(Context().get(), update, &updated);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_NE(s.error_message().find("8000"), std::string::npos) << s.error_message();
+
+  // A request over the receive limit (4 MiB) is refused by gRPC itself.
+  v1::LoadSceneRequest load;
+  load.set_json_text(std::string(5 << 20, ' '));
+  v1::ControlReply reply;
+  EXPECT_EQ(fx.stub().LoadScene(Context().get(), load, &reply).error_code(),
+            grpc::StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_EQ(GetStatus(fx.stub()).particles(), 1000u);
+}
+
+TEST(ServerTest, ShutdownEndsStreamsWithUnavailable) {
+  HostOptions running;
+  running.frame_rate = 60;
+  Fixture fx(running);
+  auto context = Context();
+  auto reader = fx.stub().StreamFrames(context.get(), {});
+  ASSERT_EQ(ReadFrames(*reader, 3).size(), 3u);
+  const auto start = std::chrono::steady_clock::now();
+  std::thread shutdown([&] { fx.server().Shutdown(); });
+  v1::FrameMessage message;
+  while (reader->Read(&message)) {
+  }
+  const grpc::Status s = reader->Finish();
+  shutdown.join();
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::UNAVAILABLE) << s.error_message();
+  EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(5));
+}
+
+TEST(ServerTest, TlsServesEncryptedCallsWithTheGivenCertificate) {
+  const dysa::testing::TempDir dir("server_tls");
+  const std::string key = (dir.path() / "key.pem").string();
+  const std::string cert = (dir.path() / "cert.pem").string();
+  const std::string command =
+      "openssl req -x509 -newkey rsa:2048 -nodes -days 1 -subj /CN=localhost "
+      "-addext subjectAltName=DNS:localhost,IP:127.0.0.1 -keyout " +
+      key + " -out " + cert + " > /dev/null 2>&1";
+  ASSERT_EQ(std::system(command.c_str()), 0) << "openssl is needed for this test";
+  auto read = [](const std::string& path) {
+    std::ifstream in(path);
+    std::stringstream text;
+    text << in.rdbuf();
+    return text.str();
+  };
+  ServerOptions options;
+  options.tls_cert_pem = read(cert);
+  options.tls_key_pem = read(key);
+  Fixture fx(Paused(), options);  // its own stub is plaintext and must fail
+
+  grpc::SslCredentialsOptions ssl;
+  ssl.pem_root_certs = options.tls_cert_pem;
+  auto channel = grpc::CreateChannel(fx.address(), grpc::SslCredentials(ssl));
+  auto stub = Simulation::NewStub(channel);
+  v1::Status status;
+  EXPECT_TRUE(stub->GetStatus(Context().get(), {}, &status).ok());
+  EXPECT_EQ(status.particles(), 1000u);
+  auto plaintext = Context();
+  plaintext->set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(3));
+  EXPECT_FALSE(fx.stub().GetStatus(plaintext.get(), {}, &status).ok());
+}
+
+}  // namespace
+}  // namespace dysa::service

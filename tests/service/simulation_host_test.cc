@@ -1,0 +1,181 @@
+// Tests of dysa/service/simulation_host.h, without a network: controls are applied between
+// frames with the documented results, invalid changes apply nothing, limits are enforced, and
+// stepping back and forward again reaches bit-identical states.
+#include "dysa/service/simulation_host.h"
+
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <chrono>
+#include <future>
+#include <thread>
+
+namespace dysa::service {
+namespace {
+
+Scene SmallScene(int particle_quantity = 10) {
+  Scene scene = LoadScene("seed_basic");
+  SetParam(scene.params, "particle_quantity", particle_quantity);
+  SetParam(scene.params, "spawn_size", 1.2);
+  return scene;
+}
+
+HostOptions Paused() {
+  HostOptions o;
+  o.start_paused = true;
+  o.frame_rate = 0;  // as fast as possible when running
+  return o;
+}
+
+ControlResult Apply(SimulationHost& host, Control control) {
+  std::promise<ControlResult> promise;
+  auto result = promise.get_future();
+  host.Submit(std::move(control), [&](ControlResult r) { promise.set_value(std::move(r)); });
+  return result.get();
+}
+
+class SimulationHostTest : public ::testing::Test {
+ protected:
+  void SetUp() override { host_.Start(); }
+  SimulationHost host_{SmallScene(), Paused()};
+};
+
+TEST_F(SimulationHostTest, StepAndStepBackMoveByFramesAndPause) {
+  ControlResult r = Apply(host_, StepControl{5});
+  ASSERT_EQ(r.code, ControlCode::kOk) << r.message;
+  EXPECT_EQ(r.frames_moved, 5u);
+  EXPECT_EQ(r.status.frame, 5u);
+  EXPECT_EQ(r.status.step, 5u * 3);
+  EXPECT_FALSE(r.status.running);
+  r = Apply(host_, StepBackControl{2});
+  EXPECT_EQ(r.frames_moved, 2u);
+  EXPECT_EQ(r.status.frame, 3u);
+  r = Apply(host_, StepBackControl{100});  // stops at frame 0
+  EXPECT_EQ(r.frames_moved, 3u);
+  EXPECT_EQ(r.status.frame, 0u);
+  EXPECT_EQ(r.status.time, 0.0);
+}
+
+TEST_F(SimulationHostTest, StepBackThenForwardReachesBitIdenticalStates) {
+  std::vector<uint64_t> first;
+  for (int f = 1; f <= 12; ++f) first.push_back(Apply(host_, StepControl{1}).status.state_hash);
+  ASSERT_NE(first[3], first[11]);
+  ControlResult r = Apply(host_, StepBackControl{8});
+  EXPECT_EQ(r.status.frame, 4u);
+  EXPECT_EQ(r.status.state_hash, first[3]);
+  for (int f = 5; f <= 12; ++f) {
+    r = Apply(host_, StepControl{1});
+    ASSERT_EQ(r.status.state_hash, first[f - 1]) << "frame " << f;
+  }
+}
+
+TEST_F(SimulationHostTest, StepCountsOutsideTheRangeAreRefused) {
+  ControlResult r = Apply(host_, StepControl{0});
+  EXPECT_EQ(r.code, ControlCode::kInvalidArgument);
+  EXPECT_NE(r.message.find("count"), std::string::npos);
+  r = Apply(host_, StepBackControl{kMaxStepCount + 1});
+  EXPECT_EQ(r.code, ControlCode::kInvalidArgument);
+  EXPECT_EQ(r.status.frame, 0u);
+}
+
+TEST_F(SimulationHostTest, ResumeRunsFramesAndPauseStopsThem) {
+  ControlResult r = Apply(host_, ResumeControl{});
+  EXPECT_TRUE(r.status.running);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  while (host_.Status().frame < 3 && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  r = Apply(host_, PauseControl{});
+  EXPECT_FALSE(r.status.running);
+  EXPECT_GE(r.status.frame, 3u);
+  std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  EXPECT_EQ(host_.Status().frame, r.status.frame);
+  EXPECT_GT(r.status.history_frames, 0u);
+  ASSERT_FALSE(r.status.passes.empty());
+  EXPECT_GT(r.status.passes[0].calls, 0u);
+}
+
+TEST_F(SimulationHostTest, AnInvalidParameterAppliesNothing) {
+  const Params before = host_.CurrentParams();
+  ControlResult r = Apply(host_, UpdateParamsControl{{{"gravity", -5.0}, {"viscosity", -1.0}}});
+  EXPECT_EQ(r.code, ControlCode::kInvalidArgument);
+  EXPECT_NE(r.message.find("viscosity"), std::string::npos) << r.message;
+  EXPECT_NE(r.message.find("[0, 10]"), std::string::npos) << r.message;
+  EXPECT_EQ(host_.CurrentParams().gravity, before.gravity);
+  r = Apply(host_, UpdateParamsControl{{{"no_such_thing", 1.0}}});
+  EXPECT_EQ(r.code, ControlCode::kInvalidArgument);
+  EXPECT_NE(r.message.find("no_such_thing"), std::string::npos) << r.message;
+}
+
+TEST_F(SimulationHostTest, ParametersApplyAndResetOnlyWhenTheyMust) {
+  Apply(host_, StepControl{4});
+  ControlResult r = Apply(host_, UpdateParamsControl{{{"gravity", -5.0}}});
+  ASSERT_EQ(r.code, ControlCode::kOk) << r.message;
+  EXPECT_FALSE(r.reset);
+  EXPECT_EQ(r.params.gravity, -5.0);
+  EXPECT_EQ(r.status.frame, 4u);
+  r = Apply(host_, UpdateParamsControl{{{"particle_quantity", 8.0}}});
+  ASSERT_EQ(r.code, ControlCode::kOk) << r.message;
+  EXPECT_TRUE(r.reset);
+  EXPECT_EQ(r.status.particles, 512u);
+  EXPECT_EQ(r.status.frame, 0u);
+}
+
+TEST_F(SimulationHostTest, LoadSceneReplacesTheSceneAndResets) {
+  Apply(host_, StepControl{2});
+  Scene next = SmallScene(6);
+  next.name = "six";
+  ControlResult r = Apply(host_, LoadSceneControl{std::move(next)});
+  ASSERT_EQ(r.code, ControlCode::kOk) << r.message;
+  EXPECT_TRUE(r.reset);
+  EXPECT_EQ(r.status.scene, "six");
+  EXPECT_EQ(r.status.particles, 216u);
+  EXPECT_EQ(r.status.frame, 0u);
+}
+
+TEST(SimulationHostLimitsTest, TheParticleLimitRefusesScenesAndParameters) {
+  HostOptions options = Paused();
+  options.max_particles = 1000;
+  EXPECT_THROW(SimulationHost(SmallScene(11), options), ConfigError);
+  SimulationHost host(SmallScene(10), options);
+  host.Start();
+  ControlResult r = Apply(host, UpdateParamsControl{{{"particle_quantity", 11.0}}});
+  EXPECT_EQ(r.code, ControlCode::kResourceExhausted);
+  EXPECT_NE(r.message.find("1331"), std::string::npos) << r.message;
+  EXPECT_EQ(host.Status().particles, 1000u);
+  r = Apply(host, LoadSceneControl{SmallScene(12)});
+  EXPECT_EQ(r.code, ControlCode::kResourceExhausted);
+  EXPECT_EQ(host.Status().particles, 1000u);
+}
+
+TEST(SimulationHostLimitsTest, ControlsAfterStopAreAnsweredUnavailable) {
+  SimulationHost host(SmallScene(), Paused());
+  host.Start();
+  host.Stop();
+  EXPECT_EQ(Apply(host, StepControl{1}).code, ControlCode::kUnavailable);
+}
+
+// A subscriber joining a paused simulation still gets the current frame.
+TEST_F(SimulationHostTest, ALateJoinerOfAPausedSimulationGetsAFrame) {
+  Apply(host_, StepControl{3});
+  struct Listener : FrameListener {
+    void OnFrameReady() override {
+      if (!called.exchange(true)) ready.set_value();
+    }
+    void OnHubClosed() override {}
+    std::atomic<bool> called{false};
+    std::promise<void> ready;
+  } listener;
+  SubscriptionOptions options;
+  auto sub = host_.hub().Subscribe(options, &listener);
+  ASSERT_EQ(listener.ready.get_future().wait_for(std::chrono::seconds(30)),
+            std::future_status::ready);
+  const auto frame = sub->Take(nullptr);
+  ASSERT_TRUE(frame);
+  EXPECT_TRUE(frame->keyframe);
+  EXPECT_EQ(frame->frame, 3u);
+  host_.hub().Unsubscribe(sub);
+}
+
+}  // namespace
+}  // namespace dysa::service
