@@ -131,6 +131,7 @@ void FrameHub::RequestKeyframe(FrameGroup& group) {
 }
 
 void FrameHub::Publish(const FrameSnapshot& snapshot, bool force, bool discontinuity) {
+  std::lock_guard publishing(publish_mu_);
   std::vector<std::pair<std::shared_ptr<FrameGroup>, std::vector<std::shared_ptr<Subscription>>>>
       work;
   {

@@ -285,23 +285,20 @@ void SimulationHost::StartScene() {
   RefreshStatus();
 }
 
-void SimulationHost::Publish(bool force, bool discontinuity) {
-  const uint32_t fields = hub_.NeededFields();
-  if (fields == 0) return;  // no one watches: nothing gathered, nothing encoded
-  const State& state = sim_->state();
+void GatherSnapshot(const Simulation& sim, uint32_t fields, FrameSnapshot& s) {
+  const State& state = sim.state();
   const ParticleArrays& p = state.particles;
   const size_t n = p.size();
-  FrameSnapshot& s = snapshot_;
   s.frame = state.frame;
   s.step = state.step;
   s.time = state.time;
-  const Aabb& domain = sim_->model().domain;
+  const Aabb& domain = sim.model().domain;
   for (int a = 0; a < 3; ++a) {
     s.domain_min[a] = domain.min[a];
     s.domain_max[a] = domain.max[a];
   }
   s.produced_unix_us = UnixMicros();
-  // Scatter from storage order (cell order, changes every step) into id order.
+  // Storage order is cell order and changes every step; subscribers index by id.
   const bool velocities = fields & (codec::kSpeed | codec::kVelocity);
   const bool densities = fields & codec::kDensity;
   s.positions.resize(3 * n);
@@ -316,7 +313,13 @@ void SimulationHost::Publish(bool force, bool discontinuity) {
     }
     if (densities) s.densities[k] = p.density[i];
   }
-  hub_.Publish(s, force, discontinuity);
+}
+
+void SimulationHost::Publish(bool force, bool discontinuity) {
+  const uint32_t fields = hub_.NeededFields();
+  if (fields == 0) return;  // no one watches: nothing gathered, nothing encoded
+  GatherSnapshot(*sim_, fields, snapshot_);
+  hub_.Publish(snapshot_, force, discontinuity);
 }
 
 void SimulationHost::RefreshStatus() {

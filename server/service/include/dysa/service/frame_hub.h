@@ -113,6 +113,7 @@ class FrameHub {
   // Encodes `snapshot` for every group that is due and offers it to the group's subscribers.
   // `force`: ignore frame-rate caps (a frame the user asked for: a step, a step back, a reset).
   // `discontinuity`: the frame does not follow the previous one (back, reset, new scene).
+  // Calls are serialised (each group's encoder follows one sequence).
   void Publish(const FrameSnapshot& snapshot, bool force, bool discontinuity);
 
   // Called (from any thread) when a subscriber needs a frame published although the simulation
@@ -125,6 +126,7 @@ class FrameHub {
 
   const size_t max_subscribers_;
   std::function<void()> frame_needed_;
+  std::mutex publish_mu_;  // one Publish at a time
   mutable std::mutex mu_;
   bool closed_ = false;
   std::vector<std::shared_ptr<FrameGroup>> groups_;

@@ -97,6 +97,10 @@ struct ControlResult {
   Params params;      // after the control
 };
 
+// Fills `snapshot` from the simulation's current frame: positions, and velocities or densities
+// when `fields` (codec fields) need them, scattered from storage order into id order.
+void GatherSnapshot(const Simulation& sim, uint32_t fields, FrameSnapshot& snapshot);
+
 // Frames one Step control may advance at most (the thread does nothing else meanwhile).
 inline constexpr uint32_t kMaxStepCount = 10000;
 

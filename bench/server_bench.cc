@@ -1,0 +1,353 @@
+// Server benchmark: frames delivered to 1, 4 and 16 subscribers, the simulation's slowdown with
+// subscribers against none, the pipeline's capacity (encode, gRPC on loopback, decode) for the
+// thesis scene and a 1M-particle block, and memory with a stalled subscriber over time.
+//
+// Everything runs in this process: the real Server and SimulationHost on a loopback port, and
+// clients that each have their own connection and decode every frame, as a viewer does.
+//
+//   server_bench                       # all parts, results in bench/results/server_*.csv
+//   server_bench --part pipeline --large 100 --seconds 5
+#include <grpcpp/grpcpp.h>
+#include <omp.h>
+
+#include <CLI/CLI.hpp>
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <thread>
+
+#include "dysa/codec/frame_codec.h"
+#include "dysa/core/scene.h"
+#include "dysa/service/server.h"
+#include "dysa/service/simulation_host.h"
+#include "dysa/v1/simulation.grpc.pb.h"
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+using dysa::service::FrameSnapshot;
+using dysa::service::HostOptions;
+using dysa::service::Server;
+using dysa::service::ServerOptions;
+using dysa::service::SimulationHost;
+
+double Seconds(Clock::duration d) { return std::chrono::duration<double>(d).count(); }
+
+int64_t UnixMicros() {
+  return std::chrono::duration_cast<std::chrono::microseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+double RssMiB() {
+  std::ifstream status("/proc/self/status");
+  std::string key;
+  while (status >> key) {
+    if (key == "VmRSS:") {
+      double kib = 0;
+      status >> kib;
+      return kib / 1024;
+    }
+  }
+  return 0;
+}
+
+// One subscriber on its own connection, decoding every frame.
+class Client {
+ public:
+  Client(const std::string& address, int index, bool read = true) {
+    grpc::ChannelArguments args;
+    args.SetInt("dysa.bench.client", index);  // a distinct argument: a connection of its own
+    args.SetMaxReceiveMessageSize(8 << 20);
+    channel_ = grpc::CreateCustomChannel(address, grpc::InsecureChannelCredentials(), args);
+    stub_ = dysa::v1::Simulation::NewStub(channel_);
+    reader_ = stub_->StreamFrames(&context_, dysa::v1::StreamFramesRequest{});
+    if (read) thread_ = std::thread([this] { Read(); });
+  }
+  ~Client() {
+    context_.TryCancel();
+    if (thread_.joinable()) thread_.join();
+  }
+  std::atomic<uint64_t> frames{0};
+  std::atomic<uint64_t> bytes{0};
+  std::atomic<uint64_t> latency_us{0};  // summed over frames
+
+ private:
+  void Read() {
+    dysa::codec::FrameDecoder decoder;
+    dysa::codec::Frame frame;
+    std::vector<dysa::codec::Chunk> chunks;
+    dysa::v1::FrameMessage message;
+    while (reader_->Read(&message)) {
+      for (const std::string& c : message.chunks()) chunks.emplace_back(c.begin(), c.end());
+      if (!message.last_of_frame()) continue;
+      try {
+        if (decoder.AddChunks(chunks, frame)) {
+          bytes += message.frame_bytes();
+          latency_us += uint64_t(std::max<int64_t>(0, UnixMicros() - message.produced_unix_us()));
+          ++frames;
+        }
+      } catch (const dysa::codec::DecodeError& e) {
+        std::fprintf(stderr, "decode error: %s\n", e.what());
+      }
+      chunks.clear();
+    }
+    reader_->Finish();
+  }
+
+  std::shared_ptr<grpc::Channel> channel_;
+  std::unique_ptr<dysa::v1::Simulation::Stub> stub_;
+  grpc::ClientContext context_;
+  std::unique_ptr<grpc::ClientReader<dysa::v1::FrameMessage>> reader_;
+  std::thread thread_;
+};
+
+struct Delivery {
+  double fps_mean = 0, fps_min = 0, bytes_per_frame = 0, latency_ms = 0;
+};
+
+// Frames received by each client over `seconds`, after every client has its first frame.
+Delivery Measure(std::vector<std::unique_ptr<Client>>& clients, double seconds) {
+  const auto deadline = Clock::now() + std::chrono::seconds(60);
+  for (auto& c : clients) {
+    while (c->frames == 0 && Clock::now() < deadline) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+  }
+  std::vector<uint64_t> f0, b0, l0;
+  for (auto& c : clients) {
+    f0.push_back(c->frames);
+    b0.push_back(c->bytes);
+    l0.push_back(c->latency_us);
+  }
+  const auto start = Clock::now();
+  std::this_thread::sleep_for(std::chrono::duration<double>(seconds));
+  const double elapsed = Seconds(Clock::now() - start);
+  Delivery d;
+  d.fps_min = 1e30;
+  uint64_t frames = 0, bytes = 0, latency = 0;
+  for (size_t i = 0; i < clients.size(); ++i) {
+    const uint64_t f = clients[i]->frames - f0[i];
+    frames += f;
+    bytes += clients[i]->bytes - b0[i];
+    latency += clients[i]->latency_us - l0[i];
+    d.fps_mean += f / elapsed / clients.size();
+    d.fps_min = std::min(d.fps_min, f / elapsed);
+  }
+  d.bytes_per_frame = frames ? double(bytes) / frames : 0;
+  d.latency_ms = frames ? latency / 1000.0 / frames : 0;
+  return d;
+}
+
+ServerOptions Loopback() {
+  ServerOptions options;
+  options.listen = "127.0.0.1:0";
+  return options;
+}
+
+std::string Address(const Server& server) { return "127.0.0.1:" + std::to_string(server.port()); }
+
+// The thesis scene's fluid as a block of n^3 particles: the same spacing (5 m / 44) and
+// parameters, in a box scaled to match (as codec_bench does).
+dysa::Scene LargeBlock(int n) {
+  dysa::Scene scene = dysa::LoadScene("seed_test_scene");
+  const double size = 5.0 / 44 * (n - 1);
+  scene.domain = {dysa::Vec3d::Constant(-size), dysa::Vec3d::Constant(size)};
+  scene.params.particle_quantity = n;
+  scene.params.spawn_size = size;
+  scene.name = "block_" + std::to_string(n) + "^3";
+  return scene;
+}
+
+// Part 1: the live simulation as fast as it runs, from the same state each time, with 0, 1, 4
+// and 16 subscribers: simulated frames per second and frames delivered to each subscriber.
+void Live(const std::vector<int>& counts, double seconds, int warmup_frames, std::ofstream& csv) {
+  const dysa::Scene scene = dysa::LoadScene("seed_test_scene");
+  for (int n : counts) {
+    HostOptions options;
+    options.frame_rate = 0;
+    options.start_paused = true;
+    SimulationHost host(scene, options);
+    Server server(host, Loopback());
+    auto stub = dysa::v1::Simulation::NewStub(
+        grpc::CreateChannel(Address(server), grpc::InsecureChannelCredentials()));
+    {
+      grpc::ClientContext context;
+      dysa::v1::StepRequest step;
+      step.set_count(warmup_frames);  // into the splash: the same state for every count
+      dysa::v1::ControlReply reply;
+      stub->Step(&context, step, &reply);
+    }
+    std::vector<std::unique_ptr<Client>> clients;
+    for (int i = 0; i < n; ++i) clients.push_back(std::make_unique<Client>(Address(server), i));
+    {
+      grpc::ClientContext context;
+      dysa::v1::ControlReply reply;
+      stub->Resume(&context, {}, &reply);
+    }
+    const uint64_t frame0 = host.Status().frame;
+    const auto start = Clock::now();
+    Delivery d;
+    if (n > 0) {
+      d = Measure(clients, seconds);
+    } else {
+      std::this_thread::sleep_for(std::chrono::duration<double>(seconds));
+    }
+    const double sim_fps = (host.Status().frame - frame0) / Seconds(Clock::now() - start);
+    std::printf(
+        "live      thesis  %8d particles  %2d subscribers: simulation %6.2f frames/s, "
+        "delivered %6.2f (min %6.2f) frames/s, %8.0f B/frame, latency %6.1f ms\n",
+        int(host.Status().particles), n, sim_fps, d.fps_mean, n ? d.fps_min : 0.0,
+        d.bytes_per_frame, d.latency_ms);
+    csv << "live,seed_test_scene," << host.Status().particles << "," << n << "," << sim_fps << ","
+        << d.fps_mean << "," << (n ? d.fps_min : 0.0) << "," << d.bytes_per_frame << ","
+        << d.latency_ms << "\n";
+    csv.flush();
+    clients.clear();
+    server.Shutdown();
+  }
+}
+
+// Part 2: the delivery pipeline alone. Frames recorded from a real run are published as fast as
+// they are encoded (the simulation is paused), so the numbers are the fan-out's capacity:
+// encoding, gRPC on loopback and each client's decoding, on the same 2 cores.
+void Pipeline(const dysa::Scene& scene, double warmup_time, int recorded,
+              const std::vector<int>& counts, double seconds, std::ofstream& csv) {
+  std::printf("recording %d frames of %s ...\n", recorded, scene.name.c_str());
+  std::vector<FrameSnapshot> frames(recorded);
+  {
+    dysa::Simulation sim(scene);
+    while (sim.state().time < warmup_time) sim.StepFrame();
+    for (FrameSnapshot& f : frames) {
+      sim.StepFrame();
+      dysa::service::GatherSnapshot(sim, dysa::codec::kPositions | dysa::codec::kSpeed, f);
+    }
+  }
+  for (int n : counts) {
+    HostOptions options;
+    options.start_paused = true;
+    SimulationHost host(scene, options);
+    // The feeder below is the only publisher: keyframe requests are served by its next frame.
+    host.hub().set_frame_needed([] {});
+    Server server(host, Loopback());
+    std::atomic<bool> stop{false};
+    std::atomic<uint64_t> published{0};
+    std::thread feeder([&] {
+      for (size_t k = 0; !stop; ++k) {
+        FrameSnapshot& f = frames[k % frames.size()];
+        f.produced_unix_us = UnixMicros();
+        host.hub().Publish(f, false, k % frames.size() == 0);
+        ++published;
+        if (host.hub().subscribers() == 0)
+          std::this_thread::sleep_for(std::chrono::milliseconds(1));
+      }
+    });
+    std::vector<std::unique_ptr<Client>> clients;
+    for (int i = 0; i < n; ++i) clients.push_back(std::make_unique<Client>(Address(server), i));
+    const uint64_t p0 = published;
+    const auto start = Clock::now();
+    const Delivery d = Measure(clients, seconds);
+    const double publish_fps = (published - p0) / Seconds(Clock::now() - start);
+    clients.clear();
+    stop = true;
+    feeder.join();
+    std::printf(
+        "pipeline  %-14s %8zu particles  %2d subscribers: encoded %6.2f frames/s, "
+        "delivered %6.2f (min %6.2f) frames/s, %8.0f B/frame, latency %6.1f ms\n",
+        scene.name.c_str(), frames[0].positions.size() / 3, n, publish_fps, d.fps_mean, d.fps_min,
+        d.bytes_per_frame, d.latency_ms);
+    csv << "pipeline," << scene.name << "," << frames[0].positions.size() / 3 << "," << n << ","
+        << publish_fps << "," << d.fps_mean << "," << d.fps_min << "," << d.bytes_per_frame << ","
+        << d.latency_ms << "\n";
+    csv.flush();
+    server.Shutdown();
+  }
+}
+
+// Part 3: the thesis scene at 60 frames/s with one subscriber that never reads and one that does:
+// resident memory of the whole process, sampled every second.
+void Stalled(double seconds, const std::filesystem::path& out) {
+  HostOptions options;
+  options.frame_rate = 60;
+  SimulationHost host(dysa::LoadScene("seed_test_scene"), options);
+  Server server(host, Loopback());
+  Client stalled(Address(server), 0, /*read=*/false);
+  Client reader(Address(server), 1);
+  std::ofstream csv(out);
+  csv << "seconds,rss_mib,frame,frames_encoded,frames_alive,reader_frames\n";
+  const auto start = Clock::now();
+  double first = 0, peak = 0;
+  for (int s = 0; s <= int(seconds); ++s) {
+    std::this_thread::sleep_until(start + std::chrono::seconds(s));
+    const auto status = host.Status();
+    const double rss = RssMiB();
+    if (s == 5) first = rss;
+    peak = std::max(peak, rss);
+    csv << s << "," << rss << "," << status.frame << "," << status.frames_encoded << ","
+        << host.hub().frames_alive() << "," << reader.frames << "\n";
+    std::printf("stalled   t=%3d s  rss %7.1f MiB  frame %6llu  frames alive %lld  reader %llu\n",
+                s, rss, (unsigned long long)status.frame, (long long)host.hub().frames_alive(),
+                (unsigned long long)reader.frames.load());
+    std::fflush(stdout);
+  }
+  std::printf("stalled   rss at 5 s %.1f MiB, peak %.1f MiB (growth %.1f MiB)\n", first, peak,
+              peak - first);
+  server.Shutdown();
+}
+
+std::vector<int> ParseCounts(const std::string& text) {
+  std::vector<int> counts;
+  std::stringstream in(text);
+  for (std::string item; std::getline(in, item, ',');) counts.push_back(std::stoi(item));
+  return counts;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"server_bench: frame delivery, fan-out and memory of dysa-server"};
+  std::string part = "all";
+  double seconds = 5;
+  double stalled_seconds = 60;
+  int large = 100;
+  std::string counts_text = "1,4,16";
+  std::string out_dir = "bench/results";
+  app.add_option("--part", part, "live, pipeline, stalled or all")
+      ->check(CLI::IsMember({"live", "pipeline", "stalled", "all"}))
+      ->capture_default_str();
+  app.add_option("--seconds", seconds, "Measurement per configuration")->capture_default_str();
+  app.add_option("--stalled-seconds", stalled_seconds, "Length of the stalled-subscriber run")
+      ->capture_default_str();
+  app.add_option("--large", large, "Particles per axis of the large block")->capture_default_str();
+  app.add_option("--subscribers", counts_text, "Subscriber counts")->capture_default_str();
+  app.add_option("--out", out_dir, "Output directory")->capture_default_str();
+  CLI11_PARSE(app, argc, argv);
+
+  std::filesystem::create_directories(out_dir);
+  std::printf("%d OpenMP threads\n", omp_get_max_threads());
+  const std::vector<int> counts = ParseCounts(counts_text);
+  if (part == "live" || part == "pipeline" || part == "all") {
+    std::ofstream csv(std::filesystem::path(out_dir) / "server_fanout.csv",
+                      part == "pipeline" ? std::ios::app : std::ios::trunc);
+    if (part != "pipeline") {
+      csv << "part,scene,particles,subscribers,simulated_or_encoded_fps,delivered_fps_mean,"
+             "delivered_fps_min,bytes_per_frame,latency_ms\n";
+    }
+    if (part != "pipeline") {
+      std::vector<int> with_zero{0};
+      with_zero.insert(with_zero.end(), counts.begin(), counts.end());
+      with_zero.push_back(0);  // again at the end: drift of the machine shows here
+      Live(with_zero, seconds, 30, csv);
+    }
+    if (part != "live") {
+      Pipeline(dysa::LoadScene("seed_test_scene"), 1.0, 60, counts, seconds, csv);
+      Pipeline(LargeBlock(large), 0.1, 6, {1}, seconds, csv);
+    }
+  }
+  if (part == "stalled" || part == "all") {
+    Stalled(stalled_seconds, std::filesystem::path(out_dir) / "server_stalled_memory.csv");
+  }
+  return 0;
+}
