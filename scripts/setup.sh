@@ -22,6 +22,7 @@ PACKAGES=(
   libprotobuf-dev
   protobuf-compiler
   protobuf-compiler-grpc
+  openssl  # the TLS tests make a self-signed certificate
   # tests and benchmarks
   libgtest-dev
   libgmock-dev

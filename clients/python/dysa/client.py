@@ -1,0 +1,539 @@
+"""Client of a running dysa-server: watch and steer a simulation from Python.
+
+The verbs mirror the ``dysa`` command line and the gRPC service dysa.v1.Simulation
+(proto/dysa/v1/simulation.proto)::
+
+    from dysa.client import Client
+
+    with Client("127.0.0.1:50051") as sim:
+        sim.pause()
+        print(sim.params()["viscosity"].value)      # m^3/s
+        sim.set(viscosity=0.005)
+        sim.step(10)                                # 10 frames, then paused
+        for frame in sim.frames(fields=("positions", "velocity"), limit=5):
+            print(frame.sim_frame, frame.time, frame.positions.shape)
+
+Units are SI (metres, seconds, kilograms) unless a field says otherwise. Every call returns
+plain Python values (the dataclasses below, numpy arrays for frames); failures raise DysaError.
+
+Needs Debian's python3-grpcio, python3-protobuf, python3-numpy and python3-zstandard (run with
+/usr/bin/python3) and the stubs the build generates (see the dysa package docstring).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import threading
+from dataclasses import dataclass
+from typing import Any, Dict, Iterable, List, Mapping, Optional, Tuple, Union
+
+try:
+    import grpc
+except ImportError as _error:  # pragma: no cover - depends on the machine
+    raise ImportError(
+        "dysa.client needs the grpc module (Debian package python3-grpcio); run it with "
+        "/usr/bin/python3: %s" % _error) from _error
+
+import dysa as _dysa
+
+try:
+    from dysa.v1 import simulation_pb2 as _pb
+    from dysa.v1 import simulation_pb2_grpc as _pb_grpc
+except ImportError as _error:
+    raise ImportError(
+        "dysa.client cannot import the generated gRPC stubs dysa.v1 (%s). They are generated "
+        "by the build: run scripts/build.sh (it writes build/release/python/dysa/v1), or set "
+        "DYSA_PYTHON_STUBS to a directory that contains dysa/v1/simulation_pb2.py. Searched: %s"
+        % (_error, ", ".join(_dysa.STUB_SEARCH_PATH))) from _error
+
+from dysa.codec import Frame, FrameDecoder
+
+__all__ = [
+    "Client",
+    "ControlResult",
+    "DysaError",
+    "FIELDS",
+    "FrameStream",
+    "ParamInfo",
+    "PassTiming",
+    "SceneInfo",
+    "Status",
+]
+
+# Field names accepted by Client.frames(), with their aliases (the codec's Frame attributes).
+FIELDS: Dict[str, int] = {
+    "positions": _pb.FIELD_POSITIONS,
+    "speed": _pb.FIELD_SPEED,
+    "velocity": _pb.FIELD_VELOCITY,
+    "velocities": _pb.FIELD_VELOCITY,
+    "density": _pb.FIELD_DENSITY,
+    "densities": _pb.FIELD_DENSITY,
+}
+
+_STATES = {
+    _pb.RUN_STATE_RUNNING: "running",
+    _pb.RUN_STATE_PAUSED: "paused",
+}
+
+# Frame messages stay under gRPC's 4 MiB default (the server chunks frames); a larger limit on
+# this side costs nothing and keeps a future server with bigger messages working.
+_MAX_RECEIVE_BYTES = 64 * 1024 * 1024
+
+
+class DysaError(RuntimeError):
+    """A call failed.
+
+    Attributes:
+        code: the gRPC status (grpc.StatusCode), e.g. INVALID_ARGUMENT for a parameter out of
+            range, UNAVAILABLE when the server cannot be reached, UNAUTHENTICATED for a missing
+            or wrong token.
+        details: the server's message (for INVALID_ARGUMENT it names the field and its range),
+            or gRPC's own for connection failures.
+    """
+
+    def __init__(self, message: str, code: Optional[grpc.StatusCode] = None,
+                 details: str = "") -> None:
+        super().__init__(message)
+        self.code = code
+        self.details = details
+
+
+@dataclass(frozen=True)
+class PassTiming:
+    """Wall time of one pass of the solver step."""
+
+    name: str
+    last_ms: float  # milliseconds, the latest step
+    mean_ms: float  # milliseconds, mean over the steps since the scene was loaded
+    calls: int  # steps timed
+
+
+@dataclass(frozen=True)
+class Status:
+    """State of the server and its simulation (Client.status())."""
+
+    state: str  # "running", "paused" or "unspecified"
+    step: int  # solver steps since the last reset
+    frame: int  # frames since the last reset
+    time: float  # s, simulated time since the last reset
+    particles: int  # particle count
+    solver: str  # registered solver name, e.g. "seed"
+    scene: str  # the running scene's name
+    frames_per_second: float  # frames simulated per wall second, recent average
+    target_frame_rate: float  # frames per wall second the server aims for; 0: unlimited
+    passes: Tuple[PassTiming, ...]  # per-pass timings, in pass order
+    subscribers: int  # open frame streams
+    alarm: str  # empty when healthy, else why the simulation paused itself
+    history_frames: int  # frames available to step back right now
+    history_bytes: int  # bytes of memory the history holds
+    frames_encoded: int  # frames encoded for subscribers since the server started
+
+    @property
+    def paused(self) -> bool:
+        """Whether the simulation is paused."""
+        return self.state == "paused"
+
+    @property
+    def running(self) -> bool:
+        """Whether the simulation is running."""
+        return self.state == "running"
+
+
+@dataclass(frozen=True)
+class ControlResult:
+    """What a control (pause, resume, step, back, reset, load) did."""
+
+    status: Status  # after the control was applied
+    reset: bool  # the simulation was re-spawned
+    frames_moved: int  # step/back: frames actually moved (back stops at the oldest kept)
+
+
+@dataclass(frozen=True)
+class ParamInfo:
+    """A simulation parameter (Client.params()), every number in `unit`."""
+
+    name: str  # e.g. "viscosity"
+    value: float
+    unit: str  # e.g. "m^3/s"; empty for dimensionless
+    min: float  # inclusive
+    max: float  # inclusive
+    default: float
+    integer: bool  # only whole numbers are accepted
+    needs_reset: bool  # changing it re-spawns the fluid
+    description: str
+
+
+@dataclass(frozen=True)
+class SceneInfo:
+    """A built-in scene (Client.scenes())."""
+
+    name: str
+    description: str
+    particles: int  # particle count with the scene's own parameters
+    solver: str
+
+
+def _status(m: Any) -> Status:
+    return Status(
+        state=_STATES.get(m.state, "unspecified"), step=m.step, frame=m.frame, time=m.time,
+        particles=m.particles, solver=m.solver, scene=m.scene,
+        frames_per_second=m.frames_per_second, target_frame_rate=m.target_frame_rate,
+        passes=tuple(PassTiming(p.name, p.last_ms, p.mean_ms, p.calls) for p in m.passes),
+        subscribers=m.subscribers, alarm=m.alarm, history_frames=m.history_frames,
+        history_bytes=m.history_bytes, frames_encoded=m.frames_encoded)
+
+
+def _control(m: Any) -> ControlResult:
+    return ControlResult(status=_status(m.status), reset=m.reset, frames_moved=m.frames_moved)
+
+
+def _params(messages: Iterable[Any]) -> Dict[str, ParamInfo]:
+    return {p.name: ParamInfo(p.name, p.value, p.unit, p.min, p.max, p.default_value,
+                              p.integer, p.needs_reset, p.description) for p in messages}
+
+
+def _count(n: int, verb: str) -> int:
+    """Checks a frame count for step/back (the wire type is uint32; 0 would mean 1)."""
+    if isinstance(n, bool) or not isinstance(n, int) or not 1 <= n <= 0xFFFFFFFF:
+        raise ValueError("%s: the frame count must be an integer in [1, 2^32 - 1], not %r"
+                         % (verb, n))
+    return n
+
+
+class Client:
+    """A connection to a dysa-server.
+
+    Args:
+        address: "HOST:PORT" of the server (dysa-server --listen).
+        token: sent as "authorization: Bearer TOKEN" with every call, for a server started with
+            --token-file.
+        tls_ca: for a server started with --tls-cert/--tls-key: the PEM file (path) or PEM bytes
+            of the certificate authority (or the self-signed certificate) to trust. None: plain
+            TCP.
+        timeout: seconds each call (not a frame stream) may take before it fails with
+            DEADLINE_EXCEEDED. Also the attribute `timeout`; None waits without limit.
+        tls_server_name: the name the server's certificate must carry, when it differs from the
+            host part of `address` (e.g. a certificate for "localhost" reached at 127.0.0.1).
+
+    Connecting is lazy: the first call connects, and fails with DysaError (UNAVAILABLE) naming
+    the address when no server answers there. Use it as a context manager, or call close().
+    """
+
+    def __init__(self, address: str = "127.0.0.1:50051", token: Optional[str] = None,
+                 tls_ca: Union[str, bytes, os.PathLike, None] = None,
+                 timeout: Optional[float] = 30.0,
+                 tls_server_name: Optional[str] = None) -> None:
+        self.address = address
+        self.timeout = timeout
+        self._metadata: Tuple[Tuple[str, str], ...] = ()
+        if token is not None:
+            token = token.strip()  # token files usually end with a newline
+            if not token:
+                raise ValueError("token is empty")
+            self._metadata = (("authorization", "Bearer " + token),)
+        options: List[Tuple[str, Any]] = [("grpc.max_receive_message_length",
+                                           _MAX_RECEIVE_BYTES)]
+        if tls_ca is None:
+            self._channel = grpc.insecure_channel(address, options=options)
+        else:
+            if isinstance(tls_ca, bytes):
+                root = tls_ca
+            else:
+                with open(tls_ca, "rb") as f:
+                    root = f.read()
+            if tls_server_name:
+                options.append(("grpc.ssl_target_name_override", tls_server_name))
+            credentials = grpc.ssl_channel_credentials(root_certificates=root)
+            self._channel = grpc.secure_channel(address, credentials, options=options)
+        self._stub = _pb_grpc.SimulationStub(self._channel)
+        self._closed = False
+
+    # --- lifetime -------------------------------------------------------------------------
+
+    def close(self) -> None:
+        """Closes the connection; open frame streams end (their iteration stops)."""
+        if not self._closed:
+            self._closed = True
+            self._channel.close()
+
+    def __enter__(self) -> "Client":
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.close()
+
+    def __repr__(self) -> str:
+        return "Client(%r)" % self.address
+
+    def wait_ready(self, timeout: float = 10.0) -> None:
+        """Waits until the connection to the server is up (at most `timeout` seconds).
+
+        Calls do not need it (they connect by themselves); it is for waiting on a server that
+        is starting. Raises DysaError (UNAVAILABLE) when it is not up in time.
+        """
+        try:
+            grpc.channel_ready_future(self._channel).result(timeout=timeout)
+        except grpc.FutureTimeoutError:
+            raise DysaError("no DySAQUASIMs server answered at %s within %g s"
+                            % (self.address, timeout), grpc.StatusCode.UNAVAILABLE) from None
+
+    # --- calls ----------------------------------------------------------------------------
+
+    def _error(self, error: grpc.RpcError, rpc: str) -> DysaError:
+        """A DysaError with a message that says what to do for the common failures."""
+        code = error.code() if hasattr(error, "code") else grpc.StatusCode.UNKNOWN
+        details = (error.details() if hasattr(error, "details") else str(error)) or ""
+        if code == grpc.StatusCode.UNAVAILABLE:
+            message = ("the DySAQUASIMs server at %s is unavailable (not running, not "
+                       "listening there, or shutting down): %s" % (self.address, details))
+        elif code == grpc.StatusCode.DEADLINE_EXCEEDED:
+            message = ("%s: no reply from the server at %s within %s s (Client timeout)"
+                       % (rpc, self.address, self.timeout))
+        elif code == grpc.StatusCode.UNAUTHENTICATED:
+            message = ("%s: the server at %s refused the call (UNAUTHENTICATED): %s; pass its "
+                       "token (Client(token=...))" % (rpc, self.address, details))
+        else:
+            message = "%s: %s: %s" % (rpc, code.name if code else "UNKNOWN", details)
+        return DysaError(message, code, details)
+
+    def _call(self, rpc: str, request: Any) -> Any:
+        """Calls unary method `rpc` with the token and the timeout."""
+        if self._closed:
+            raise DysaError("%s: the client is closed" % rpc, grpc.StatusCode.CANCELLED)
+        try:
+            return getattr(self._stub, rpc)(request, timeout=self.timeout,
+                                            metadata=self._metadata)
+        except grpc.RpcError as error:
+            raise self._error(error, rpc) from None
+
+    def status(self) -> Status:
+        """The simulation's state, time, counters and per-pass timings (never waits for a
+        step)."""
+        return _status(self._call("GetStatus", _pb.GetStatusRequest()))
+
+    def pause(self) -> ControlResult:
+        """Pauses the simulation (between two frames)."""
+        return _control(self._call("Pause", _pb.PauseRequest()))
+
+    def resume(self) -> ControlResult:
+        """Resumes the simulation; it runs at the server's frame rate."""
+        return _control(self._call("Resume", _pb.ResumeRequest()))
+
+    def step(self, n: int = 1) -> ControlResult:
+        """Advances n frames (each iterations_per_frame solver steps), then pauses.
+
+        Returns once the frames have been simulated; a long step may need a larger
+        Client.timeout.
+        """
+        return _control(self._call("Step", _pb.StepRequest(count=_count(n, "step"))))
+
+    def back(self, n: int = 1) -> ControlResult:
+        """Returns to the state n frames earlier, then pauses. Stops at the oldest frame the
+        history keeps: frames_moved says how far it went."""
+        return _control(self._call("StepBack", _pb.StepBackRequest(count=_count(n, "back"))))
+
+    def reset(self) -> ControlResult:
+        """Re-spawns the fluid of the current scene with the current parameters; time goes
+        to 0. The run state (running or paused) is the server's choice; see the status."""
+        return _control(self._call("Reset", _pb.ResetRequest()))
+
+    def params(self) -> Dict[str, ParamInfo]:
+        """Every parameter by name, in declaration order, with its value, unit and range."""
+        return _params(self._call("GetParams", _pb.GetParamsRequest()).params)
+
+    def set(self, **values: float) -> bool:
+        """Changes parameters by name, e.g. ``set(viscosity=0.005, gravity=-9.81)``; values in
+        each parameter's unit (see params()).
+
+        All or nothing: an unknown name or a value out of range raises DysaError
+        (INVALID_ARGUMENT, naming the field and its range) and nothing is applied. Returns
+        whether a changed parameter needed a reset (the fluid was re-spawned).
+        """
+        return self.set_params(values)
+
+    def set_params(self, values: Mapping[str, float]) -> bool:
+        """set() with a mapping of name -> value; returns whether the fluid was re-spawned."""
+        request = _pb.UpdateParamsRequest()
+        for name, value in values.items():
+            # bool is an int in Python; True as a viscosity is surely a mistake.
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                raise TypeError("set: %s must be a number, not %r" % (name, value))
+            request.params.values[name] = float(value)
+            # Only the named entries are applied (the server's update_mask contract), so a
+            # future field of ParamValues is never reset by accident.
+            request.update_mask.paths.append("values." + name)
+        return self._call("UpdateParams", request).reset
+
+    def load(self, scene: Union[str, os.PathLike, Mapping[str, Any]]) -> ControlResult:
+        """Replaces the running scene.
+
+        `scene` is one of:
+        - a mapping: the scene itself (scenes/README.md), sent as JSON;
+        - a str that starts with "{": JSON scene text;
+        - an os.PathLike, or a str that names an existing file, ends with ".json" or contains
+          a path separator: a scene file on this machine (its content is sent, so the server
+          need not see the file);
+        - any other str: a built-in scene name (see scenes()).
+
+        A scene that does not parse or validate raises DysaError (INVALID_ARGUMENT, naming the
+        field) and the old scene keeps running. A missing file raises FileNotFoundError.
+        """
+        request = _pb.LoadSceneRequest()
+        if isinstance(scene, Mapping):
+            request.json_text = json.dumps(scene)
+        elif isinstance(scene, os.PathLike) or (
+                isinstance(scene, str) and not scene.lstrip().startswith("{") and (
+                    os.path.isfile(scene) or scene.endswith(".json") or os.sep in scene
+                    or "/" in scene)):
+            with open(scene, encoding="utf-8") as f:
+                request.json_text = f.read()
+        elif isinstance(scene, str):
+            if scene.lstrip().startswith("{"):
+                request.json_text = scene
+            else:
+                request.name = scene
+        else:
+            raise TypeError("load: scene must be a name, a path, JSON text or a mapping, not %r"
+                            % type(scene).__name__)
+        return _control(self._call("LoadScene", request))
+
+    def scenes(self) -> List[SceneInfo]:
+        """The built-in scenes (the running one is status().scene)."""
+        reply = self._call("ListScenes", _pb.ListScenesRequest())
+        return [SceneInfo(s.name, s.description, s.particles, s.solver) for s in reply.scenes]
+
+    def frames(self, fields: Iterable[str] = ("positions", "speed"), max_fps: float = 0.0,
+               stride: int = 1, position_bits: int = 16, limit: Optional[int] = None, *,
+               speed_bits: int = 0, velocity_bits: int = 0, density_bits: int = 0,
+               keyframe_interval: int = 0) -> "FrameStream":
+        """Streams particle frames, decoded into numpy arrays (dysa.codec.Frame).
+
+        Args:
+            fields: any of "positions" (always sent), "speed" (m/s), "velocity" (m/s, 3
+                components) and "density" (kg/m^3).
+            max_fps: at most this many frames per wall second; 0: every frame simulated.
+            stride: level of detail: only particles with id % stride == 0.
+            position_bits: quantisation bits per axis, 1..24 (the error bound of each frame is
+                in Frame.position_error, m).
+            limit: stop after this many frames; None: until closed or the server ends the
+                stream.
+            speed_bits, velocity_bits, density_bits: 1..16; 0: the server's default (8, 12,
+                16).
+            keyframe_interval: frames between keyframes; 0: the server's default (60).
+
+        Returns a FrameStream: iterate it for Frames. The stream starts with the current
+        frame (a keyframe), even when paused, then brings each frame as it is simulated,
+        newest first: a reader that falls behind skips frames (it never slows the simulation).
+        Each Frame also carries `sim_frame` (frame number since the last reset),
+        `frames_skipped` (frames this stream missed just before it) and `produced_unix_us`
+        (server wall clock, microseconds since the Unix epoch). Close it (or leave a with
+        block, or close the generator-like iterator) to end the call on the server.
+        """
+        if isinstance(fields, str):  # frames(fields="velocity"): one name, not its letters
+            fields = (fields,)
+        codes = []
+        for name in fields:
+            if name not in FIELDS:
+                raise ValueError("frames: unknown field %r; known: %s"
+                                 % (name, ", ".join(FIELDS)))
+            if FIELDS[name] not in codes:
+                codes.append(FIELDS[name])
+        if limit is not None and limit < 1:
+            raise ValueError("frames: limit must be >= 1 or None, not %r" % (limit,))
+        request = _pb.StreamFramesRequest(
+            fields=codes, max_fps=max_fps, position_bits=position_bits, speed_bits=speed_bits,
+            velocity_bits=velocity_bits, density_bits=density_bits, stride=stride,
+            keyframe_interval=keyframe_interval)
+        if self._closed:
+            raise DysaError("StreamFrames: the client is closed", grpc.StatusCode.CANCELLED)
+        # No deadline: a stream lasts as long as the reader wants it.
+        call = self._stub.StreamFrames(request, metadata=self._metadata)
+        return FrameStream(self, call, limit)
+
+
+class FrameStream:
+    """An open StreamFrames call: an iterator of decoded dysa.codec.Frame objects.
+
+    Behaves like a generator: close() ends the call on the server (also from another thread,
+    where it makes a blocked iteration stop), and so do leaving a with block, reaching `limit`
+    and garbage collection. Iteration stops quietly after close() or Client.close(); a server
+    that shuts down or fails the stream raises DysaError.
+
+    Counters: frames_received, frames_skipped (sum of what the server reported),
+    bytes_received (chunk bytes).
+    """
+
+    def __init__(self, client: Client, call: Any, limit: Optional[int]) -> None:
+        self._client = client
+        self._call = call
+        self._limit = limit
+        self._decoder = FrameDecoder()
+        self._closed = False
+        self._lock = threading.Lock()
+        self.frames_received = 0
+        self.frames_skipped = 0
+        self.bytes_received = 0
+
+    def __iter__(self) -> "FrameStream":
+        return self
+
+    def __next__(self) -> Frame:
+        while True:
+            if self._closed:
+                raise StopIteration
+            try:
+                message = next(self._call)
+            except StopIteration:
+                self.close()
+                raise
+            except grpc.RpcError as error:
+                ended_by_us = self._closed or self._client._closed
+                self.close()
+                if ended_by_us and error.code() == grpc.StatusCode.CANCELLED:
+                    raise StopIteration from None
+                raise self._client._error(error, "StreamFrames") from None
+            self.frames_skipped += message.frames_skipped
+            self.bytes_received += sum(len(c) for c in message.chunks)
+            try:
+                frame = self._decoder.add_chunks(message.chunks)
+            except Exception:
+                self.close()
+                raise
+            if frame is None:
+                # More messages of this frame to come, or a delta frame the decoder cannot use
+                # (it waits for the next keyframe).
+                continue
+            frame.sim_frame = message.frame
+            frame.frames_skipped = message.frames_skipped
+            frame.produced_unix_us = message.produced_unix_us
+            self.frames_received += 1
+            if self._limit is not None and self.frames_received >= self._limit:
+                self.close()
+            return frame
+
+    def close(self) -> None:
+        """Ends the stream (cancels the call; idempotent, thread-safe)."""
+        with self._lock:
+            if self._closed:
+                return
+            self._closed = True
+        self._call.cancel()
+
+    @property
+    def closed(self) -> bool:
+        """Whether the stream has ended."""
+        return self._closed
+
+    def __enter__(self) -> "FrameStream":
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.close()
+
+    def __del__(self) -> None:
+        # Like a generator's finalisation: an abandoned stream does not stay open on the server.
+        try:
+            self.close()
+        except Exception:  # noqa: BLE001 - interpreter shutdown
+            pass
