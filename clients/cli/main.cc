@@ -3,11 +3,25 @@
 
 #include <CLI/CLI.hpp>
 #include <iostream>
+#include <sstream>
 
 #include "dysa/core/params.h"
 #include "dysa/core/scene.h"
 #include "dysa/core/solver.h"
 #include "run_command.h"
+
+#ifdef DYSA_WITH_REMOTE
+#include <atomic>
+#include <chrono>
+#include <csignal>
+#include <functional>
+#include <optional>
+#include <utility>
+#include <vector>
+
+#include "remote_client.h"
+#include "remote_commands.h"
+#endif
 
 namespace {
 
@@ -25,6 +39,187 @@ std::string ParameterHelp() {
   for (const dysa::SolverInfo& s : dysa::SolverRegistry()) text += " " + std::string(s.name);
   return text + "\n";
 }
+
+#ifdef DYSA_WITH_REMOTE
+
+namespace remote = dysa::remote;
+
+std::atomic<bool> g_interrupted{false};
+
+// Ctrl-C during watch or record: the command cancels its stream and ends cleanly. A second
+// Ctrl-C kills the process as usual.
+extern "C" void OnInterrupt(int) {
+  g_interrupted = true;
+  std::signal(SIGINT, SIG_DFL);
+}
+
+// The network verbs: their CLI11 subcommands and, for the one parsed, what to run.
+class RemoteCommands {
+ public:
+  explicit RemoteCommands(CLI::App& app) {
+    app.add_option("--server", connect_.address,
+                   "Server address HOST:PORT (environment: DYSA_SERVER)")
+        ->envname("DYSA_SERVER")
+        ->capture_default_str();
+    app.add_option("--token", connect_.token,
+                   "Access token, sent as 'authorization: Bearer T' (environment: DYSA_TOKEN)")
+        ->envname("DYSA_TOKEN");
+    app.add_option("--tls-ca", connect_.tls_ca_file,
+                   "Connect with TLS, trusting this PEM CA certificate (default: plaintext)")
+        ->check(CLI::ExistingFile);
+    app.add_option("--tls-name", connect_.tls_server_name,
+                   "The name on the server's certificate, when not the address's host");
+    app.add_option("--timeout", timeout_,
+                   "Seconds to wait for an answer (default: 30 for queries, 300 for controls, "
+                   "which may simulate)")
+        ->check(CLI::Range(0.001, 1e6));
+    app.add_flag("--json", json_, "Print one JSON object instead of text");
+
+    Add(app, "status", "Server and simulation status, with per-pass timings",
+        [this](remote::Client& c) { remote::PrintStatus(c, json_, std::cout); });
+    Add(app, "pause", "Pause the simulation", [this](remote::Client& c) {
+      remote::RunControl(c, remote::ControlVerb::kPause, 0, json_, std::cout);
+    });
+    Add(app, "resume", "Resume the simulation", [this](remote::Client& c) {
+      remote::RunControl(c, remote::ControlVerb::kResume, 0, json_, std::cout);
+    });
+    CLI::App* step =
+        Add(app, "step", "Advance N frames (default 1), then pause", [this](remote::Client& c) {
+          remote::RunControl(c, remote::ControlVerb::kStep, count_, json_, std::cout);
+        });
+    step->add_option("N", count_, "Frames")->check(CLI::Range(1u, 1000000u));
+    CLI::App* back =
+        Add(app, "back", "Go back N frames (default 1) in the history, then pause",
+            [this](remote::Client& c) {
+              remote::RunControl(c, remote::ControlVerb::kStepBack, count_, json_, std::cout);
+            });
+    back->add_option("N", count_, "Frames")->check(CLI::Range(1u, 1000000u));
+    Add(app, "reset", "Re-spawn the fluid of the current scene; time goes to 0",
+        [this](remote::Client& c) {
+          remote::RunControl(c, remote::ControlVerb::kReset, 0, json_, std::cout);
+        });
+    Add(app, "params", "Every parameter: value, unit, range, default, whether it needs a reset",
+        [this](remote::Client& c) { remote::PrintParams(c, json_, std::cout); });
+    CLI::App* set =
+        Add(app, "set", "Change parameters, all or nothing (see `dysa params`)",
+            [this](remote::Client& c) { remote::SetParams(c, assignments_, json_, std::cout); });
+    set->add_option("NAME=VALUE", assignments_, "Parameters to change")->required();
+    CLI::App* load =
+        Add(app, "load", "Load a scene: a built-in name (see `dysa scenes`) or a scene JSON file",
+            [this](remote::Client& c) { remote::LoadScene(c, scene_, json_, std::cout); });
+    load->add_option("SCENE", scene_, "Scene name or file")->required();
+    Add(app, "scenes", "The built-in scenes; * marks the current one",
+        [this](remote::Client& c) { remote::PrintScenes(c, json_, std::cout); });
+
+    CLI::App* watch = Add(app, "watch", "Stream frames and show a live status line (until Ctrl-C)",
+                          [this](remote::Client& c) {
+                            remote::WatchOptions options;
+                            options.stream = Stream();
+                            options.seconds = seconds_;
+                            options.live = isatty(STDOUT_FILENO) != 0;
+                            options.json = json_;
+                            options.interrupted = &g_interrupted;
+                            remote::Watch(c, options, std::cout);
+                          });
+    watch->add_option("--seconds", seconds_, "Stop after S seconds (default: until Ctrl-C)")
+        ->check(CLI::Range(0.001, 1e9));
+    AddStreamOptions(watch);
+
+    CLI::App* record =
+        Add(app, "record", "Record N frames to a ParaView series (vtk) or a NumPy .npz file",
+            [this](remote::Client& c) {
+              record_.stream = Stream();
+              record_.json = json_;
+              record_.progress = isatty(STDERR_FILENO) != 0;
+              record_.interrupted = &g_interrupted;
+              remote::Record(c, record_, std::cout, std::cerr);
+            });
+    record->add_option("--frames", record_.frames, "Frames to record")
+        ->required()
+        ->check(CLI::Range(uint64_t{1}, uint64_t{100'000'000}));
+    record
+        ->add_option("--out", record_.out,
+                     "npz: the file; vtk: OUT.pvd and OUT/frame_NNNNNN.vtp (OUT may end in .pvd)")
+        ->required();
+    record
+        ->add_option("--format", record_.format,
+                     "vtk or npz (default: npz when OUT ends in .npz, else vtk)")
+        ->check(CLI::IsMember({"vtk", "npz"}));
+    AddStreamOptions(record);
+  }
+
+  // Runs the parsed verb, if one was; returns its exit status.
+  std::optional<int> Run() {
+    for (const auto& [cmd, action] : commands_) {
+      if (!cmd->parsed()) continue;
+      const std::string prefix = "dysa " + cmd->get_name() + ": error: ";
+      try {
+        if (timeout_ > 0) {
+          const auto deadline = std::chrono::milliseconds(int64_t(timeout_ * 1000));
+          connect_.query_deadline = connect_.control_deadline = deadline;
+        }
+        remote::Client client(connect_);
+        if (cmd->get_name() == "watch" || cmd->get_name() == "record") {
+          std::signal(SIGINT, OnInterrupt);
+        }
+        action(client);
+        return 0;
+      } catch (const remote::UsageError& e) {
+        std::cerr << prefix << e.what() << "\n";
+        return 2;
+      } catch (const std::exception& e) {
+        std::cerr << prefix << e.what() << "\n";
+        return 1;
+      }
+    }
+    return std::nullopt;
+  }
+
+ private:
+  CLI::App* Add(CLI::App& app, const std::string& name, const std::string& description,
+                std::function<void(remote::Client&)> action) {
+    CLI::App* cmd = app.add_subcommand(name, description);
+    // Global options (--server, --json, ...) may also follow the verb.
+    cmd->fallthrough();
+    commands_.emplace_back(cmd, std::move(action));
+    return cmd;
+  }
+
+  void AddStreamOptions(CLI::App* cmd) {
+    cmd->add_option("--fields", fields_,
+                    "Fields besides positions: speed, velocity, density (default: speed)")
+        ->delimiter(',')
+        ->check(CLI::IsMember({"positions", "speed", "velocity", "density"}));
+    cmd->add_option("--stride", stride_, "Only the particles with id % K == 0")
+        ->check(CLI::Range(1u, 1u << 30));
+    cmd->add_option("--max-fps", max_fps_, "At most F frames per second (default: every frame)")
+        ->check(CLI::Range(0.0, 1e6));
+  }
+
+  remote::StreamOptions Stream() const {
+    remote::StreamOptions stream;
+    stream.fields =
+        remote::ParseFields(fields_.empty() ? std::vector<std::string>{"speed"} : fields_);
+    stream.stride = stride_;
+    stream.max_fps = max_fps_;
+    return stream;
+  }
+
+  remote::ConnectOptions connect_;
+  double timeout_ = 0;
+  bool json_ = false;
+  uint32_t count_ = 1;
+  std::vector<std::string> assignments_;
+  std::string scene_;
+  double seconds_ = 0;
+  std::vector<std::string> fields_;
+  uint32_t stride_ = 0;
+  double max_fps_ = 0;
+  remote::RecordOptions record_;
+  std::vector<std::pair<CLI::App*, std::function<void(remote::Client&)>>> commands_;
+};
+
+#endif  // DYSA_WITH_REMOTE
 
 }  // namespace
 
@@ -58,7 +253,20 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1, 1 << 30));
   run_cmd->footer(ParameterHelp());
 
-  CLI11_PARSE(app, argc, argv);
+#ifdef DYSA_WITH_REMOTE
+  RemoteCommands remote(app);
+#endif
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    // --help exits 0; every usage error exits 2, whatever CLI11's own code for it.
+    return app.exit(e) == 0 ? 0 : 2;
+  }
+
+#ifdef DYSA_WITH_REMOTE
+  if (const std::optional<int> status = remote.Run()) return *status;
+#endif
 
   if (run_cmd->parsed()) {
     if (*end_opt) run.end_time = end_time;

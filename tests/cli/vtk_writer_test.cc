@@ -243,6 +243,26 @@ TEST(WriteVtpTest, UnwritablePathThrowsNamingTheFile) {
   }
 }
 
+TEST(WriteVtpTest, PointsWithOnlySomeArrays) {
+  TempDir dir;
+  VtpPoints points;
+  points.positions = {1, 2, 3, -4, -5, -6};
+  points.arrays.push_back({"id", "UInt32", 1, {}});
+  const std::vector<uint32_t> ids = {0, 4};
+  points.arrays.back().bytes.resize(sizeof(uint32_t) * ids.size());
+  std::memcpy(points.arrays.back().bytes.data(), ids.data(), points.arrays.back().bytes.size());
+  const fs::path path = dir.path() / "points.vtp";
+  WriteVtp(path, points);
+  const VtpFile vtp = ReadVtp(path);
+  EXPECT_EQ(vtp.points, 2u);
+  EXPECT_EQ(vtp.verts, 2u);
+  EXPECT_EQ(vtp.arrays.size(), 4u);  // id, position, connectivity, offsets
+  EXPECT_EQ(Values<uint32_t>(vtp.arrays.at("id")), ids);
+  EXPECT_EQ(Values<float>(vtp.arrays.at("position")), points.positions);
+  const std::string text = ReadFile(path);
+  EXPECT_THAT(text, HasSubstr("<PointData>"));  // no Scalars or Vectors without those arrays
+}
+
 // The DataSet entries of a .pvd: (timestep, file) in order.
 std::vector<std::pair<double, std::string>> ReadPvd(const fs::path& path) {
   const std::string text = ReadFile(path);

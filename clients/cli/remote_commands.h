@@ -1,0 +1,79 @@
+// The network verbs of `dysa` (status, pause, ..., watch, record): each calls the server through
+// a remote::Client and prints to an ostream, human-readable or as one JSON object, so tests
+// capture what the command line prints. Errors are thrown, main.cc prints them.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <iosfwd>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "remote_client.h"
+
+namespace dysa::remote {
+
+// A mistake in the command line found before any call (exit status 2).
+class UsageError : public std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+void PrintStatus(Client& client, bool json, std::ostream& out);
+
+enum class ControlVerb { kPause, kResume, kStep, kStepBack, kReset };
+// `count` is the frames of kStep and kStepBack.
+void RunControl(Client& client, ControlVerb verb, uint32_t count, bool json, std::ostream& out);
+
+void PrintParams(Client& client, bool json, std::ostream& out);
+
+// "NAME=VALUE" arguments as (name, value), in order. The value must be a finite number written
+// in full ("1e-3", not "1e-3x"); a name may appear once. Names and ranges are the server's to
+// check (it may be a newer version). Throws UsageError naming the parameter.
+std::vector<std::pair<std::string, double>> ParseAssignments(
+    const std::vector<std::string>& assignments);
+// Parses everything first, then makes one UpdateParams call (all or nothing).
+void SetParams(Client& client, const std::vector<std::string>& assignments, bool json,
+               std::ostream& out);
+
+// `scene` is an existing file (its text is sent) or a built-in scene name.
+void LoadScene(Client& client, const std::string& scene, bool json, std::ostream& out);
+
+void PrintScenes(Client& client, bool json, std::ostream& out);
+
+// Field names ("positions", "speed", "velocity", "density") as dysa::codec::Field bits;
+// positions are always included. Throws UsageError for an unknown name.
+uint32_t ParseFields(const std::vector<std::string>& names);
+
+struct WatchOptions {
+  StreamOptions stream;
+  double seconds = 0;  // stop after this long; 0: until *interrupted
+  bool live = false;   // out is a terminal: one line rewritten in place (\r), else a line a second
+  bool json = false;   // no status lines; one JSON summary at the end
+  const std::atomic<bool>* interrupted = nullptr;  // set by a SIGINT handler; ends the watch
+};
+
+// Opens StreamFrames, decodes every frame and shows frame, simulated time, particles, frames/s
+// received, bytes per frame and per particle, and the latency since the server produced it.
+// An interruption or the end of `seconds` is a normal end.
+void Watch(Client& client, const WatchOptions& options, std::ostream& out);
+
+struct RecordOptions {
+  StreamOptions stream;
+  uint64_t frames = 1;  // complete decoded frames to write
+  std::string out;      // npz: the file; vtk: OUT.pvd (or OUT if it ends in .pvd) and OUT/
+  std::string format;   // "vtk" or "npz"; "" picks npz for a .npz file name, vtk otherwise
+  bool json = false;
+  bool progress = false;  // a live "k/N frames" line on `err`
+  const std::atomic<bool>* interrupted = nullptr;
+};
+
+// Receives options.frames frames and writes them. vtk: one .vtp per frame (positions, the fields
+// received, id = k * stride) and a .pvd; npz: positions (F,N,3) float32, speed/density (F,N)
+// and velocity (F,N,3) when received, time float64 (F), step and frame uint64 (F), ids uint32
+// (N). When interrupted, writes the frames received so far and throws std::runtime_error
+// saying so; the same when the particle count changes in an npz recording.
+void Record(Client& client, const RecordOptions& options, std::ostream& out, std::ostream& err);
+
+}  // namespace dysa::remote
