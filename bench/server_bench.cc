@@ -54,17 +54,21 @@ double RssMiB() {
   return 0;
 }
 
-// One subscriber on its own connection, decoding every frame.
+// One subscriber on its own connection. A decoding client decodes every frame, as a viewer does;
+// a receiving client only counts them, standing for a viewer on another machine (its decoding
+// then costs the server's cores nothing).
+enum class Mode { kStalled, kReceive, kDecode };
+
 class Client {
  public:
-  Client(const std::string& address, int index, bool read = true) {
+  Client(const std::string& address, int index, Mode mode) : mode_(mode) {
     grpc::ChannelArguments args;
     args.SetInt("dysa.bench.client", index);  // a distinct argument: a connection of its own
     args.SetMaxReceiveMessageSize(8 << 20);
     channel_ = grpc::CreateCustomChannel(address, grpc::InsecureChannelCredentials(), args);
     stub_ = dysa::v1::Simulation::NewStub(channel_);
     reader_ = stub_->StreamFrames(&context_, dysa::v1::StreamFramesRequest{});
-    if (read) thread_ = std::thread([this] { Read(); });
+    if (mode != Mode::kStalled) thread_ = std::thread([this] { Read(); });
   }
   ~Client() {
     context_.TryCancel();
@@ -84,7 +88,7 @@ class Client {
       for (const std::string& c : message.chunks()) chunks.emplace_back(c.begin(), c.end());
       if (!message.last_of_frame()) continue;
       try {
-        if (decoder.AddChunks(chunks, frame)) {
+        if (mode_ == Mode::kReceive || decoder.AddChunks(chunks, frame)) {
           bytes += message.frame_bytes();
           latency_us += uint64_t(std::max<int64_t>(0, UnixMicros() - message.produced_unix_us()));
           ++frames;
@@ -97,6 +101,7 @@ class Client {
     reader_->Finish();
   }
 
+  const Mode mode_;
   std::shared_ptr<grpc::Channel> channel_;
   std::unique_ptr<dysa::v1::Simulation::Stub> stub_;
   grpc::ClientContext context_;
@@ -181,7 +186,9 @@ void Live(const std::vector<int>& counts, double seconds, int warmup_frames, std
       stub->Step(&context, step, &reply);
     }
     std::vector<std::unique_ptr<Client>> clients;
-    for (int i = 0; i < n; ++i) clients.push_back(std::make_unique<Client>(Address(server), i));
+    for (int i = 0; i < n; ++i) {
+      clients.push_back(std::make_unique<Client>(Address(server), i, Mode::kReceive));
+    }
     {
       grpc::ClientContext context;
       dysa::v1::ControlReply reply;
@@ -195,15 +202,18 @@ void Live(const std::vector<int>& counts, double seconds, int warmup_frames, std
     } else {
       std::this_thread::sleep_for(std::chrono::duration<double>(seconds));
     }
-    const double sim_fps = (host.Status().frame - frame0) / Seconds(Clock::now() - start);
+    const auto status = host.Status();
+    const double sim_fps = (status.frame - frame0) / Seconds(Clock::now() - start);
+    const double publish_ms =
+        status.passes.back().name == "publish_frames" ? status.passes.back().mean_ms : 0.0;
     std::printf(
         "live      thesis  %8d particles  %2d subscribers: simulation %6.2f frames/s, "
-        "delivered %6.2f (min %6.2f) frames/s, %8.0f B/frame, latency %6.1f ms\n",
-        int(host.Status().particles), n, sim_fps, d.fps_mean, n ? d.fps_min : 0.0,
-        d.bytes_per_frame, d.latency_ms);
+        "delivered %6.2f (min %6.2f) frames/s, %8.0f B/frame, latency %6.1f ms, publish %.2f ms\n",
+        int(status.particles), n, sim_fps, d.fps_mean, n ? d.fps_min : 0.0, d.bytes_per_frame,
+        d.latency_ms, publish_ms);
     csv << "live,seed_test_scene," << host.Status().particles << "," << n << "," << sim_fps << ","
         << d.fps_mean << "," << (n ? d.fps_min : 0.0) << "," << d.bytes_per_frame << ","
-        << d.latency_ms << "\n";
+        << d.latency_ms << "," << publish_ms << "\n";
     csv.flush();
     clients.clear();
     server.Shutdown();
@@ -214,7 +224,7 @@ void Live(const std::vector<int>& counts, double seconds, int warmup_frames, std
 // they are encoded (the simulation is paused), so the numbers are the fan-out's capacity:
 // encoding, gRPC on loopback and each client's decoding, on the same 2 cores.
 void Pipeline(const dysa::Scene& scene, double warmup_time, int recorded,
-              const std::vector<int>& counts, double seconds, std::ofstream& csv) {
+              const std::vector<int>& counts, Mode mode, double seconds, std::ofstream& csv) {
   std::printf("recording %d frames of %s ...\n", recorded, scene.name.c_str());
   std::vector<FrameSnapshot> frames(recorded);
   {
@@ -245,7 +255,8 @@ void Pipeline(const dysa::Scene& scene, double warmup_time, int recorded,
       }
     });
     std::vector<std::unique_ptr<Client>> clients;
-    for (int i = 0; i < n; ++i) clients.push_back(std::make_unique<Client>(Address(server), i));
+    for (int i = 0; i < n; ++i)
+      clients.push_back(std::make_unique<Client>(Address(server), i, mode));
     const uint64_t p0 = published;
     const auto start = Clock::now();
     const Delivery d = Measure(clients, seconds);
@@ -253,12 +264,13 @@ void Pipeline(const dysa::Scene& scene, double warmup_time, int recorded,
     clients.clear();
     stop = true;
     feeder.join();
+    const char* part = mode == Mode::kDecode ? "pipeline" : "pipeline_receive_only";
     std::printf(
-        "pipeline  %-14s %8zu particles  %2d subscribers: encoded %6.2f frames/s, "
+        "%s  %-14s %8zu particles  %2d subscribers: encoded %6.2f frames/s, "
         "delivered %6.2f (min %6.2f) frames/s, %8.0f B/frame, latency %6.1f ms\n",
-        scene.name.c_str(), frames[0].positions.size() / 3, n, publish_fps, d.fps_mean, d.fps_min,
-        d.bytes_per_frame, d.latency_ms);
-    csv << "pipeline," << scene.name << "," << frames[0].positions.size() / 3 << "," << n << ","
+        part, scene.name.c_str(), frames[0].positions.size() / 3, n, publish_fps, d.fps_mean,
+        d.fps_min, d.bytes_per_frame, d.latency_ms);
+    csv << part << "," << scene.name << "," << frames[0].positions.size() / 3 << "," << n << ","
         << publish_fps << "," << d.fps_mean << "," << d.fps_min << "," << d.bytes_per_frame << ","
         << d.latency_ms << "\n";
     csv.flush();
@@ -273,27 +285,32 @@ void Stalled(double seconds, const std::filesystem::path& out) {
   options.frame_rate = 60;
   SimulationHost host(dysa::LoadScene("seed_test_scene"), options);
   Server server(host, Loopback());
-  Client stalled(Address(server), 0, /*read=*/false);
-  Client reader(Address(server), 1);
+  Client stalled(Address(server), 0, Mode::kStalled);
+  Client reader(Address(server), 1, Mode::kDecode);
   std::ofstream csv(out);
-  csv << "seconds,rss_mib,frame,frames_encoded,frames_alive,reader_frames\n";
+  csv << "seconds,rss_mib,history_mib,frame,frames_encoded,frames_alive,reader_frames\n";
   const auto start = Clock::now();
+  // Memory apart from the step-back history, which grows to its budget by design.
   double first = 0, peak = 0;
   for (int s = 0; s <= int(seconds); ++s) {
     std::this_thread::sleep_until(start + std::chrono::seconds(s));
     const auto status = host.Status();
     const double rss = RssMiB();
-    if (s == 5) first = rss;
-    peak = std::max(peak, rss);
-    csv << s << "," << rss << "," << status.frame << "," << status.frames_encoded << ","
-        << host.hub().frames_alive() << "," << reader.frames << "\n";
-    std::printf("stalled   t=%3d s  rss %7.1f MiB  frame %6llu  frames alive %lld  reader %llu\n",
-                s, rss, (unsigned long long)status.frame, (long long)host.hub().frames_alive(),
-                (unsigned long long)reader.frames.load());
+    const double other = rss - status.history_bytes / 1048576.0;
+    if (s == 5) first = other;
+    peak = std::max(peak, other);
+    csv << s << "," << rss << "," << status.history_bytes / 1048576.0 << "," << status.frame << ","
+        << status.frames_encoded << "," << host.hub().frames_alive() << "," << reader.frames
+        << "\n";
+    std::printf(
+        "stalled   t=%3d s  rss %7.1f MiB  history %6.1f MiB  frame %6llu  frames alive %lld  "
+        "reader %llu\n",
+        s, rss, status.history_bytes / 1048576.0, (unsigned long long)status.frame,
+        (long long)host.hub().frames_alive(), (unsigned long long)reader.frames.load());
     std::fflush(stdout);
   }
-  std::printf("stalled   rss at 5 s %.1f MiB, peak %.1f MiB (growth %.1f MiB)\n", first, peak,
-              peak - first);
+  std::printf("stalled   rss less history: at 5 s %.1f MiB, peak %.1f MiB (growth %.1f MiB)\n",
+              first, peak, peak - first);
   server.Shutdown();
 }
 
@@ -342,8 +359,10 @@ int main(int argc, char** argv) {
       Live(with_zero, seconds, 30, csv);
     }
     if (part != "live") {
-      Pipeline(dysa::LoadScene("seed_test_scene"), 1.0, 60, counts, seconds, csv);
-      Pipeline(LargeBlock(large), 0.1, 6, {1}, seconds, csv);
+      Pipeline(dysa::LoadScene("seed_test_scene"), 1.0, 60, counts, Mode::kDecode, seconds, csv);
+      const dysa::Scene block = LargeBlock(large);
+      Pipeline(block, 0.1, 30, {1}, Mode::kDecode, seconds, csv);
+      Pipeline(block, 0.1, 30, {1}, Mode::kReceive, seconds, csv);
     }
   }
   if (part == "stalled" || part == "all") {

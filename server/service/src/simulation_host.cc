@@ -277,6 +277,7 @@ void SimulationHost::StartScene() {
   alarm_.clear();
   history_.Start(*sim_);
   recent_frames_.clear();
+  publish_ = PassStatus{"publish_frames"};
   const Scene& scene = sim_->scene();
   Log("scene '" + scene.name + "': " + std::to_string(sim_->state().particles.size()) +
       " particles, solver " + scene.solver + ", history " + std::to_string(history_.window()) +
@@ -318,8 +319,12 @@ void GatherSnapshot(const Simulation& sim, uint32_t fields, FrameSnapshot& s) {
 void SimulationHost::Publish(bool force, bool discontinuity) {
   const uint32_t fields = hub_.NeededFields();
   if (fields == 0) return;  // no one watches: nothing gathered, nothing encoded
+  const auto start = Clock::now();
   GatherSnapshot(*sim_, fields, snapshot_);
   hub_.Publish(snapshot_, force, discontinuity);
+  publish_.last_ms = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+  publish_.mean_ms = (publish_.mean_ms * publish_.calls + publish_.last_ms) / (publish_.calls + 1);
+  ++publish_.calls;
 }
 
 void SimulationHost::RefreshStatus() {
@@ -343,6 +348,7 @@ void SimulationHost::RefreshStatus() {
                                   prof.calls ? prof.total_ms / double(prof.calls) : 0.0,
                                   prof.calls});
   }
+  if (publish_.calls > 0) s.passes.push_back(publish_);
   s.alarm = alarm_;
   s.history_frames = history_.available(state.frame);
   s.history_bytes = history_.bytes();

@@ -52,6 +52,8 @@ struct HostStatus {
   std::string scene;
   double frames_per_second = 0;  // simulated frames per wall second, over the last second
   double target_frame_rate = 0;
+  // The solver's passes, then "publish_frames" (gathering and encoding frames for subscribers,
+  // per frame) once anyone has subscribed.
   std::vector<PassStatus> passes;
   uint32_t subscribers = 0;
   std::string alarm;  // empty when healthy
@@ -150,6 +152,7 @@ class SimulationHost {
   std::string alarm_;
   FrameSnapshot snapshot_;  // reused buffers
   std::deque<std::chrono::steady_clock::time_point> recent_frames_;
+  PassStatus publish_;  // gathering and encoding frames for subscribers, per frame
 
   std::mutex mu_;
   std::condition_variable wake_;
