@@ -170,6 +170,7 @@ void FrameHub::Publish(const FrameSnapshot& snapshot, bool force, bool discontin
     encoded->seq = group->next_seq++;
     encoded->produced_unix_us = snapshot.produced_unix_us;
     for (const codec::Chunk& c : encoded->chunks) encoded->bytes += c.size();
+    if (transport_builder_) encoded->transport = transport_builder_(*encoded);
     {
       std::lock_guard lock(mu_);
       ++frames_encoded_;

@@ -126,9 +126,52 @@ SubscriptionOptions ToOptions(const v1::StreamFramesRequest& r) {
   return o;
 }
 
+// A frame as serialised FrameMessages, each at most kMaxMessageBytes of chunks. Only
+// frames_skipped differs between subscribers: it is appended to a message as its own field
+// (protobuf fields may come in any order), so the shared slices are never copied.
+struct WireFrame {
+  std::vector<grpc::Slice> messages;
+};
+
+std::shared_ptr<const void> BuildWireFrame(const EncodedFrame& frame) {
+  auto wire = std::make_shared<WireFrame>();
+  v1::FrameMessage message;
+  size_t next = 0;
+  do {
+    message.Clear();
+    size_t bytes = 0;
+    while (next < frame.chunks.size()) {
+      const codec::Chunk& chunk = frame.chunks[next];
+      if (message.chunks_size() > 0 && bytes + chunk.size() > kMaxMessageBytes) break;
+      message.add_chunks(chunk.data(), chunk.size());
+      bytes += chunk.size();
+      ++next;
+    }
+    message.set_frame(frame.frame);
+    message.set_last_of_frame(next == frame.chunks.size());
+    message.set_frame_bytes(frame.bytes);
+    message.set_produced_unix_us(frame.produced_unix_us);
+    auto* text = new std::string(message.SerializeAsString());
+    wire->messages.emplace_back(
+        text->data(), text->size(), [](void* p) { delete static_cast<std::string*>(p); }, text);
+  } while (next < frame.chunks.size());
+  return wire;
+}
+
+// FrameMessage.frames_skipped (field 6, varint) on its own.
+grpc::Slice SkippedField(uint32_t skipped) {
+  uint8_t bytes[6] = {6 << 3};
+  size_t n = 1;
+  do {
+    bytes[n++] = uint8_t((skipped & 0x7f) | (skipped >= 0x80 ? 0x80 : 0));
+    skipped >>= 7;
+  } while (skipped != 0);
+  return grpc::Slice(bytes, n);
+}
+
 // One StreamFrames call: takes the newest decodable frame from its subscription whenever no
-// write is in flight, and sends it as one or more messages.
-class FrameStream final : public grpc::ServerWriteReactor<v1::FrameMessage>, public FrameListener {
+// write is in flight, and sends its messages one after the other.
+class FrameStream final : public grpc::ServerWriteReactor<grpc::ByteBuffer>, public FrameListener {
  public:
   explicit FrameStream(FrameHub& hub) : hub_(hub) {}
 
@@ -184,29 +227,23 @@ class FrameStream final : public grpc::ServerWriteReactor<v1::FrameMessage>, pub
     Finish(status);
   }
 
-  // The rest of the current frame, or the next frame.
+  // The next message of the current frame, or the first of the next frame.
   void WriteNextLocked() {
-    if (!frame_ || next_chunk_ == frame_->chunks.size()) {
+    grpc::Slice slices[2];
+    size_t count = 1;
+    if (!wire_ || next_message_ == wire_->messages.size()) {
       uint32_t skipped = 0;
       frame_ = subscription_->Take(&skipped);
-      next_chunk_ = 0;
-      if (!frame_) return;  // OnFrameReady will follow
-      skipped_ = skipped;
+      if (!frame_) {  // OnFrameReady will follow
+        wire_ = nullptr;
+        return;
+      }
+      wire_ = static_cast<const WireFrame*>(frame_->transport.get());
+      next_message_ = 0;
+      if (skipped > 0) slices[count++] = SkippedField(skipped);
     }
-    message_.Clear();
-    size_t bytes = 0;
-    while (next_chunk_ < frame_->chunks.size()) {
-      const codec::Chunk& chunk = frame_->chunks[next_chunk_];
-      if (message_.chunks_size() > 0 && bytes + chunk.size() > kMaxMessageBytes) break;
-      message_.add_chunks(chunk.data(), chunk.size());
-      bytes += chunk.size();
-      ++next_chunk_;
-    }
-    message_.set_frame(frame_->frame);
-    message_.set_last_of_frame(next_chunk_ == frame_->chunks.size());
-    message_.set_frame_bytes(frame_->bytes);
-    message_.set_produced_unix_us(frame_->produced_unix_us);
-    message_.set_frames_skipped(skipped_);
+    slices[0] = wire_->messages[next_message_++];
+    message_ = grpc::ByteBuffer(slices, count);
     writing_ = true;
     StartWrite(&message_);
   }
@@ -217,10 +254,10 @@ class FrameStream final : public grpc::ServerWriteReactor<v1::FrameMessage>, pub
   bool writing_ = false;
   bool finished_ = false;
   bool closing_ = false;
-  std::shared_ptr<const EncodedFrame> frame_;  // being sent
-  size_t next_chunk_ = 0;
-  uint32_t skipped_ = 0;
-  v1::FrameMessage message_;  // the write in flight
+  std::shared_ptr<const EncodedFrame> frame_;  // being sent; owns wire_
+  const WireFrame* wire_ = nullptr;
+  size_t next_message_ = 0;
+  grpc::ByteBuffer message_;  // the write in flight
 };
 
 }  // namespace
@@ -431,15 +468,32 @@ grpc::ServerUnaryReactor* SimulationService::ListScenes(grpc::CallbackServerCont
   return reactor;
 }
 
-grpc::ServerWriteReactor<v1::FrameMessage>* SimulationService::StreamFrames(
-    grpc::CallbackServerContext* context, const v1::StreamFramesRequest* request) {
+SimulationService::SimulationService(SimulationHost& host, AccessPolicy access)
+    : host_(host), access_(std::move(access)) {
+  host_.hub().set_transport_builder(BuildWireFrame);
+}
+
+grpc::ServerWriteReactor<grpc::ByteBuffer>* SimulationService::StreamFrames(
+    grpc::CallbackServerContext* context, const grpc::ByteBuffer* request) {
   auto* stream = new FrameStream(host_.hub());  // deletes itself in OnDone
   if (grpc::Status s = CheckAccess(context, Access::kWatch); !s.ok()) {
     stream->FinishNow(s);
     return stream;
   }
+  v1::StreamFramesRequest parsed;
+  std::vector<grpc::Slice> slices;
+  std::string bytes;
+  if (request->Dump(&slices).ok()) {
+    for (const grpc::Slice& slice : slices) {
+      bytes.append(reinterpret_cast<const char*>(slice.begin()), slice.size());
+    }
+  }
+  if (!parsed.ParseFromString(bytes)) {
+    stream->FinishNow({grpc::StatusCode::INVALID_ARGUMENT, "request: not a StreamFramesRequest"});
+    return stream;
+  }
   try {
-    stream->Begin(ToOptions(*request));
+    stream->Begin(ToOptions(parsed));
   } catch (const std::invalid_argument& e) {
     stream->FinishNow({grpc::StatusCode::INVALID_ARGUMENT, e.what()});
   }

@@ -15,10 +15,14 @@ struct AccessPolicy {
   bool protect_watch = false;  // the token is needed for reading RPCs and streams too
 };
 
-class SimulationService final : public v1::Simulation::CallbackService {
+// StreamFrames is a raw method: frames go out as messages serialised once per encoded frame and
+// shared by every subscriber of its stream configuration (a reference-counted slice each), so
+// a subscriber costs the server no copy and no serialisation of its own.
+class SimulationService final
+    : public v1::Simulation::WithRawCallbackMethod_StreamFrames<v1::Simulation::CallbackService> {
  public:
-  SimulationService(SimulationHost& host, AccessPolicy access)
-      : host_(host), access_(std::move(access)) {}
+  // Installs the hub's transport builder: call before the host starts publishing.
+  SimulationService(SimulationHost& host, AccessPolicy access);
 
   grpc::ServerUnaryReactor* GetStatus(grpc::CallbackServerContext* context,
                                       const v1::GetStatusRequest* request,
@@ -49,8 +53,8 @@ class SimulationService final : public v1::Simulation::CallbackService {
   grpc::ServerUnaryReactor* ListScenes(grpc::CallbackServerContext* context,
                                        const v1::ListScenesRequest* request,
                                        v1::ListScenesReply* reply) override;
-  grpc::ServerWriteReactor<v1::FrameMessage>* StreamFrames(
-      grpc::CallbackServerContext* context, const v1::StreamFramesRequest* request) override;
+  grpc::ServerWriteReactor<grpc::ByteBuffer>* StreamFrames(
+      grpc::CallbackServerContext* context, const grpc::ByteBuffer* request) override;
 
  private:
   enum class Access { kWatch, kControl };

@@ -45,6 +45,9 @@ struct EncodedFrame {
   std::vector<codec::Chunk> chunks;
   size_t bytes = 0;
   int64_t produced_unix_us = 0;
+  // The frame in the transport's own form (the gRPC adapter's serialised messages), built once
+  // per frame by the hub's transport builder and shared by every subscriber; null without one.
+  std::shared_ptr<const void> transport;
 };
 
 struct SubscriptionOptions {
@@ -119,6 +122,10 @@ class FrameHub {
   // Called (from any thread) when a subscriber needs a frame published although the simulation
   // may be paused: a late joiner or a subscriber waiting for a keyframe.
   void set_frame_needed(std::function<void()> callback) { frame_needed_ = std::move(callback); }
+  // Builds EncodedFrame::transport for each encoded frame (on the publishing thread). Set before
+  // anything is published.
+  using TransportBuilder = std::function<std::shared_ptr<const void>(const EncodedFrame&)>;
+  void set_transport_builder(TransportBuilder builder) { transport_builder_ = std::move(builder); }
 
  private:
   friend class Subscription;
@@ -126,6 +133,7 @@ class FrameHub {
 
   const size_t max_subscribers_;
   std::function<void()> frame_needed_;
+  TransportBuilder transport_builder_;
   std::mutex publish_mu_;  // one Publish at a time
   mutable std::mutex mu_;
   bool closed_ = false;
