@@ -272,7 +272,7 @@ void Pipeline(const dysa::Scene& scene, double warmup_time, int recorded,
         d.fps_min, d.bytes_per_frame, d.latency_ms);
     csv << part << "," << scene.name << "," << frames[0].positions.size() / 3 << "," << n << ","
         << publish_fps << "," << d.fps_mean << "," << d.fps_min << "," << d.bytes_per_frame << ","
-        << d.latency_ms << "\n";
+        << d.latency_ms << ",\n";
     csv.flush();
     server.Shutdown();
   }
@@ -350,7 +350,7 @@ int main(int argc, char** argv) {
                       part == "pipeline" ? std::ios::app : std::ios::trunc);
     if (part != "pipeline") {
       csv << "part,scene,particles,subscribers,simulated_or_encoded_fps,delivered_fps_mean,"
-             "delivered_fps_min,bytes_per_frame,latency_ms\n";
+             "delivered_fps_min,bytes_per_frame,latency_ms,publish_ms\n";
     }
     if (part != "pipeline") {
       std::vector<int> with_zero{0};
