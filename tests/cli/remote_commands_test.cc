@@ -103,10 +103,10 @@ class ServerProcess {
     if (pid_ > 0) Stop();
   }
 
-  // SIGTERM; the server must shut down gracefully (exit status 0).
-  void Stop() {
+  // SIGTERM (or SIGINT, Ctrl-C); the server must shut down gracefully (exit status 0).
+  void Stop(int signal = SIGTERM) {
     if (pid_ <= 0) return;
-    kill(pid_, SIGTERM);
+    kill(pid_, signal);
     EXPECT_EQ(WaitExit(pid_), 0) << ReadFile(log_);
     pid_ = -1;
   }
@@ -540,7 +540,7 @@ TEST_F(RemoteTest, WatchFailsWithUnavailableWhenTheServerShutsDown) {
   const fs::path log = dir_.path() / "watch.txt";
   const pid_t pid = Spawn(DYSA_BINARY, {"--server", server_->address(), "watch"}, log);
   std::this_thread::sleep_for(std::chrono::milliseconds(1500));
-  server_->Stop();
+  server_->Stop(SIGINT);
   EXPECT_EQ(WaitExit(pid), 1) << ReadFile(log);
   EXPECT_THAT(ReadFile(log), HasSubstr("dysa watch: error: UNAVAILABLE: "));
 }
