@@ -31,7 +31,9 @@ namespace dysa::remote {
 namespace {
 
 namespace fs = std::filesystem;
+using dysa::testing::CommandResult;
 using dysa::testing::ReadFile;
+using dysa::testing::RunCaptured;
 using ::testing::HasSubstr;
 using ::testing::Not;
 using Json = nlohmann::json;
@@ -119,25 +121,12 @@ class ServerProcess {
   std::string address_;
 };
 
-struct Result {
-  int exit_code = -1;
-  std::string out;
-  std::string err;
-};
+using Result = CommandResult;
 
 // Runs `dysa ARGS` through the shell, capturing stdout and stderr into files under `dir`.
 Result RunDysa(const fs::path& dir, const std::string& args, const std::string& env = "") {
-  const fs::path out = dir / "stdout.txt";
-  const fs::path err = dir / "stderr.txt";
-  const std::string command = "env -u DYSA_TOKEN -u DYSA_SERVER " + env + " '" + DYSA_BINARY +
-                              "' " + args + " >'" + out.string() + "' 2>'" + err.string() +
-                              "' </dev/null";
-  const int status = std::system(command.c_str());
-  Result result;
-  result.exit_code = (status != -1 && WIFEXITED(status)) ? WEXITSTATUS(status) : -1;
-  result.out = ReadFile(out);
-  result.err = ReadFile(err);
-  return result;
+  return RunCaptured(dir,
+                     "env -u DYSA_TOKEN -u DYSA_SERVER " + env + " '" + DYSA_BINARY + "' " + args);
 }
 
 // Checks `text` parses as one JSON object and returns it.

@@ -31,7 +31,9 @@ namespace {
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 
+using dysa::testing::CommandResult;
 using dysa::testing::ReadFile;
+using dysa::testing::RunCaptured;
 
 // Each test gets its own directory.
 struct TempDir : dysa::testing::TempDir {
@@ -194,24 +196,11 @@ TEST(RunOfflineTest, BadSetThrowsConfigError) {
 // ---------------------------------------------------------------------------------------------
 // The real executable.
 
-struct Result {
-  int exit_code = -1;
-  std::string out;
-  std::string err;
-};
+using Result = CommandResult;
 
 // Runs `dysa ARGS` through the shell, capturing stdout and stderr into files under `dir`.
 Result RunDysa(const fs::path& dir, const std::string& args) {
-  const fs::path out = dir / "stdout.txt";
-  const fs::path err = dir / "stderr.txt";
-  const std::string command = std::string("'") + DYSA_BINARY + "' " + args + " >'" + out.string() +
-                              "' 2>'" + err.string() + "' </dev/null";
-  const int status = std::system(command.c_str());
-  Result result;
-  result.exit_code = (status != -1 && WIFEXITED(status)) ? WEXITSTATUS(status) : -1;
-  result.out = ReadFile(out);
-  result.err = ReadFile(err);
-  return result;
+  return RunCaptured(dir, std::string("'") + DYSA_BINARY + "' " + args);
 }
 
 TEST(DysaBinaryTest, RunHelpListsSetAndEveryParameter) {

@@ -2,8 +2,10 @@
 #pragma once
 
 #include <gtest/gtest.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -37,6 +39,27 @@ inline std::string ReadFile(const std::filesystem::path& path) {
   std::stringstream text;
   text << file.rdbuf();
   return text.str();
+}
+
+// The exit status and output of a command line run by RunCaptured.
+struct CommandResult {
+  int exit_code = -1;  // -1 when the shell could not run it or it died of a signal
+  std::string out;
+  std::string err;
+};
+
+// Runs `command` through the shell with no input, capturing stdout and stderr into files under
+// `dir` (so a large output never blocks on a pipe).
+inline CommandResult RunCaptured(const std::filesystem::path& dir, const std::string& command) {
+  const std::filesystem::path out = dir / "stdout.txt";
+  const std::filesystem::path err = dir / "stderr.txt";
+  const std::string line = command + " >'" + out.string() + "' 2>'" + err.string() + "' </dev/null";
+  const int status = std::system(line.c_str());
+  CommandResult result;
+  result.exit_code = (status != -1 && WIFEXITED(status)) ? WEXITSTATUS(status) : -1;
+  result.out = ReadFile(out);
+  result.err = ReadFile(err);
+  return result;
 }
 
 }  // namespace dysa::testing
