@@ -114,6 +114,10 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(10, 200))
       ->capture_default_str();
   app.add_option("--out", out_dir, "Directory for codec.csv")->capture_default_str();
+  uint32_t chunk_particles = dysa::codec::StreamConfig{}.chunk_particles;
+  app.add_option("--chunk-particles", chunk_particles, "Particles per chunk")
+      ->check(CLI::Range(1u, 1u << 20))
+      ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
 
   omp_set_num_threads(threads);
@@ -159,6 +163,7 @@ int main(int argc, char** argv) {
       dysa::codec::StreamConfig config;
       config.fields = combo.fields;
       config.keyframe_interval = 1000000;  // one keyframe, then deltas
+      config.chunk_particles = chunk_particles;
       dysa::codec::FrameEncoder encoder(config);
       dysa::codec::FrameDecoder decoder;
       dysa::codec::Frame decoded_frame;  // reused: the decoder recycles its buffers
