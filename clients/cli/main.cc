@@ -106,10 +106,16 @@ class RemoteCommands {
     set->add_option("NAME=VALUE", assignments_, "Parameters to change")->required();
     CLI::App* load =
         Add(app, "load", "Load a scene: a built-in name (see `dysa scenes`) or a scene JSON file",
-            [this](remote::Client& c) { remote::LoadScene(c, scene_, json_, std::cout); });
+            [this](remote::Client& c) { remote::LoadScene(c, scene_, solver_, json_, std::cout); });
     load->add_option("SCENE", scene_, "Scene name or file")->required();
+    load->add_option("--solver", solver_,
+                     "Run the scene with this registered solver instead of its own (see `dysa "
+                     "scene`)");
     Add(app, "scenes", "The built-in scenes; * marks the current one",
         [this](remote::Client& c) { remote::PrintScenes(c, json_, std::cout); });
+    Add(app, "scene",
+        "The running scene: solver and the registered ones, domain, obstacles, particle radius",
+        [this](remote::Client& c) { remote::PrintScene(c, json_, std::cout); });
 
     CLI::App* watch = Add(app, "watch", "Stream frames and show a live status line (until Ctrl-C)",
                           [this](remote::Client& c) {
@@ -211,6 +217,7 @@ class RemoteCommands {
   uint32_t count_ = 1;
   std::vector<std::string> assignments_;
   std::string scene_;
+  std::string solver_;
   double seconds_ = 0;
   std::vector<std::string> fields_;
   uint32_t stride_ = 0;

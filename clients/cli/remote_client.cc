@@ -61,6 +61,27 @@ ServerStatus FromProto(const pb::Status& s) {
   out.history_bytes = s.history_bytes();
   out.frames_encoded = s.frames_encoded();
   out.state_hash = s.state_hash();
+  out.scene_version = s.scene_version();
+  return out;
+}
+
+std::array<double, 3> FromProto(const pb::Vec3& v) { return {v.x(), v.y(), v.z()}; }
+
+SceneDescription FromProto(const pb::SceneDescription& s) {
+  SceneDescription out;
+  out.name = s.name();
+  out.description = s.description();
+  out.solver = s.solver();
+  out.solvers.assign(s.solvers().begin(), s.solvers().end());
+  out.domain_min = FromProto(s.domain_min());
+  out.domain_max = FromProto(s.domain_max());
+  for (const pb::Sphere& sphere : s.spheres()) {
+    out.spheres.push_back({FromProto(sphere.center()), sphere.radius()});
+  }
+  for (const pb::Box& box : s.boxes())
+    out.boxes.push_back({FromProto(box.min()), FromProto(box.max())});
+  out.particle_radius = s.particle_radius();
+  out.scene_version = s.scene_version();
   return out;
 }
 
@@ -308,17 +329,19 @@ UpdateResult Client::UpdateParams(const std::vector<std::pair<std::string, doubl
   return {reply.reset(), FromProto(reply.params()), FromProto(reply.status())};
 }
 
-ControlResult Client::LoadSceneByName(const std::string& name) {
+ControlResult Client::LoadSceneByName(const std::string& name, const std::string& solver) {
   pb::LoadSceneRequest request;
   request.set_name(name);
+  request.set_solver(solver);
   return impl_->Control([&](grpc::ClientContext* c, pb::ControlReply* r) {
     return impl_->stub->LoadScene(c, request, r);
   });
 }
 
-ControlResult Client::LoadSceneText(const std::string& json_text) {
+ControlResult Client::LoadSceneText(const std::string& json_text, const std::string& solver) {
   pb::LoadSceneRequest request;
   request.set_json_text(json_text);
+  request.set_solver(solver);
   return impl_->Control([&](grpc::ClientContext* c, pb::ControlReply* r) {
     return impl_->stub->LoadScene(c, request, r);
   });
@@ -335,6 +358,14 @@ SceneList Client::ListScenes() {
     out.scenes.push_back({s.name(), s.description(), s.particles(), s.solver()});
   }
   return out;
+}
+
+SceneDescription Client::GetScene() {
+  pb::SceneDescription reply;
+  impl_->Invoke(impl_->options.query_deadline, [&](grpc::ClientContext* c) {
+    return impl_->stub->GetScene(c, pb::GetSceneRequest(), &reply);
+  });
+  return FromProto(reply);
 }
 
 std::unique_ptr<FrameStream> Client::StreamFrames(const StreamOptions& options) {

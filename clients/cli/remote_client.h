@@ -3,6 +3,7 @@
 // (remote_commands.h) and their tests build without the generated headers.
 #pragma once
 
+#include <array>
 #include <chrono>
 #include <cstdint>
 #include <memory>
@@ -69,7 +70,8 @@ struct ServerStatus {
   uint64_t history_frames = 0;
   uint64_t history_bytes = 0;
   uint64_t frames_encoded = 0;
-  uint64_t state_hash = 0;  // while paused: equal hashes mean bit-identical states; 0 running
+  uint64_t state_hash = 0;     // while paused: equal hashes mean bit-identical states; 0 running
+  uint64_t scene_version = 0;  // changes whenever GetScene() would answer differently
 };
 
 struct ControlResult {
@@ -106,6 +108,30 @@ struct SceneInfo {
 struct SceneList {
   std::vector<SceneInfo> scenes;
   std::string current;
+};
+
+struct SphereObstacle {
+  std::array<double, 3> center{};  // m
+  double radius = 0;               // m
+};
+
+struct BoxObstacle {
+  std::array<double, 3> min{};  // m
+  std::array<double, 3> max{};  // m
+};
+
+// dysa.v1.SceneDescription: the running scene's geometry and the registered solvers.
+struct SceneDescription {
+  std::string name;
+  std::string description;
+  std::string solver;                  // the running solver
+  std::vector<std::string> solvers;    // every registered solver name
+  std::array<double, 3> domain_min{};  // m
+  std::array<double, 3> domain_max{};  // m
+  std::vector<SphereObstacle> spheres;
+  std::vector<BoxObstacle> boxes;
+  double particle_radius = 0;  // m, half the smallest rest spacing of the spawned particles
+  uint64_t scene_version = 0;  // as ServerStatus::scene_version
 };
 
 // dysa.v1.StreamFramesRequest; 0 keeps the server's default.
@@ -172,9 +198,11 @@ class Client {
   std::vector<ParamInfo> GetParams();
   // Applies `values` (name, value) with an update mask naming exactly those parameters.
   UpdateResult UpdateParams(const std::vector<std::pair<std::string, double>>& values);
-  ControlResult LoadSceneByName(const std::string& name);
-  ControlResult LoadSceneText(const std::string& json_text);
+  // `solver`: a registered solver name to run the scene with instead of its own; "": its own.
+  ControlResult LoadSceneByName(const std::string& name, const std::string& solver = "");
+  ControlResult LoadSceneText(const std::string& json_text, const std::string& solver = "");
   SceneList ListScenes();
+  SceneDescription GetScene();
   std::unique_ptr<FrameStream> StreamFrames(const StreamOptions& options);
 
  private:

@@ -1,5 +1,6 @@
 #include "remote_commands.h"
 
+#include <array>
 #include <charconv>
 #include <chrono>
 #include <cmath>
@@ -109,7 +110,8 @@ Json ToJson(const ServerStatus& s) {
           {"history_frames", s.history_frames},
           {"history_bytes", s.history_bytes},
           {"frames_encoded", s.frames_encoded},
-          {"state_hash", s.state_hash}};
+          {"state_hash", s.state_hash},
+          {"scene_version", s.scene_version}};
 }
 
 Json ToJson(const ControlResult& r) {
@@ -130,6 +132,35 @@ Json ToJson(const std::vector<ParamInfo>& params) {
                    {"description", p.description}});
   }
   return out;
+}
+
+// A vector as [x, y, z].
+Json ToJson(const std::array<double, 3>& v) { return Json::array({v[0], v[1], v[2]}); }
+
+Json ToJson(const SceneDescription& s) {
+  Json spheres = Json::array();
+  for (const SphereObstacle& o : s.spheres) {
+    spheres.push_back({{"center", ToJson(o.center)}, {"radius", o.radius}});
+  }
+  Json boxes = Json::array();
+  for (const BoxObstacle& o : s.boxes) {
+    boxes.push_back({{"min", ToJson(o.min)}, {"max", ToJson(o.max)}});
+  }
+  return {{"name", s.name},
+          {"description", s.description},
+          {"solver", s.solver},
+          {"solvers", s.solvers},
+          {"domain_min", ToJson(s.domain_min)},
+          {"domain_max", ToJson(s.domain_max)},
+          {"spheres", spheres},
+          {"boxes", boxes},
+          {"particle_radius", s.particle_radius},
+          {"scene_version", s.scene_version}};
+}
+
+// "[-5, -3, 0.5]"
+std::string Point(const std::array<double, 3>& v) {
+  return "[" + Short(v[0]) + ", " + Short(v[1]) + ", " + Short(v[2]) + "]";
 }
 
 void PrintJson(const Json& json, std::ostream& out) { out << json.dump(2) << "\n"; }
@@ -424,7 +455,8 @@ void SetParams(Client& client, const std::vector<std::string>& assignments, bool
       << "\n";
 }
 
-void LoadScene(Client& client, const std::string& scene, bool json, std::ostream& out) {
+void LoadScene(Client& client, const std::string& scene, const std::string& solver, bool json,
+               std::ostream& out) {
   std::error_code error;
   const bool is_file = fs::is_regular_file(scene, error);
   ControlResult r;
@@ -433,9 +465,9 @@ void LoadScene(Client& client, const std::string& scene, bool json, std::ostream
     std::stringstream text;
     text << file.rdbuf();
     if (!file) throw std::runtime_error("cannot read " + scene);
-    r = client.LoadSceneText(text.str());
+    r = client.LoadSceneText(text.str(), solver);
   } else {
-    r = client.LoadSceneByName(scene);
+    r = client.LoadSceneByName(scene, solver);
   }
   if (json) return PrintJson(ToJson(r), out);
   const ServerStatus& s = r.status;
@@ -466,6 +498,33 @@ void PrintScenes(Client& client, bool json, std::ostream& out) {
   if (!listed && !list.current.empty()) {
     out << "current scene: " << list.current << " (loaded from a scene text)\n";
   }
+}
+
+void PrintScene(Client& client, bool json, std::ostream& out) {
+  const SceneDescription s = client.GetScene();
+  if (json) return PrintJson(ToJson(s), out);
+  std::string solvers;
+  for (const std::string& name : s.solvers) solvers += (solvers.empty() ? "" : ", ") + name;
+  std::array<double, 3> size;
+  for (int a = 0; a < 3; ++a) size[a] = s.domain_max[a] - s.domain_min[a];
+  std::vector<std::vector<std::string>> rows = {
+      {"scene", s.name},
+      {"solver", s.solver + " (registered: " + solvers + ")"},
+      {"domain", Point(s.domain_min) + " to " + Point(s.domain_max) + " m (" + Short(size[0]) +
+                     " x " + Short(size[1]) + " x " + Short(size[2]) + " m)"},
+      {"particle radius", Short(s.particle_radius) + " m"},
+  };
+  if (!s.description.empty()) rows.insert(rows.begin() + 1, {"description", s.description});
+  for (const SphereObstacle& o : s.spheres) {
+    rows.push_back(
+        {"sphere", "centre " + Point(o.center) + " m, radius " + Short(o.radius) + " m"});
+  }
+  for (const BoxObstacle& o : s.boxes) {
+    rows.push_back({"box", Point(o.min) + " to " + Point(o.max) + " m"});
+  }
+  if (s.spheres.empty() && s.boxes.empty()) rows.push_back({"obstacles", "none"});
+  rows.push_back({"version", std::to_string(s.scene_version)});
+  PrintTable(rows, {}, out);
 }
 
 uint32_t ParseFields(const std::vector<std::string>& names) {

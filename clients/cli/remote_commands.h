@@ -37,8 +37,13 @@ std::vector<std::pair<std::string, double>> ParseAssignments(
 void SetParams(Client& client, const std::vector<std::string>& assignments, bool json,
                std::ostream& out);
 
-// `scene` is an existing file (its text is sent) or a built-in scene name.
-void LoadScene(Client& client, const std::string& scene, bool json, std::ostream& out);
+// `scene` is an existing file (its text is sent) or a built-in scene name. `solver`: a
+// registered solver to run it with instead of its own; "": the scene's.
+void LoadScene(Client& client, const std::string& scene, const std::string& solver, bool json,
+               std::ostream& out);
+
+// The running scene: solver (and the registered ones), domain, obstacles, particle radius.
+void PrintScene(Client& client, bool json, std::ostream& out);
 
 void PrintScenes(Client& client, bool json, std::ostream& out);
 

@@ -260,7 +260,7 @@ TEST(DysaRemoteBinaryTest, UsageErrorsExitWithTwoBeforeAnyCall) {
   const Result help = RunDysa(dir.path(), "--help");
   EXPECT_EQ(help.exit_code, 0);
   for (const char* verb : {"run", "status", "pause", "resume", "step", "back", "reset", "params",
-                           "set", "load", "scenes", "watch", "record"}) {
+                           "set", "load", "scenes", "scene", "watch", "record"}) {
     EXPECT_THAT(help.out, HasSubstr(verb));
   }
 }
@@ -471,11 +471,60 @@ TEST_F(RemoteTest, ScenesListsTheBuiltInsAndMarksTheCurrent) {
   EXPECT_THAT(names, ::testing::IsSupersetOf({"seed_basic", "seed_obstacles", "seed_test_scene"}));
 }
 
+TEST_F(RemoteTest, SceneShowsTheGeometryAndJson) {
+  Result r = Dysa("scene");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("seed_basic"));
+  EXPECT_THAT(r.out, HasSubstr("seed (registered: seed"));
+  EXPECT_THAT(r.out, HasSubstr("[-5, -3, -5] to [5, 3, 5] m (10 x 6 x 10 m)"));
+  EXPECT_THAT(r.out, HasSubstr("particle radius"));
+  EXPECT_THAT(r.out, HasSubstr("obstacles"));
+
+  // --solver names a registered solver; an unknown one fails and the scene stays.
+  r = Dysa("load seed_obstacles --solver seed");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("loaded scene seed_obstacles"));
+  EXPECT_THAT(r.out, HasSubstr("solver seed"));
+  r = Dysa("load seed_basic --solver nope");
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.err, HasSubstr("dysa load: error: INVALID_ARGUMENT: solver: "));
+  EXPECT_THAT(r.err, HasSubstr("nope"));
+
+  r = Dysa("scene");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("seed_obstacles"));
+  EXPECT_THAT(r.out, HasSubstr("sphere"));
+  EXPECT_THAT(r.out, HasSubstr("centre [0.5, -1.8, 0.8] m, radius 1 m"));
+  EXPECT_THAT(r.out, HasSubstr("box"));
+
+  const Json j = DysaJson("scene");
+  EXPECT_EQ(j["name"], "seed_obstacles");
+  EXPECT_EQ(j["solver"], "seed");
+  EXPECT_THAT(j["solvers"].get<std::vector<std::string>>(), ::testing::Contains("seed"));
+  EXPECT_EQ(j["domain_min"], Json::array({-5.0, -3.0, -3.0}));
+  EXPECT_EQ(j["domain_max"], Json::array({5.0, 3.0, 3.0}));
+  ASSERT_EQ(j["spheres"].size(), 1u);
+  EXPECT_EQ(j["spheres"][0]["center"], Json::array({0.5, -1.8, 0.8}));
+  EXPECT_EQ(j["spheres"][0]["radius"], 1.0);
+  ASSERT_EQ(j["boxes"].size(), 1u);
+  EXPECT_EQ(j["boxes"][0]["min"].size(), 3u);
+  EXPECT_DOUBLE_EQ(j["particle_radius"].get<double>(), 0.5 * 4.0 / 23);
+  EXPECT_EQ(j["scene_version"], DysaJson("status")["scene_version"]);
+}
+
 TEST_F(RemoteTest, InProcessVerbsPrintToTheirStream) {
   Client client(Connect());
   std::ostringstream out;
   PrintStatus(client, /*json=*/true, out);
   EXPECT_EQ(ParseJson(out.str())["particles"], kSeedBasicParticles);
+  out.str("");
+  const SceneDescription scene = client.GetScene();
+  EXPECT_EQ(scene.name, "seed_basic");
+  EXPECT_EQ(scene.domain_min, (std::array<double, 3>{-5, -3, -5}));
+  EXPECT_GT(scene.particle_radius, 0);
+  EXPECT_EQ(scene.scene_version, client.GetStatus().scene_version);
+  PrintScene(client, /*json=*/false, out);
+  EXPECT_THAT(out.str(), HasSubstr("particle radius"));
   out.str("");
   RunControl(client, ControlVerb::kStep, 2, /*json=*/false, out);
   EXPECT_THAT(out.str(), HasSubstr("stepped 2 frames to frame 2"));

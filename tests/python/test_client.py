@@ -374,6 +374,40 @@ class ClientTest(unittest.TestCase):
         self.assertEqual(scenes["seed_basic"].solver, "seed")
         self.assertTrue(scenes["seed_basic"].description)
 
+    def test_get_scene(self) -> None:
+        scene = self.client.get_scene()
+        self.assertEqual(scene.name, _SCENE)
+        self.assertTrue(scene.description)
+        self.assertEqual(scene.solver, "seed")
+        self.assertIn("seed", scene.solvers)
+        self.assertEqual(scene.domain_min, tuple(_DOMAIN_MIN))
+        self.assertEqual(scene.domain_max, tuple(_DOMAIN_MAX))
+        self.assertEqual((scene.spheres, scene.boxes), ((), ()))
+        self.assertAlmostEqual(scene.particle_radius, 0.5 * 5.0 / 29)  # 30 over 5 m
+        self.assertEqual(scene.scene_version, self.client.status().scene_version)
+        try:
+            loaded = self.client.load_scene("seed_obstacles", solver="seed")
+            self.assertEqual(loaded.status.solver, "seed")
+            obstacles = self.client.get_scene()
+            self.assertEqual(obstacles.name, "seed_obstacles")
+            self.assertGreater(obstacles.scene_version, scene.scene_version)
+            self.assertEqual(obstacles.scene_version, loaded.status.scene_version)
+            self.assertEqual(len(obstacles.spheres), 1)
+            self.assertEqual(obstacles.spheres[0].center, (0.5, -1.8, 0.8))
+            self.assertEqual(obstacles.spheres[0].radius, 1.0)
+            self.assertEqual(len(obstacles.boxes), 1)
+            # centre [2.5, -2.25, -1.2], size [1, 1.5, 1.6]
+            np.testing.assert_allclose(obstacles.boxes[0].min, (2.0, -3.0, -2.0))
+            np.testing.assert_allclose(obstacles.boxes[0].max, (3.0, -1.5, -0.4))
+            with self.assertRaises(DysaError) as caught:
+                self.client.load(_SCENE, solver="nope")
+            self.assertEqual(caught.exception.code, grpc.StatusCode.INVALID_ARGUMENT)
+            self.assertIn("solver", caught.exception.details)
+            self.assertIn("seed", caught.exception.details)
+            self.assertEqual(self.client.get_scene().name, "seed_obstacles")
+        finally:
+            self.client.load(_SCENE)
+
     def _check_positions(self, frame) -> None:
         self.assertEqual(frame.positions.dtype, np.float32)
         slack = np.array(frame.position_error) + 1e-4

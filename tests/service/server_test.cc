@@ -14,6 +14,7 @@
 #include <thread>
 
 #include "dysa/codec/frame_codec.h"
+#include "dysa/core/solver.h"
 #include "dysa/v1/simulation.grpc.pb.h"
 #include "support/temp_dir.h"
 
@@ -224,6 +225,132 @@ TEST(ServerTest, InvalidArgumentsNameTheFieldAndChangeNothing) {
   EXPECT_NE(s.error_message().find("position_bits"), std::string::npos) << s.error_message();
 }
 
+v1::SceneDescription GetScene(Simulation::Stub& stub) {
+  v1::SceneDescription scene;
+  EXPECT_TRUE(stub.GetScene(Context().get(), {}, &scene).ok());
+  return scene;
+}
+
+void ExpectVec3(const v1::Vec3& v, const Vec3d& expected, const std::string& what) {
+  EXPECT_DOUBLE_EQ(v.x(), expected.x()) << what;
+  EXPECT_DOUBLE_EQ(v.y(), expected.y()) << what;
+  EXPECT_DOUBLE_EQ(v.z(), expected.z()) << what;
+}
+
+TEST(ServerTest, GetSceneDescribesEveryBuiltInScene) {
+  Fixture fx(Paused());
+  Simulation::Stub& stub = fx.stub();
+  v1::SceneDescription d = GetScene(stub);
+  EXPECT_EQ(d.name(), "seed_basic");
+  EXPECT_EQ(d.solver(), "seed");
+  ASSERT_EQ(size_t(d.solvers_size()), SolverRegistry().size());
+  for (size_t i = 0; i < SolverRegistry().size(); ++i) {
+    EXPECT_EQ(d.solvers(int(i)), SolverRegistry()[i].name);
+  }
+  EXPECT_DOUBLE_EQ(d.particle_radius(), 0.5 * 1.2 / 9);  // SmallScene: 10 particles over 1.2 m
+  EXPECT_GT(d.scene_version(), 0u);
+  EXPECT_EQ(d.scene_version(), GetStatus(stub).scene_version());
+
+  for (const std::string& name : BuiltinSceneNames()) {
+    SCOPED_TRACE(name);
+    v1::LoadSceneRequest load;
+    load.set_name(name);
+    v1::ControlReply reply;
+    ASSERT_TRUE(stub.LoadScene(Context().get(), load, &reply).ok());
+    const Scene scene = LoadScene(name);
+    d = GetScene(stub);
+    EXPECT_EQ(d.name(), name);
+    EXPECT_EQ(d.description(), scene.description);
+    EXPECT_EQ(d.solver(), scene.solver);
+    EXPECT_EQ(d.scene_version(), reply.status().scene_version());
+    ExpectVec3(d.domain_min(), scene.domain.min, "domain_min");
+    ExpectVec3(d.domain_max(), scene.domain.max, "domain_max");
+    ASSERT_EQ(size_t(d.spheres_size()), scene.spheres.size());
+    for (size_t i = 0; i < scene.spheres.size(); ++i) {
+      ExpectVec3(d.spheres(int(i)).center(), scene.spheres[i].center, "sphere");
+      EXPECT_EQ(d.spheres(int(i)).radius(), scene.spheres[i].radius);
+    }
+    ASSERT_EQ(size_t(d.boxes_size()), scene.boxes.size());
+    for (size_t i = 0; i < scene.boxes.size(); ++i) {
+      ExpectVec3(d.boxes(int(i)).min(), scene.boxes[i].box.min, "box min");
+      ExpectVec3(d.boxes(int(i)).max(), scene.boxes[i].box.max, "box max");
+    }
+    // Plausible: a fraction of the smoothing radius, far below the domain.
+    EXPECT_GT(d.particle_radius(), 0.1 * scene.params.smoothing_radius);
+    EXPECT_LT(d.particle_radius(), scene.params.smoothing_radius);
+  }
+
+  // seed_obstacles by the numbers of scenes/seed_obstacles.json.
+  v1::LoadSceneRequest load;
+  load.set_name("seed_obstacles");
+  v1::ControlReply reply;
+  ASSERT_TRUE(stub.LoadScene(Context().get(), load, &reply).ok());
+  d = GetScene(stub);
+  ExpectVec3(d.domain_min(), Vec3d(-5, -3, -3), "domain_min");
+  ExpectVec3(d.domain_max(), Vec3d(5, 3, 3), "domain_max");
+  ASSERT_EQ(d.spheres_size(), 1);
+  ExpectVec3(d.spheres(0).center(), Vec3d(0.5, -1.8, 0.8), "sphere");
+  EXPECT_EQ(d.spheres(0).radius(), 1.0);
+  ASSERT_EQ(d.boxes_size(), 1);
+  ExpectVec3(d.boxes(0).min(), Vec3d(2.0, -3.0, -2.0), "box min");
+  ExpectVec3(d.boxes(0).max(), Vec3d(3.0, -1.5, -0.4), "box max");
+  // 18 x 24 x 24 particles over 3 x 4 x 4 m: the closest are 4 / 23 m apart.
+  EXPECT_DOUBLE_EQ(d.particle_radius(), 0.5 * 4.0 / 23);
+}
+
+TEST(ServerTest, SceneVersionChangesWithTheSceneAndItsSpawnOnly) {
+  Fixture fx(Paused());
+  Simulation::Stub& stub = fx.stub();
+  const uint64_t first = GetStatus(stub).scene_version();
+  v1::ControlReply reply;
+  ASSERT_TRUE(stub.Pause(Context().get(), {}, &reply).ok());
+  EXPECT_EQ(reply.status().scene_version(), first);
+  ASSERT_TRUE(stub.Step(Context().get(), {}, &reply).ok());
+  ASSERT_TRUE(stub.Reset(Context().get(), {}, &reply).ok());
+  EXPECT_EQ(reply.status().scene_version(), first);
+
+  v1::UpdateParamsRequest update;
+  (*update.mutable_params()->mutable_values())["viscosity"] = 0.02;
+  v1::UpdateParamsReply updated;
+  ASSERT_TRUE(stub.UpdateParams(Context().get(), update, &updated).ok());
+  EXPECT_FALSE(updated.reset());
+  EXPECT_EQ(updated.status().scene_version(), first);
+
+  (*update.mutable_params()->mutable_values())["particle_quantity"] = 7;
+  ASSERT_TRUE(stub.UpdateParams(Context().get(), update, &updated).ok());
+  ASSERT_TRUE(updated.reset());
+  const uint64_t respawned = updated.status().scene_version();
+  EXPECT_NE(respawned, first);
+  v1::SceneDescription d = GetScene(stub);
+  EXPECT_EQ(d.scene_version(), respawned);
+  EXPECT_DOUBLE_EQ(d.particle_radius(), 0.5 * 1.2 / 6);
+
+  // LoadScene with the solver named, then an unknown one: refused, naming the field and the
+  // registered solvers, and the scene stays.
+  v1::LoadSceneRequest load;
+  load.set_name("seed_obstacles");
+  load.set_solver("seed");
+  ASSERT_TRUE(stub.LoadScene(Context().get(), load, &reply).ok());
+  EXPECT_EQ(reply.status().scene(), "seed_obstacles");
+  EXPECT_EQ(reply.status().solver(), "seed");
+  const uint64_t loaded = reply.status().scene_version();
+  EXPECT_NE(loaded, respawned);
+  EXPECT_EQ(GetScene(stub).scene_version(), loaded);
+
+  load.set_name("seed_basic");
+  load.set_solver("nope");
+  const grpc::Status s = stub.LoadScene(Context().get(), load, &reply);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(s.error_message().rfind("solver: ", 0), 0u) << s.error_message();
+  EXPECT_NE(s.error_message().find("nope"), std::string::npos) << s.error_message();
+  EXPECT_NE(s.error_message().find("seed"), std::string::npos) << s.error_message();
+  EXPECT_EQ(GetStatus(stub).scene(), "seed_obstacles");
+  EXPECT_EQ(GetStatus(stub).scene_version(), loaded);
+  d = GetScene(stub);
+  EXPECT_EQ(d.name(), "seed_obstacles");
+  EXPECT_EQ(d.scene_version(), loaded);
+}
+
 TEST(ServerTest, StepBackThenForwardStreamsBitIdenticalStates) {
   Fixture fx(Paused());
   Simulation::Stub& stub = fx.stub();
@@ -265,6 +392,11 @@ TEST(ServerTest, TokensGuardControlsAndOptionallyWatching) {
   EXPECT_EQ(guarded.stub().GetStatus(Context().get(), {}, &status).error_code(),
             grpc::StatusCode::UNAUTHENTICATED);
   EXPECT_TRUE(guarded.stub().GetStatus(Context("s3cret").get(), {}, &status).ok());
+  v1::SceneDescription scene;
+  EXPECT_TRUE(stub.GetScene(Context().get(), {}, &scene).ok());
+  EXPECT_EQ(guarded.stub().GetScene(Context().get(), {}, &scene).error_code(),
+            grpc::StatusCode::UNAUTHENTICATED);
+  EXPECT_TRUE(guarded.stub().GetScene(Context("s3cret").get(), {}, &scene).ok());
   auto context = Context();
   auto reader = guarded.stub().StreamFrames(context.get(), {});
   v1::FrameMessage message;

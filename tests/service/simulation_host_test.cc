@@ -133,6 +133,55 @@ TEST_F(SimulationHostTest, LoadSceneReplacesTheSceneAndResets) {
   EXPECT_EQ(r.status.frame, 0u);
 }
 
+TEST_F(SimulationHostTest, TheSceneDescriptionChangesWithTheSpawnOnly) {
+  HostScene scene = host_.CurrentScene();
+  EXPECT_EQ(scene.name, "seed_basic");
+  EXPECT_EQ(scene.solver, "seed");
+  EXPECT_EQ(scene.domain.min, Vec3d(-5, -3, -5));
+  EXPECT_EQ(scene.domain.max, Vec3d(5, 3, 5));
+  EXPECT_DOUBLE_EQ(scene.particle_radius, 0.5 * 1.2 / 9);  // 10 particles over 1.2 m
+  const uint64_t version = scene.scene_version;
+  EXPECT_GT(version, 0u);
+  EXPECT_EQ(host_.Status().scene_version, version);
+  // Pause, step, step back, a plain reset and a parameter that needs no reset keep it.
+  Apply(host_, PauseControl{});
+  Apply(host_, StepControl{2});
+  Apply(host_, StepBackControl{1});
+  Apply(host_, ResetControl{});
+  ControlResult r = Apply(host_, UpdateParamsControl{{{"viscosity", 0.01}}});
+  EXPECT_EQ(r.status.scene_version, version);
+  EXPECT_EQ(host_.CurrentScene().scene_version, version);
+  // A re-spawn with other parameters, and a new scene, change it.
+  r = Apply(host_, UpdateParamsControl{{{"particle_quantity", 7.0}}});
+  ASSERT_TRUE(r.reset);
+  EXPECT_GT(r.status.scene_version, version);
+  scene = host_.CurrentScene();
+  EXPECT_EQ(scene.scene_version, r.status.scene_version);
+  EXPECT_DOUBLE_EQ(scene.particle_radius, 0.5 * 1.2 / 6);
+  r = Apply(host_, LoadSceneControl{LoadScene("seed_obstacles")});
+  ASSERT_EQ(r.code, ControlCode::kOk) << r.message;
+  EXPECT_GT(r.status.scene_version, scene.scene_version);
+  scene = host_.CurrentScene();
+  EXPECT_EQ(scene.name, "seed_obstacles");
+  ASSERT_EQ(scene.spheres.size(), 1u);
+  ASSERT_EQ(scene.boxes.size(), 1u);
+  EXPECT_DOUBLE_EQ(scene.spheres[0].radius, 1.0);
+  // 18 x 24 x 24 particles over 3 x 4 x 4 m: the closest are 4 / 23 m apart.
+  EXPECT_DOUBLE_EQ(scene.particle_radius, 0.5 * 4.0 / 23);
+}
+
+TEST(SpawnParticleRadiusTest, TakesTheSmallestSpacingOverBlocksAndAxes) {
+  Scene scene = ParseScene(R"({"fluid_blocks": [
+      {"size": [1, 2, 3], "particles_per_axis": [11, 11, 1]},
+      {"size": [1, 1, 1], "spacing": 0.25}]})");
+  EXPECT_DOUBLE_EQ(SpawnParticleRadius(scene, scene.params), 0.5 * 0.1);  // 1 m / 10
+  scene.fluid_blocks[1].spacing = 0.05;
+  EXPECT_DOUBLE_EQ(SpawnParticleRadius(scene, scene.params), 0.5 * 0.05);
+  // One particle per block: no spacing; half the smoothing radius.
+  scene = ParseScene(R"({"fluid_blocks": [{"particles_per_axis": 1}]})");
+  EXPECT_DOUBLE_EQ(SpawnParticleRadius(scene, scene.params), 0.5 * scene.params.smoothing_radius);
+}
+
 TEST(SimulationHostLimitsTest, TheParticleLimitRefusesScenesAndParameters) {
   HostOptions options = Paused();
   options.max_particles = 1000;

@@ -57,6 +57,7 @@ __all__ = [
     "FrameStream",
     "ParamInfo",
     "PassTiming",
+    "Scene",
     "SceneInfo",
     "Status",
 ]
@@ -128,6 +129,7 @@ class Status:
     history_frames: int  # frames available to step back right now
     history_bytes: int  # bytes of memory the history holds
     frames_encoded: int  # frames encoded for subscribers since the server started
+    scene_version: int = 0  # changes whenever get_scene() would answer differently
 
     @property
     def paused(self) -> bool:
@@ -174,6 +176,54 @@ class SceneInfo:
     solver: str
 
 
+Vec3 = Tuple[float, float, float]
+
+
+@dataclass(frozen=True)
+class Sphere:
+    """A static sphere obstacle."""
+
+    center: Vec3  # m
+    radius: float  # m
+
+
+@dataclass(frozen=True)
+class Box:
+    """A static axis-aligned box obstacle."""
+
+    min: Vec3  # m, the corner of smallest coordinates
+    max: Vec3  # m, the corner of largest coordinates
+
+
+@dataclass(frozen=True)
+class Scene:
+    """The running scene's geometry and the registered solvers (Client.get_scene())."""
+
+    name: str
+    description: str
+    solver: str  # the running solver
+    solvers: Tuple[str, ...]  # every registered solver name (load(..., solver=...))
+    domain_min: Vec3  # m, the walls' corner of smallest coordinates
+    domain_max: Vec3  # m, the walls' corner of largest coordinates
+    spheres: Tuple[Sphere, ...]
+    boxes: Tuple[Box, ...]
+    particle_radius: float  # m, half the smallest rest spacing of the spawned particles
+    scene_version: int  # as Status.scene_version when this was taken
+
+
+def _vec3(m: Any) -> Vec3:
+    return (m.x, m.y, m.z)
+
+
+def _scene(m: Any) -> Scene:
+    return Scene(
+        name=m.name, description=m.description, solver=m.solver, solvers=tuple(m.solvers),
+        domain_min=_vec3(m.domain_min), domain_max=_vec3(m.domain_max),
+        spheres=tuple(Sphere(_vec3(s.center), s.radius) for s in m.spheres),
+        boxes=tuple(Box(_vec3(b.min), _vec3(b.max)) for b in m.boxes),
+        particle_radius=m.particle_radius, scene_version=m.scene_version)
+
+
 def _status(m: Any) -> Status:
     return Status(
         state=_STATES.get(m.state, "unspecified"), step=m.step, frame=m.frame, time=m.time,
@@ -181,7 +231,8 @@ def _status(m: Any) -> Status:
         frames_per_second=m.frames_per_second, target_frame_rate=m.target_frame_rate,
         passes=tuple(PassTiming(p.name, p.last_ms, p.mean_ms, p.calls) for p in m.passes),
         subscribers=m.subscribers, alarm=m.alarm, history_frames=m.history_frames,
-        history_bytes=m.history_bytes, frames_encoded=m.frames_encoded)
+        history_bytes=m.history_bytes, frames_encoded=m.frames_encoded,
+        scene_version=m.scene_version)
 
 
 def _control(m: Any) -> ControlResult:
@@ -365,7 +416,8 @@ class Client:
             request.update_mask.paths.append("values." + name)
         return self._call("UpdateParams", request).reset
 
-    def load(self, scene: Union[str, os.PathLike, Mapping[str, Any]]) -> ControlResult:
+    def load(self, scene: Union[str, os.PathLike, Mapping[str, Any]],
+             solver: Optional[str] = None) -> ControlResult:
         """Replaces the running scene.
 
         `scene` is one of:
@@ -375,6 +427,10 @@ class Client:
           a path separator: a scene file on this machine (its content is sent, so the server
           need not see the file);
         - any other str: a built-in scene name (see scenes()).
+
+        `solver`: a registered solver name (get_scene().solvers) to run the scene with instead of
+        its own; None or "": the scene's own. An unknown name raises DysaError
+        (INVALID_ARGUMENT, naming `solver` and the registered names).
 
         A scene that does not parse or validate raises DysaError (INVALID_ARGUMENT, naming the
         field) and the old scene keeps running. A missing file raises FileNotFoundError.
@@ -396,12 +452,27 @@ class Client:
         else:
             raise TypeError("load: scene must be a name, a path, JSON text or a mapping, not %r"
                             % type(scene).__name__)
+        if solver is not None:
+            if not isinstance(solver, str):
+                raise TypeError("load: solver must be a str, not %r" % type(solver).__name__)
+            request.solver = solver
         return _control(self._call("LoadScene", request))
+
+    def load_scene(self, scene: Union[str, os.PathLike, Mapping[str, Any]],
+                   solver: Optional[str] = None) -> ControlResult:
+        """The same as load()."""
+        return self.load(scene, solver)
 
     def scenes(self) -> List[SceneInfo]:
         """The built-in scenes (the running one is status().scene)."""
         reply = self._call("ListScenes", _pb.ListScenesRequest())
         return [SceneInfo(s.name, s.description, s.particles, s.solver) for s in reply.scenes]
+
+    def get_scene(self) -> Scene:
+        """The running scene: solver and the registered ones, domain, obstacles and the
+        particle radius (never waits for a step). Ask again when status().scene_version
+        changes."""
+        return _scene(self._call("GetScene", _pb.GetSceneRequest()))
 
     def frames(self, fields: Iterable[str] = ("positions", "speed"), max_fps: float = 0.0,
                stride: int = 1, position_bits: int = 16, limit: Optional[int] = None, *,

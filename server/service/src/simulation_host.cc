@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <sstream>
 
 #include "dysa/core/types.h"
@@ -40,6 +41,7 @@ SimulationHost::SimulationHost(Scene scene, HostOptions options)
   }
   sim_ = std::make_unique<Simulation>(std::move(scene));
   running_ = !options_.start_paused;
+  DescribeScene();
   StartScene();
   // A late joiner (or a subscriber that lost a frame) needs a frame even while paused.
   hub_.set_frame_needed([this] {
@@ -87,6 +89,11 @@ HostStatus SimulationHost::Status() const {
 Params SimulationHost::CurrentParams() const {
   std::lock_guard lock(status_mu_);
   return params_;
+}
+
+HostScene SimulationHost::CurrentScene() const {
+  std::lock_guard lock(status_mu_);
+  return scene_;
 }
 
 void SimulationHost::Submit(Control control, std::function<void(ControlResult)> done) {
@@ -229,6 +236,7 @@ ControlResult SimulationHost::Apply(Control& control) {
               for (const auto& [name, value] : c.values) changed << " " << name << "=" << value;
               Log("parameters changed:" + changed.str() + (r.reset ? " (reset)" : ""));
               if (r.reset) {
+                DescribeScene();
                 StartScene();
               } else {
                 history_.RecordParameterChange(*sim_);
@@ -249,6 +257,7 @@ ControlResult SimulationHost::Apply(Control& control) {
             } catch (const ConfigError& e) {
               return Error(ControlCode::kInvalidArgument, e.what());
             }
+            DescribeScene();
             StartScene();
             ControlResult r;
             r.reset = true;
@@ -284,6 +293,37 @@ void SimulationHost::StartScene() {
       " frames (a checkpoint every " + std::to_string(history_.interval()) + ")");
   Publish(/*force=*/true, /*discontinuity=*/true);
   RefreshStatus();
+}
+
+void SimulationHost::DescribeScene() {
+  const Scene& scene = sim_->scene();
+  HostScene d;
+  d.name = scene.name;
+  d.description = scene.description;
+  d.solver = scene.solver;
+  d.domain = scene.domain;
+  d.spheres = scene.spheres;
+  d.boxes = scene.boxes;
+  d.particle_radius = SpawnParticleRadius(scene, sim_->params());
+  d.scene_version = ++scene_version_;
+  std::lock_guard lock(status_mu_);
+  scene_ = std::move(d);
+}
+
+double SpawnParticleRadius(const Scene& scene, const Params& params) {
+  const std::vector<Eigen::Vector3i> counts = BlockParticleCounts(scene, params);
+  double spacing = std::numeric_limits<double>::infinity();
+  for (size_t b = 0; b < scene.fluid_blocks.size(); ++b) {
+    const FluidBlock& block = scene.fluid_blocks[b];
+    const Vec3d size = block.size.value_or(Vec3d::Constant(params.spawn_size));
+    for (int a = 0; a < 3; ++a) {
+      const int n = counts[b][a];
+      if (n < 2) continue;  // one particle: no neighbour along this axis
+      spacing = std::min(spacing, block.spacing ? *block.spacing : size[a] / (n - 1));
+    }
+  }
+  if (!std::isfinite(spacing)) spacing = params.smoothing_radius;
+  return 0.5 * spacing;
 }
 
 void GatherSnapshot(const Simulation& sim, uint32_t fields, FrameSnapshot& s) {
@@ -353,6 +393,7 @@ void SimulationHost::RefreshStatus() {
   s.history_frames = history_.available(state.frame);
   s.history_bytes = history_.bytes();
   if (!running_) s.state_hash = StateHash(state);
+  s.scene_version = scene_version_;
   std::lock_guard lock(status_mu_);
   status_ = std::move(s);
   params_ = sim_->params();

@@ -5,6 +5,7 @@
 
 #include "dysa/core/params.h"
 #include "dysa/core/scene.h"
+#include "dysa/core/solver.h"
 #include "dysa/core/types.h"
 
 namespace dysa::service {
@@ -55,6 +56,37 @@ void ToProto(const HostStatus& s, v1::Status& out) {
   out.set_history_bytes(s.history_bytes);
   out.set_frames_encoded(s.frames_encoded);
   out.set_state_hash(s.state_hash);
+  out.set_scene_version(s.scene_version);
+}
+
+void ToProto(const Vec3d& v, v1::Vec3& out) {
+  out.set_x(v.x());
+  out.set_y(v.y());
+  out.set_z(v.z());
+}
+
+void ToProto(const HostScene& s, v1::SceneDescription& out) {
+  out.set_name(s.name);
+  out.set_description(s.description);
+  out.set_solver(s.solver);
+  out.clear_solvers();
+  for (const SolverInfo& info : SolverRegistry()) out.add_solvers(std::string(info.name));
+  ToProto(s.domain.min, *out.mutable_domain_min());
+  ToProto(s.domain.max, *out.mutable_domain_max());
+  out.clear_spheres();
+  for (const SphereObstacle& sphere : s.spheres) {
+    v1::Sphere& o = *out.add_spheres();
+    ToProto(sphere.center, *o.mutable_center());
+    o.set_radius(sphere.radius);
+  }
+  out.clear_boxes();
+  for (const BoxObstacle& box : s.boxes) {
+    v1::Box& o = *out.add_boxes();
+    ToProto(box.box.min, *o.mutable_min());
+    ToProto(box.box.max, *o.mutable_max());
+  }
+  out.set_particle_radius(s.particle_radius);
+  out.set_scene_version(s.scene_version);
 }
 
 void ToProto(const Params& params, google::protobuf::RepeatedPtrField<v1::ParamInfo>& out) {
@@ -409,6 +441,14 @@ grpc::ServerUnaryReactor* SimulationService::LoadScene(grpc::CallbackServerConte
   }
   // Parsed here, off the simulation thread; the old scene runs on if this fails. Only built-in
   // names are looked up: a remote caller never makes the server read its files.
+  if (!request->solver().empty()) {
+    try {
+      CreateSolver(request->solver());  // throws ConfigError("solver", ...) listing the names
+    } catch (const ConfigError& e) {
+      reactor->Finish({grpc::StatusCode::INVALID_ARGUMENT, e.what()});
+      return reactor;
+    }
+  }
   Scene scene;
   try {
     switch (request->source_case()) {
@@ -437,6 +477,7 @@ grpc::ServerUnaryReactor* SimulationService::LoadScene(grpc::CallbackServerConte
     reactor->Finish({grpc::StatusCode::INVALID_ARGUMENT, std::string("scene: ") + e.what()});
     return reactor;
   }
+  if (!request->solver().empty()) scene.solver = request->solver();
   host_.Submit(LoadSceneControl{std::move(scene)}, [reactor, reply](ControlResult r) {
     if (r.code == ControlCode::kOk) {
       ToProto(r.status, *reply->mutable_status());
@@ -469,6 +510,16 @@ grpc::ServerUnaryReactor* SimulationService::ListScenes(grpc::CallbackServerCont
   }
   reply->set_current(host_.Status().scene);
   reactor->Finish(grpc::Status::OK);
+  return reactor;
+}
+
+grpc::ServerUnaryReactor* SimulationService::GetScene(grpc::CallbackServerContext* context,
+                                                      const v1::GetSceneRequest*,
+                                                      v1::SceneDescription* reply) {
+  grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
+  grpc::Status s = CheckAccess(context, Access::kWatch);
+  if (s.ok()) ToProto(host_.CurrentScene(), *reply);
+  reactor->Finish(s);
   return reactor;
 }
 

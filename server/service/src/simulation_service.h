@@ -53,6 +53,9 @@ class SimulationService final
   grpc::ServerUnaryReactor* ListScenes(grpc::CallbackServerContext* context,
                                        const v1::ListScenesRequest* request,
                                        v1::ListScenesReply* reply) override;
+  grpc::ServerUnaryReactor* GetScene(grpc::CallbackServerContext* context,
+                                     const v1::GetSceneRequest* request,
+                                     v1::SceneDescription* reply) override;
   grpc::ServerWriteReactor<grpc::ByteBuffer>* StreamFrames(
       grpc::CallbackServerContext* context, const grpc::ByteBuffer* request) override;
 

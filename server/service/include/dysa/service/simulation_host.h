@@ -3,7 +3,8 @@
 //
 // No RPC types here: the gRPC adapter (simulation_service.cc) converts its requests into
 // Controls and ControlResults back into replies. Nothing a caller does waits for a step:
-// Submit() queues and returns; Status() and Params() read a copy refreshed after every frame.
+// Submit() queues and returns; Status(), CurrentParams() and CurrentScene() read copies refreshed
+// by the simulation thread.
 #pragma once
 
 #include <condition_variable>
@@ -61,7 +62,28 @@ struct HostStatus {
   uint64_t history_bytes = 0;
   uint64_t frames_encoded = 0;
   uint64_t state_hash = 0;  // StateHash while paused (0 while running: not worth a frame's time)
+  // Changes whenever CurrentScene() changes: a scene loaded, or a parameter change that
+  // re-spawned the fluid. Starts at 1.
+  uint64_t scene_version = 0;
 };
+
+// The running scene's geometry, as GetScene describes it.
+struct HostScene {
+  std::string name;
+  std::string description;
+  std::string solver;  // registered solver name
+  Aabb domain;         // m
+  std::vector<SphereObstacle> spheres;
+  std::vector<BoxObstacle> boxes;
+  double particle_radius = 0;  // m, SpawnParticleRadius with the current parameters
+  uint64_t scene_version = 0;  // HostStatus::scene_version of this description
+};
+
+// Half the smallest rest spacing of the particles `scene` spawns with `params`, in m: over every
+// block and axis with more than one particle, the block's spacing, or size / (n - 1) for the
+// thesis's edge-to-edge spawner. When no block has two particles along any axis, half the
+// smoothing radius. Throws ConfigError as BlockParticleCounts.
+double SpawnParticleRadius(const Scene& scene, const Params& params);
 
 // Controls, applied between two frames.
 struct PauseControl {};
@@ -121,6 +143,7 @@ class SimulationHost {
   FrameHub& hub() { return hub_; }
   HostStatus Status() const;
   Params CurrentParams() const;
+  HostScene CurrentScene() const;
   const HostOptions& options() const { return options_; }
 
   // Queues a control; `done` runs on the simulation thread once it is applied (or refused).
@@ -138,6 +161,8 @@ class SimulationHost {
   // A scene or parameter set over the particle limit: the message, or "" when it fits.
   std::string CheckParticleLimit(const Scene& scene, const Params& params) const;
   void StartScene();
+  // The scene or its spawn changed: describes it anew under a new scene_version.
+  void DescribeScene();
   void Publish(bool force, bool discontinuity);
   void RefreshStatus();
   void Log(const std::string& line) const;
@@ -153,6 +178,7 @@ class SimulationHost {
   FrameSnapshot snapshot_;  // reused buffers
   std::deque<std::chrono::steady_clock::time_point> recent_frames_;
   PassStatus publish_;  // gathering and encoding frames for subscribers, per frame
+  uint64_t scene_version_ = 0;
 
   std::mutex mu_;
   std::condition_variable wake_;
@@ -163,6 +189,7 @@ class SimulationHost {
   mutable std::mutex status_mu_;
   HostStatus status_;
   Params params_;
+  HostScene scene_;
 
   std::thread thread_;
 };
