@@ -23,6 +23,13 @@ PACKAGES=(
   protobuf-compiler
   protobuf-compiler-grpc
   openssl  # the TLS tests make a self-signed certificate
+  # desktop viewer (GLFW, OpenGL 3.3, Dear ImGui) and its headless tests
+  libglfw3-dev
+  libimgui-dev
+  libstb-dev
+  libgl1-mesa-dri
+  xvfb
+  xauth
   # tests and benchmarks
   libgtest-dev
   libgmock-dev

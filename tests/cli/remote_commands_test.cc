@@ -3,7 +3,6 @@
 // --port-file), through the real `dysa` executable (exit codes, stdout, stderr) and in-process.
 #include "remote_commands.h"
 
-#include <fcntl.h>
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <signal.h>
@@ -21,6 +20,7 @@
 #include <vector>
 
 #include "remote_client.h"
+#include "support/server_process.h"
 #include "support/temp_dir.h"
 
 #if !defined(DYSA_BINARY) || !defined(DYSA_SERVER_BINARY) || !defined(DYSA_SCENES_DIR)
@@ -45,80 +45,13 @@ struct TempDir : dysa::testing::TempDir {
 // seed_basic: 30^3 particles.
 constexpr uint32_t kSeedBasicParticles = 27000;
 
-// Starts `program args...` with stdout and stderr appended to `log`; returns its pid.
-pid_t Spawn(const std::string& program, const std::vector<std::string>& args, const fs::path& log) {
-  std::vector<std::string> argv_strings = {program};
-  argv_strings.insert(argv_strings.end(), args.begin(), args.end());
-  const pid_t pid = fork();
-  if (pid == 0) {
-    const int fd = open(log.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
-    const int null = open("/dev/null", O_RDONLY);
-    if (fd >= 0) dup2(fd, STDOUT_FILENO), dup2(fd, STDERR_FILENO);
-    if (null >= 0) dup2(null, STDIN_FILENO);
-    // The tests pass tokens and addresses explicitly.
-    unsetenv("DYSA_TOKEN");
-    unsetenv("DYSA_SERVER");
-    std::vector<char*> argv;
-    for (std::string& s : argv_strings) argv.push_back(s.data());
-    argv.push_back(nullptr);
-    execv(program.c_str(), argv.data());
-    _exit(127);
-  }
-  return pid;
-}
+using dysa::testing::Spawn;
+using dysa::testing::WaitExit;
 
-// Exit status of a finished child; -1 when it did not exit normally (a signal).
-int WaitExit(pid_t pid) {
-  int status = 0;
-  if (waitpid(pid, &status, 0) != pid) return -1;
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
-
-// A dysa-server on 127.0.0.1 and a free port, stopped with SIGTERM by Stop() or the destructor.
-class ServerProcess {
- public:
-  ServerProcess(const fs::path& dir, std::vector<std::string> args) : log_(dir / "server.log") {
-    const fs::path port_file = dir / "port";
-    fs::remove(port_file);  // a previous server's
-    args.insert(args.end(),
-                {"--listen", "127.0.0.1:0", "--port-file", port_file.string(), "--threads", "1"});
-    pid_ = Spawn(DYSA_SERVER_BINARY, args, log_);
-    const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(60);
-    while (std::chrono::steady_clock::now() < give_up) {
-      int status = 0;
-      if (waitpid(pid_, &status, WNOHANG) == pid_) {
-        pid_ = -1;
-        ADD_FAILURE() << "dysa-server exited at start:\n" << ReadFile(log_);
-        return;
-      }
-      std::ifstream in(port_file);
-      int port = 0;
-      if (in >> port && port > 0) {
-        address_ = "127.0.0.1:" + std::to_string(port);
-        return;
-      }
-      std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    }
-    ADD_FAILURE() << "dysa-server wrote no port file within 60 s:\n" << ReadFile(log_);
-  }
-  ~ServerProcess() {
-    if (pid_ > 0) Stop();
-  }
-
-  // SIGTERM (or SIGINT, Ctrl-C); the server must shut down gracefully (exit status 0).
-  void Stop(int signal = SIGTERM) {
-    if (pid_ <= 0) return;
-    kill(pid_, signal);
-    EXPECT_EQ(WaitExit(pid_), 0) << ReadFile(log_);
-    pid_ = -1;
-  }
-  const std::string& address() const { return address_; }
-  bool running() const { return !address_.empty(); }
-
- private:
-  fs::path log_;
-  pid_t pid_ = -1;
-  std::string address_;
+// A dysa-server on 127.0.0.1 and a free port (tests/support/server_process.h).
+struct ServerProcess : dysa::testing::ServerProcess {
+  ServerProcess(const fs::path& dir, std::vector<std::string> args)
+      : dysa::testing::ServerProcess(DYSA_SERVER_BINARY, dir, std::move(args)) {}
 };
 
 using Result = CommandResult;

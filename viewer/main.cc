@@ -1,0 +1,298 @@
+// dysa-viewer: watches and steers a dysa-server. Phases, as in Dear ImGui's GLFW + OpenGL3
+// example: options, window, ImGui, renderers, network, the loop, then cleanup in reverse.
+// GLFW must not pull in the legacy GL/gl.h: the core profile's declarations come from gl.h.
+#define GLFW_INCLUDE_NONE
+#include <GLFW/glfw3.h>
+#include <imgui.h>
+
+#include <CLI/CLI.hpp>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <exception>
+#include <memory>
+#include <string>
+
+#include "backends/imgui_impl_glfw.h"
+#include "backends/imgui_impl_opengl3.h"
+#include "src/control_panel.h"
+#include "src/fluid_renderer.h"
+#include "src/frame_receiver.h"
+#include "src/gl.h"
+#include "src/orbit_camera.h"
+#include "src/render_target.h"
+#include "src/scene_renderer.h"
+#include "src/server_link.h"
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+using namespace dysa::viewer;
+
+struct Options {
+  dysa::remote::ConnectOptions connect;
+  std::string screenshot;  // PNG path; empty: interactive
+  int frames = 30;         // rendered frames before the screenshot
+  double timeout = 60;     // s: --screenshot gives up without frames after this long
+  int width = 1280;
+  int height = 800;
+  std::string mode = "particles";
+  uint32_t stride = 1;
+  double max_fps = 0;
+  bool vsync = true;
+};
+
+// Returns 0 to go on, or the exit status for CLI11's error or help.
+int ParseOptions(int argc, char** argv, Options& options) {
+  CLI::App app{"dysa-viewer: watch and steer a dysa-server"};
+  if (const char* env = std::getenv("DYSA_SERVER")) options.connect.address = env;
+  if (const char* env = std::getenv("DYSA_TOKEN")) options.connect.token = env;
+  app.add_option("--server", options.connect.address, "Server address host:port (env DYSA_SERVER)")
+      ->capture_default_str();
+  app.add_option("--token", options.connect.token, "Bearer token for control (env DYSA_TOKEN)");
+  app.add_option("--tls-ca", options.connect.tls_ca_file, "PEM roots: connect over TLS")
+      ->check(CLI::ExistingFile);
+  app.add_option("--tls-name", options.connect.tls_server_name,
+                 "Name on the server's certificate, when it differs from the host");
+  app.add_option("--screenshot", options.screenshot,
+                 "Render --frames frames once particles arrive, write this PNG and exit");
+  app.add_option("--frames", options.frames, "Frames to render before --screenshot")
+      ->check(CLI::Range(1, 100000))
+      ->capture_default_str();
+  app.add_option("--timeout", options.timeout, "Seconds --screenshot waits for the server")
+      ->check(CLI::Range(1.0, 3600.0))
+      ->capture_default_str();
+  app.add_option("--width", options.width, "Window width, pixels")
+      ->check(CLI::Range(64, 8192))
+      ->capture_default_str();
+  app.add_option("--height", options.height, "Window height, pixels")
+      ->check(CLI::Range(64, 8192))
+      ->capture_default_str();
+  app.add_option("--mode", options.mode, "Rendering: particles or fluid (screen-space surface)")
+      ->check(CLI::IsMember({"particles", "fluid"}))
+      ->capture_default_str();
+  app.add_option("--stride", options.stride, "Level of detail: every Nth particle")
+      ->check(CLI::Range(1u, 1000000u))
+      ->capture_default_str();
+  app.add_option("--max-fps", options.max_fps, "Frames per second to ask the server for (0: all)")
+      ->check(CLI::Range(0.0, 1000.0))
+      ->capture_default_str();
+  app.add_flag("!--no-vsync", options.vsync, "Render as fast as possible (benchmarks)");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int status = app.exit(e);
+    return status == 0 ? -1 : status;  // -1: help printed, exit 0
+  }
+  return 0;
+}
+
+void GlfwError(int code, const char* text) {
+  std::fprintf(stderr, "dysa-viewer: GLFW error %d: %s\n", code, text);
+}
+
+// Mouse and keys go to the camera and server unless ImGui wants them.
+void HandleInput(OrbitCamera& camera, ServerLink& link, int framebuffer_height) {
+  const ImGuiIO& io = ImGui::GetIO();
+  if (!io.WantCaptureMouse) {
+    if (ImGui::IsMouseDragging(ImGuiMouseButton_Left)) {
+      camera.Orbit(io.MouseDelta.x, io.MouseDelta.y);
+    }
+    if (ImGui::IsMouseDragging(ImGuiMouseButton_Right) ||
+        ImGui::IsMouseDragging(ImGuiMouseButton_Middle)) {
+      // Mouse deltas are in window coordinates; pan wants the window's height in the same.
+      camera.Pan(io.MouseDelta.x, io.MouseDelta.y,
+                 io.DisplaySize.y > 0 ? io.DisplaySize.y : float(framebuffer_height));
+    }
+    if (io.MouseWheel != 0) camera.Zoom(io.MouseWheel);
+  }
+  if (!io.WantCaptureKeyboard) {
+    if (ImGui::IsKeyPressed(GLFW_KEY_SPACE, false)) link.TogglePause();
+    if (ImGui::IsKeyPressed(GLFW_KEY_RIGHT)) link.Step(1);
+    if (ImGui::IsKeyPressed(GLFW_KEY_LEFT)) link.StepBack(1);
+    if (ImGui::IsKeyPressed(GLFW_KEY_R, false)) link.Reset();
+  }
+}
+
+int Run(const Options& options) {
+  // Window and OpenGL 3.3 core context.
+  glfwSetErrorCallback(GlfwError);
+  if (!glfwInit()) {
+    std::fprintf(stderr, "dysa-viewer: cannot initialise GLFW (no display? set DISPLAY)\n");
+    return 1;
+  }
+  glfwWindowHint(GLFW_CONTEXT_VERSION_MAJOR, 3);
+  glfwWindowHint(GLFW_CONTEXT_VERSION_MINOR, 3);
+  glfwWindowHint(GLFW_OPENGL_PROFILE, GLFW_OPENGL_CORE_PROFILE);
+  glfwWindowHint(GLFW_OPENGL_FORWARD_COMPAT, GLFW_TRUE);
+  GLFWwindow* window =
+      glfwCreateWindow(options.width, options.height, "DySAQUASIMs viewer", nullptr, nullptr);
+  if (window == nullptr) {
+    std::fprintf(stderr, "dysa-viewer: cannot create an OpenGL 3.3 core window\n");
+    glfwTerminate();
+    return 1;
+  }
+  glfwMakeContextCurrent(window);
+  glfwSwapInterval(options.vsync && options.screenshot.empty() ? 1 : 0);
+
+  // Dear ImGui.
+  IMGUI_CHECKVERSION();
+  ImGui::CreateContext();
+  ImGui::GetIO().IniFilename = nullptr;  // no imgui.ini in the working directory
+  ImGui::StyleColorsDark();
+  ImGui_ImplGlfw_InitForOpenGL(window, true);
+  ImGui_ImplOpenGL3_Init("#version 330 core");
+
+  int status = 0;
+  try {
+    // Renderers.
+    SceneRenderer scene_renderer;
+    FluidRenderer fluid_renderer;
+    RenderTarget scene_target;
+    OrbitCamera camera;
+
+    // Network: controls and status on one thread, frames on another.
+    ViewerSettings settings;
+    settings.mode = options.mode == "fluid" ? RenderMode::kFluidSurface : RenderMode::kParticles;
+    settings.stream.stride = options.stride;
+    settings.stream.max_fps = options.max_fps;
+    const bool screenshot = !options.screenshot.empty();
+    settings.show_panel = !screenshot;
+    ServerLink link(options.connect);
+    FrameReceiver receiver(options.connect, settings.stream);
+    link.Start();
+    receiver.Start();
+
+    ControlPanel panel;
+    ReceivedFrame frame;
+    uint64_t scene_revision = 0;
+    std::string fitted_scene;
+    bool have_particles = false;
+    int frames_after_particles = 0;
+    RenderStats render_stats;
+    render_stats.address = options.connect.address;
+    int frames_this_second = 0;
+    Clock::time_point second_start = Clock::now();
+    const Clock::time_point start = second_start;
+    Clock::time_point first_particles;
+
+    // The loop.
+    while (!glfwWindowShouldClose(window)) {
+      glfwPollEvents();
+      const ServerView view = link.View();
+      const ReceiverStats receiver_stats = receiver.Stats();
+
+      if (view.scene && view.scene_revision != scene_revision) {
+        scene_renderer.SetScene(*view.scene);
+        // A new scene gets a fitted view; the same scene re-spawned keeps the user's camera.
+        if (view.scene->name != fitted_scene) {
+          const auto& lo = view.scene->domain_min;
+          const auto& hi = view.scene->domain_max;
+          camera.FitBox(Eigen::Vector3f(float(lo[0]), float(lo[1]), float(lo[2])),
+                        Eigen::Vector3f(float(hi[0]), float(hi[1]), float(hi[2])));
+          fitted_scene = view.scene->name;
+        }
+        scene_revision = view.scene_revision;
+      }
+      if (receiver.TakeLatest(frame)) {
+        scene_renderer.UploadParticles(frame.frame);
+        render_stats.particles_drawn = frame.frame.count;
+        if (!have_particles) first_particles = Clock::now();
+        have_particles = true;
+      }
+
+      ImGui_ImplOpenGL3_NewFrame();
+      ImGui_ImplGlfw_NewFrame();
+      ImGui::NewFrame();
+      int width = 0;
+      int height = 0;
+      glfwGetFramebufferSize(window, &width, &height);
+      if (!screenshot) HandleInput(camera, link, height);
+      if (panel.Draw(view, receiver_stats, render_stats, link, settings)) {
+        receiver.SetStreamOptions(settings.stream);
+      }
+      ImGui::Render();
+
+      if (width > 0 && height > 0) {  // 0 while minimised
+        ViewParams view_params{camera.View(),
+                               camera.Projection(float(width) / float(height)),
+                               width,
+                               height,
+                               camera.near_plane(),
+                               camera.far_plane()};
+        scene_target.Resize(width, height);
+        scene_target.Bind();
+        scene_renderer.DrawEnvironment(view_params, settings.style);
+        if (settings.mode == RenderMode::kParticles) {
+          scene_renderer.DrawParticles(view_params, settings.style);
+          scene_target.BlitTo(0);
+        } else {
+          ParticleBuffer particles = scene_renderer.Particles(settings.style);
+          particles.radius *= settings.fluid_radius_scale;
+          fluid_renderer.Render(view_params, particles, scene_target.color(), scene_target.depth(),
+                                0, settings.fluid);
+        }
+        glBindFramebuffer(GL_FRAMEBUFFER, 0);
+        glViewport(0, 0, width, height);
+        if (screenshot && have_particles && scene_revision > 0 &&
+            ++frames_after_particles >= options.frames) {
+          // The scene alone, before the overlay is drawn.
+          WritePng(options.screenshot, ReadWindowPixels(width, height), width, height);
+          const double seconds =
+              std::chrono::duration<double>(Clock::now() - first_particles).count();
+          std::printf(
+              "dysa-viewer: wrote %s (%dx%d, %s, %u particles): %d frames in %.3f s, %.1f "
+              "frames/s\n",
+              options.screenshot.c_str(), width, height, options.mode.c_str(),
+              render_stats.particles_drawn, options.frames, seconds,
+              seconds > 0 ? options.frames / seconds : 0.0);
+          break;
+        }
+        ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
+      }
+      glfwSwapBuffers(window);
+
+      ++frames_this_second;
+      const Clock::time_point now = Clock::now();
+      if (now - second_start >= std::chrono::milliseconds(500)) {
+        render_stats.render_fps =
+            frames_this_second / std::chrono::duration<double>(now - second_start).count();
+        frames_this_second = 0;
+        second_start = now;
+      }
+      if (screenshot && !have_particles &&
+          std::chrono::duration<double>(now - start).count() > options.timeout) {
+        std::string why = view.connected ? receiver_stats.error : view.connection_error;
+        std::fprintf(stderr, "dysa-viewer: no particle frame from %s within %.0f s%s%s\n",
+                     options.connect.address.c_str(), options.timeout, why.empty() ? "" : ": ",
+                     why.c_str());
+        status = 1;
+        break;
+      }
+    }
+
+    // Cleanup of the network before the GL objects (destructors, in reverse order).
+    receiver.Stop();
+    link.Stop();
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "dysa-viewer: %s\n", e.what());
+    status = 1;
+  }
+
+  ImGui_ImplOpenGL3_Shutdown();
+  ImGui_ImplGlfw_Shutdown();
+  ImGui::DestroyContext();
+  glfwDestroyWindow(window);
+  glfwTerminate();
+  return status;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options options;
+  if (const int status = ParseOptions(argc, argv, options); status != 0) {
+    return status == -1 ? 0 : status;
+  }
+  return Run(options);
+}

@@ -1,0 +1,169 @@
+#include "frame_receiver.h"
+
+#include <algorithm>
+#include <utility>
+#include <vector>
+
+namespace dysa::viewer {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+int64_t NowUnixMicros() {
+  return std::chrono::duration_cast<std::chrono::microseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+}  // namespace
+
+FrameReceiver::FrameReceiver(const remote::ConnectOptions& connect,
+                             const remote::StreamOptions& stream)
+    : client_(connect), options_(stream) {}
+
+FrameReceiver::~FrameReceiver() { Stop(); }
+
+void FrameReceiver::Start() {
+  std::lock_guard lock(mu_);
+  if (thread_.joinable()) return;
+  stop_ = false;
+  thread_ = std::thread([this] { Loop(); });
+}
+
+void FrameReceiver::Stop() {
+  {
+    std::lock_guard lock(mu_);
+    stop_ = true;
+    if (open_stream_ != nullptr) open_stream_->Cancel();
+  }
+  wake_.notify_all();
+  if (thread_.joinable()) thread_.join();
+}
+
+void FrameReceiver::SetStreamOptions(const remote::StreamOptions& stream) {
+  {
+    std::lock_guard lock(mu_);
+    options_ = stream;
+    restart_ = true;
+    if (open_stream_ != nullptr) open_stream_->Cancel();
+  }
+  wake_.notify_all();
+}
+
+bool FrameReceiver::TakeLatest(ReceivedFrame& out) {
+  std::lock_guard lock(mu_);
+  if (!have_latest_) return false;
+  std::swap(out, latest_);
+  have_latest_ = false;
+  return true;
+}
+
+ReceiverStats FrameReceiver::Stats() const {
+  std::lock_guard lock(mu_);
+  ReceiverStats stats = stats_;
+  // Frames over the last second, counted at the time of asking so a stalled stream reads 0.
+  const Clock::time_point cutoff = Clock::now() - std::chrono::seconds(1);
+  stats.frames_per_second =
+      double(std::count_if(recent_.begin(), recent_.end(), [&](auto t) { return t >= cutoff; }));
+  return stats;
+}
+
+void FrameReceiver::Loop() {
+  // The pause before reconnecting doubles from 0.25 s up to 2 s while the server stays away,
+  // so a restarted server is found again within 2 s without a busy loop meanwhile.
+  std::chrono::milliseconds pause(250);
+  for (;;) {
+    remote::StreamOptions options;
+    {
+      std::lock_guard lock(mu_);
+      if (stop_) return;
+      options = options_;
+      restart_ = false;
+    }
+    const uint64_t frames_before = Stats().frames;
+    const std::string error = RunStream(options);
+    std::unique_lock lock(mu_);
+    stats_.streaming = false;
+    if (stop_) return;
+    if (restart_) continue;  // new options: reconnect at once
+    stats_.error = error.empty() ? "the server ended the stream" : error;
+    ++stats_.reconnects;
+    if (stats_.frames > frames_before) pause = std::chrono::milliseconds(250);
+    wake_.wait_for(lock, pause, [this] { return stop_ || restart_; });
+    pause = std::min(2 * pause, std::chrono::milliseconds(2000));
+  }
+}
+
+std::string FrameReceiver::RunStream(const remote::StreamOptions& options) {
+  std::unique_ptr<remote::FrameStream> stream;
+  try {
+    stream = client_.StreamFrames(options);
+  } catch (const std::exception& e) {
+    return e.what();
+  }
+  {
+    std::lock_guard lock(mu_);
+    if (stop_ || restart_) return "";
+    open_stream_ = stream.get();
+    ++stream_id_;
+  }
+
+  codec::FrameDecoder decoder;
+  ReceivedFrame decoded;
+  remote::FrameMessage message;
+  uint64_t pending_bytes = 0;
+  while (stream->Next(message)) {
+    for (const codec::Chunk& chunk : message.chunks) pending_bytes += chunk.size();
+    bool complete = false;
+    try {
+      complete = decoder.AddChunks(message.chunks, decoded.frame);
+    } catch (const codec::DecodeError&) {
+      // The decoder waits for the next keyframe, which the server sends after a gap.
+      std::lock_guard lock(mu_);
+      ++stats_.decode_errors;
+    }
+    {
+      std::lock_guard lock(mu_);
+      stats_.frames_skipped += message.frames_skipped;
+    }
+    if (!message.last_of_frame) continue;
+    decoded.bytes = message.frame_bytes ? message.frame_bytes : pending_bytes;
+    pending_bytes = 0;
+    if (!complete) continue;
+    decoded.sim_frame = message.frame;
+    decoded.latency_ms =
+        message.produced_unix_us ? double(NowUnixMicros() - message.produced_unix_us) / 1e3 : 0.0;
+    Publish(decoded);
+  }
+
+  std::string error;
+  try {
+    stream->Finish();
+  } catch (const std::exception& e) {
+    error = e.what();
+  }
+  std::lock_guard lock(mu_);
+  open_stream_ = nullptr;
+  if (stop_ || restart_) return "";
+  return error;
+}
+
+void FrameReceiver::Publish(ReceivedFrame& decoded) {
+  const Clock::time_point now = Clock::now();
+  std::lock_guard lock(mu_);
+  decoded.stream_id = stream_id_;
+  // Swap rather than copy: the render thread's previous buffers come back for the next decode.
+  // The decoder writes every element of the frame, so stale content never leaks through.
+  std::swap(latest_, decoded);
+  have_latest_ = true;
+  stats_.streaming = true;
+  stats_.error.clear();
+  ++stats_.frames;
+  stats_.bytes_per_frame = double(latest_.bytes);
+  stats_.latency_ms = latest_.latency_ms;
+  recent_.push_back(now);
+  while (!recent_.empty() && now - recent_.front() > std::chrono::seconds(1)) recent_.pop_front();
+}
+
+}  // namespace dysa::viewer

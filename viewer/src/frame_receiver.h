@@ -1,0 +1,85 @@
+// Receives the particle stream on a background thread: one StreamFrames call at a time,
+// decoded as it arrives, the newest complete frame kept for the render thread. The render
+// thread never waits on the network: TakeLatest() only swaps buffers under a short lock.
+// When the stream ends (server restart, network loss) it reconnects with a growing pause.
+#pragma once
+
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <cstdint>
+#include <deque>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+
+#include "dysa/codec/frame_codec.h"
+#include "remote_client.h"
+
+namespace dysa::viewer {
+
+struct ReceivedFrame {
+  codec::Frame frame;      // decoded, in id order
+  uint64_t sim_frame = 0;  // the server's frame number since its last reset
+  uint64_t bytes = 0;      // codec bytes of this frame on the wire
+  double latency_ms = 0;   // from the server producing it to it being decoded here
+  uint64_t stream_id = 0;  // which connection delivered it (changes after a reconnect)
+};
+
+struct ReceiverStats {
+  bool streaming = false;        // a stream is open and has delivered a frame
+  std::string error;             // why the last stream ended, "" if it has not
+  double frames_per_second = 0;  // frames received over the last second
+  double bytes_per_frame = 0;    // of the newest frame
+  double latency_ms = 0;         // of the newest frame
+  uint64_t frames = 0;           // received since start
+  uint64_t frames_skipped = 0;   // frames the server skipped for us (latest-wins)
+  uint64_t decode_errors = 0;
+  uint64_t reconnects = 0;
+};
+
+class FrameReceiver {
+ public:
+  // Throws std::runtime_error when the TLS CA file cannot be read.
+  FrameReceiver(const remote::ConnectOptions& connect, const remote::StreamOptions& stream);
+  ~FrameReceiver();  // Stop()
+  FrameReceiver(const FrameReceiver&) = delete;
+  FrameReceiver& operator=(const FrameReceiver&) = delete;
+
+  void Start();
+  void Stop();
+
+  // Restarts the stream with new options (fields, frame-rate cap, stride, bits).
+  void SetStreamOptions(const remote::StreamOptions& stream);
+
+  // When a frame arrived since the previous call, swaps it into `out` (whose buffers are
+  // recycled) and returns true.
+  bool TakeLatest(ReceivedFrame& out);
+
+  ReceiverStats Stats() const;
+
+ private:
+  void Loop();
+  // One StreamFrames call until it ends; returns why ("" when stopped or restarted by us).
+  std::string RunStream(const remote::StreamOptions& options);
+  void Publish(ReceivedFrame& decoded);
+
+  remote::Client client_;
+
+  mutable std::mutex mu_;
+  std::condition_variable wake_;
+  remote::StreamOptions options_;
+  bool restart_ = false;
+  bool stop_ = false;
+  remote::FrameStream* open_stream_ = nullptr;  // to cancel it from Stop/SetStreamOptions
+  ReceivedFrame latest_;
+  bool have_latest_ = false;
+  ReceiverStats stats_;
+  std::deque<std::chrono::steady_clock::time_point> recent_;  // arrival times, last second
+  uint64_t stream_id_ = 0;
+
+  std::thread thread_;
+};
+
+}  // namespace dysa::viewer

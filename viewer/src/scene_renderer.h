@@ -1,0 +1,70 @@
+// Draws what the server simulates: the particles as shaded sphere impostors coloured by speed,
+// the domain box as lines, sphere obstacles as grey impostors and box obstacles as lit cubes.
+// Needs a current OpenGL 3.3 core context.
+#pragma once
+
+#include <array>
+#include <vector>
+
+#include "dysa/codec/frame_codec.h"
+#include "gl_util.h"
+#include "remote_client.h"
+#include "render_types.h"
+
+namespace dysa::viewer {
+
+struct SceneStyle {
+  float speed_lo = 0.0f;        // m/s: the slow (blue) end of the colour gradient
+  float speed_hi = 10.0f;       // m/s: the fast (red) end (a fall from 5 m reaches 10 m/s)
+  float particle_scale = 1.0f;  // drawn radius over the scene's particle radius
+  bool draw_box = true;
+  bool draw_obstacles = true;
+  std::array<float, 3> background = {0.11f, 0.12f, 0.14f};
+};
+
+class SceneRenderer {
+ public:
+  SceneRenderer();
+  ~SceneRenderer();
+  SceneRenderer(const SceneRenderer&) = delete;
+  SceneRenderer& operator=(const SceneRenderer&) = delete;
+
+  // The domain box, obstacles and particle radius of the scene now running.
+  void SetScene(const remote::SceneDescription& scene);
+  // One buffer upload: each particle's position and speed (0 when the frame has no speed).
+  void UploadParticles(const codec::Frame& frame);
+
+  // The particles on the GPU with the drawn radius for `style`.
+  ParticleBuffer Particles(const SceneStyle& style) const;
+
+  // Clears the bound framebuffer to the background and draws the box and obstacles.
+  void DrawEnvironment(const ViewParams& view, const SceneStyle& style);
+  void DrawParticles(const ViewParams& view, const SceneStyle& style);
+
+ private:
+  Program sphere_program_;
+  Program line_program_;
+  Program lit_program_;
+  Texture gradient_;
+
+  VertexArray particle_vao_;
+  Buffer particle_buffer_;
+  GLsizei particle_count_ = 0;
+  std::vector<float> staging_;  // interleaved x, y, z, speed
+
+  VertexArray obstacle_vao_;  // sphere obstacles: centre and radius per instance
+  Buffer obstacle_buffer_;
+  GLsizei obstacle_count_ = 0;
+
+  VertexArray box_vao_;  // domain box edges
+  Buffer box_buffer_;
+  GLsizei box_vertices_ = 0;
+
+  VertexArray solid_vao_;  // box obstacles: position and normal per vertex
+  Buffer solid_buffer_;
+  GLsizei solid_vertices_ = 0;
+
+  float particle_radius_ = 0.05f;  // m
+};
+
+}  // namespace dysa::viewer
