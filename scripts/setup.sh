@@ -30,6 +30,7 @@ PACKAGES=(
   libgl1-mesa-dri
   xvfb
   xauth
+  xdotool  # the viewer test presses keys
   # tests and benchmarks
   libgtest-dev
   libgmock-dev

@@ -7,11 +7,13 @@
 
 #include <CLI/CLI.hpp>
 #include <chrono>
+#include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "backends/imgui_impl_glfw.h"
 #include "backends/imgui_impl_opengl3.h"
@@ -31,9 +33,10 @@ using namespace dysa::viewer;
 
 struct Options {
   dysa::remote::ConnectOptions connect;
-  std::string screenshot;  // PNG path; empty: interactive
-  int frames = 30;         // rendered frames before the screenshot
-  double timeout = 60;     // s: --screenshot gives up without frames after this long
+  std::string screenshot;         // PNG path; empty: interactive
+  int frames = 30;                // rendered frames before the screenshot
+  double timeout = 60;            // s: --screenshot gives up without frames after this long
+  bool screenshot_panel = false;  // the control panel and overlay in the screenshot too
   int width = 1280;
   int height = 800;
   std::string mode = "particles";
@@ -59,6 +62,8 @@ int ParseOptions(int argc, char** argv, Options& options) {
   app.add_option("--frames", options.frames, "Frames to render before --screenshot")
       ->check(CLI::Range(1, 100000))
       ->capture_default_str();
+  app.add_flag("--screenshot-panel", options.screenshot_panel,
+               "Include the control panel and status overlay in the screenshot");
   app.add_option("--timeout", options.timeout, "Seconds --screenshot waits for the server")
       ->check(CLI::Range(1.0, 3600.0))
       ->capture_default_str();
@@ -87,12 +92,32 @@ int ParseOptions(int argc, char** argv, Options& options) {
   return 0;
 }
 
+// SIGINT/SIGTERM end the loop like closing the window: the threads stop and GL is torn down.
+volatile std::sig_atomic_t quit_requested = 0;
+void RequestQuit(int) { quit_requested = 1; }
+
 void GlfwError(int code, const char* text) {
   std::fprintf(stderr, "dysa-viewer: GLFW error %d: %s\n", code, text);
 }
 
-// Mouse and keys go to the camera and server unless ImGui wants them.
-void HandleInput(OrbitCamera& camera, ServerLink& link, int framebuffer_height) {
+// Key presses since the last frame, in order. Queued by a GLFW callback rather than read from
+// ImGui's key state: a press and its release within one frame (a quick tap, or a scripted
+// `xdotool key`) would otherwise never be seen as down by ImGui 1.86.
+struct KeyQueue {
+  std::vector<int> keys;
+};
+
+void QueueKey(GLFWwindow* window, int key, int /*scancode*/, int action, int /*mods*/) {
+  auto* queue = static_cast<KeyQueue*>(glfwGetWindowUserPointer(window));
+  const bool repeats = key == GLFW_KEY_LEFT || key == GLFW_KEY_RIGHT;  // held: keep stepping
+  if (queue != nullptr && (action == GLFW_PRESS || (repeats && action == GLFW_REPEAT))) {
+    queue->keys.push_back(key);
+  }
+}
+
+// Mouse and keys go to the camera and server unless ImGui wants them (a slider being dragged,
+// a text field with the focus).
+void HandleInput(OrbitCamera& camera, ServerLink& link, KeyQueue& queue, int framebuffer_height) {
   const ImGuiIO& io = ImGui::GetIO();
   if (!io.WantCaptureMouse) {
     if (ImGui::IsMouseDragging(ImGuiMouseButton_Left)) {
@@ -107,14 +132,32 @@ void HandleInput(OrbitCamera& camera, ServerLink& link, int framebuffer_height) 
     if (io.MouseWheel != 0) camera.Zoom(io.MouseWheel);
   }
   if (!io.WantCaptureKeyboard) {
-    if (ImGui::IsKeyPressed(GLFW_KEY_SPACE, false)) link.TogglePause();
-    if (ImGui::IsKeyPressed(GLFW_KEY_RIGHT)) link.Step(1);
-    if (ImGui::IsKeyPressed(GLFW_KEY_LEFT)) link.StepBack(1);
-    if (ImGui::IsKeyPressed(GLFW_KEY_R, false)) link.Reset();
+    for (int key : queue.keys) {
+      switch (key) {
+        case GLFW_KEY_SPACE:
+          link.TogglePause();
+          break;
+        case GLFW_KEY_RIGHT:
+          link.Step(1);
+          break;
+        case GLFW_KEY_LEFT:
+          link.StepBack(1);
+          break;
+        case GLFW_KEY_R:
+          link.Reset();
+          break;
+        default:
+          break;
+      }
+    }
   }
+  queue.keys.clear();
 }
 
 int Run(const Options& options) {
+  std::signal(SIGINT, RequestQuit);
+  std::signal(SIGTERM, RequestQuit);
+
   // Window and OpenGL 3.3 core context.
   glfwSetErrorCallback(GlfwError);
   if (!glfwInit()) {
@@ -140,6 +183,10 @@ int Run(const Options& options) {
   ImGui::CreateContext();
   ImGui::GetIO().IniFilename = nullptr;  // no imgui.ini in the working directory
   ImGui::StyleColorsDark();
+  // Our key callback first: ImGui's back end chains to the callback it finds installed.
+  KeyQueue key_queue;
+  glfwSetWindowUserPointer(window, &key_queue);
+  glfwSetKeyCallback(window, QueueKey);
   ImGui_ImplGlfw_InitForOpenGL(window, true);
   ImGui_ImplOpenGL3_Init("#version 330 core");
 
@@ -157,7 +204,9 @@ int Run(const Options& options) {
     settings.stream.stride = options.stride;
     settings.stream.max_fps = options.max_fps;
     const bool screenshot = !options.screenshot.empty();
-    settings.show_panel = !screenshot;
+    settings.show_panel = !screenshot || options.screenshot_panel;
+    // A screenshot shows what the server sends, not where the pointer happens to hover.
+    if (screenshot) ImGui::GetIO().ConfigFlags |= ImGuiConfigFlags_NoMouse;
     ServerLink link(options.connect);
     FrameReceiver receiver(options.connect, settings.stream);
     link.Start();
@@ -177,7 +226,7 @@ int Run(const Options& options) {
     Clock::time_point first_particles;
 
     // The loop.
-    while (!glfwWindowShouldClose(window)) {
+    while (!glfwWindowShouldClose(window) && quit_requested == 0) {
       glfwPollEvents();
       const ServerView view = link.View();
       const ReceiverStats receiver_stats = receiver.Stats();
@@ -207,7 +256,7 @@ int Run(const Options& options) {
       int width = 0;
       int height = 0;
       glfwGetFramebufferSize(window, &width, &height);
-      if (!screenshot) HandleInput(camera, link, height);
+      if (!screenshot) HandleInput(camera, link, key_queue, height);
       if (panel.Draw(view, receiver_stats, render_stats, link, settings)) {
         receiver.SetStreamOptions(settings.stream);
       }
@@ -236,7 +285,8 @@ int Run(const Options& options) {
         glViewport(0, 0, width, height);
         if (screenshot && have_particles && scene_revision > 0 &&
             ++frames_after_particles >= options.frames) {
-          // The scene alone, before the overlay is drawn.
+          // The scene alone, unless the panel was asked for too.
+          if (options.screenshot_panel) ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
           WritePng(options.screenshot, ReadWindowPixels(width, height), width, height);
           const double seconds =
               std::chrono::duration<double>(Clock::now() - first_particles).count();

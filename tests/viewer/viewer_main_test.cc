@@ -5,11 +5,17 @@
 #include <gtest/gtest.h>
 #include <stb/stb_image.h>
 
+#include <chrono>
 #include <cstdint>
+#include <cstdlib>
+#include <cstring>
 #include <fstream>
+#include <functional>
 #include <string>
+#include <thread>
 #include <vector>
 
+#include "remote_client.h"
 #include "support/server_process.h"
 #include "support/temp_dir.h"
 #include "support/xvfb_display.h"
@@ -23,6 +29,7 @@ namespace {
 using dysa::testing::CommandResult;
 using dysa::testing::RunCaptured;
 using dysa::testing::ServerProcess;
+using dysa::testing::Spawn;
 using dysa::testing::XvfbDisplay;
 using ::testing::HasSubstr;
 
@@ -122,6 +129,31 @@ TEST_F(ViewerMainTest, ScreenshotShowsTheSettledPoolAsParticles) { CheckScreensh
 
 TEST_F(ViewerMainTest, ScreenshotShowsTheSettledPoolAsAFluidSurface) { CheckScreenshot("fluid"); }
 
+TEST_F(ViewerMainTest, ScreenshotPanelAddsTheControlsOnTheRight) {
+  const std::string plain = (dir_.path() / "plain.png").string();
+  const std::string panel = (dir_.path() / "panel.png").string();
+  const std::string common =
+      "--server " + server_->address() + " --frames 2 --width 800 --height 600";
+  CommandResult r = RunViewer(common + " --screenshot '" + plain + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  r = RunViewer(common + " --screenshot '" + panel + "' --screenshot-panel");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const Image a = LoadPng(plain);
+  const Image b = LoadPng(panel);
+  ASSERT_EQ(a.rgb.size(), b.rgb.size());
+  // The panel opens 430 pixels from the right edge, 420 wide; below the status overlay (the top
+  // 200 rows) the 360 columns left of it keep the scene.
+  int right = 0;
+  int left = 0;
+  for (int y = 200; y < 600; ++y) {
+    for (int x = 0; x < 800; ++x) {
+      if (std::memcmp(a.At(x, y), b.At(x, y), 3) != 0) ++(x >= 360 ? right : left);
+    }
+  }
+  EXPECT_GT(right, 420 * 400 / 4);
+  EXPECT_LT(left, 360 * 400 / 100);
+}
+
 TEST_F(ViewerMainTest, ScreenshotWithoutAServerFailsWithTheReason) {
   const CommandResult r = RunViewer("--server 127.0.0.1:1 --screenshot '" +
                                     (dir_.path() / "none.png").string() + "' --timeout 2");
@@ -139,4 +171,57 @@ TEST_F(ViewerMainTest, BadFlagsNameTheFlagAndItsRange) {
   EXPECT_THAT(r.err, HasSubstr("64"));
 }
 
+// Runs `xdotool ARGS` on the test's display; true when it exits 0.
+bool Xdotool(const std::string& display, const std::string& args) {
+  return std::system(("DISPLAY=" + display + " xdotool " + args + " >/dev/null 2>&1").c_str()) == 0;
+}
+
+// Polls `done` for up to 30 s.
+bool WaitUntil(const std::function<bool()>& done) {
+  const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  while (!done()) {
+    if (std::chrono::steady_clock::now() > give_up) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  return true;
+}
+
+// The interactive viewer steered with real key presses (XTEST events through xdotool): Space
+// resumes and pauses, Right steps a frame, Left steps back, R resets.
+TEST_F(ViewerMainTest, KeysSteerTheServer) {
+  const std::filesystem::path log = dir_.path() / "viewer.log";
+  setenv("DISPLAY", display_.display().c_str(), 1);
+  const pid_t viewer =
+      Spawn(DYSA_VIEWER_BINARY,
+            {"--server", server_->address(), "--width", "640", "--height", "480"}, log);
+  unsetenv("DISPLAY");
+  dysa::remote::ConnectOptions connect;
+  connect.address = server_->address();
+  dysa::remote::Client client(connect);
+  // The viewer is ready once its window exists and its stream is open.
+  ASSERT_TRUE(
+      Xdotool(display_.display(), "search --sync --name 'DySAQUASIMs viewer' windowfocus --sync"))
+      << dysa::testing::ReadFile(log);
+  ASSERT_TRUE(WaitUntil([&] { return client.GetStatus().subscribers > 0; }));
+  const std::string display = display_.display();
+
+  auto frame = [&] { return client.GetStatus().frame; };
+  ASSERT_TRUE(Xdotool(display, "key space"));
+  EXPECT_TRUE(WaitUntil([&] { return frame() >= 10; }));  // running
+  ASSERT_TRUE(Xdotool(display, "key space"));
+  EXPECT_TRUE(WaitUntil([&] { return client.GetStatus().state == "paused"; }));
+  const uint64_t paused_at = frame();
+
+  ASSERT_TRUE(Xdotool(display, "key Right Right Right"));
+  EXPECT_TRUE(WaitUntil([&] { return frame() == paused_at + 3; })) << frame();
+  ASSERT_TRUE(Xdotool(display, "key Left"));
+  EXPECT_TRUE(WaitUntil([&] { return frame() == paused_at + 2; })) << frame();
+  ASSERT_TRUE(Xdotool(display, "key r"));
+  EXPECT_TRUE(WaitUntil([&] { return frame() == 0; })) << frame();
+  EXPECT_EQ(client.GetStatus().state, "paused");
+
+  // SIGTERM closes the window and exits cleanly, like closing it by hand.
+  kill(viewer, SIGTERM);
+  EXPECT_EQ(dysa::testing::WaitExit(viewer), 0) << dysa::testing::ReadFile(log);
+}
 }  // namespace

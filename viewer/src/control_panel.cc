@@ -39,8 +39,8 @@ bool ControlPanel::Draw(const ServerView& view, const ReceiverStats& receiver,
   if (!settings.show_panel) return false;
 
   bool stream_changed = false;
-  ImGui::SetNextWindowPos(ImVec2(ImGui::GetIO().DisplaySize.x - 390, 10), ImGuiCond_FirstUseEver);
-  ImGui::SetNextWindowSize(ImVec2(380, 680), ImGuiCond_FirstUseEver);
+  ImGui::SetNextWindowPos(ImVec2(ImGui::GetIO().DisplaySize.x - 430, 10), ImGuiCond_FirstUseEver);
+  ImGui::SetNextWindowSize(ImVec2(420, 680), ImGuiCond_FirstUseEver);
   if (ImGui::Begin("DySAQUASIMs")) {
     DrawControls(view, link);
     if (ImGui::CollapsingHeader("Scene and solver", ImGuiTreeNodeFlags_DefaultOpen)) {
