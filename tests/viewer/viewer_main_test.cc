@@ -161,6 +161,42 @@ TEST_F(ViewerMainTest, ScreenshotPanelAddsTheControlsOnTheRight) {
   EXPECT_LT(left, 360 * 400 / 100);
 }
 
+// Neutral grey, brighter than the background: the obstacles' colour (the domain box's lines
+// are bluer and thin).
+bool IsObstacleGrey(const uint8_t* p) {
+  return p[0] > 60 && std::abs(p[0] - p[1]) < 12 && std::abs(p[2] - p[0]) < 16;
+}
+
+int CountGrey(const Image& image) {
+  int grey = 0;
+  for (int y = 0; y < image.height; ++y) {
+    for (int x = 0; x < image.width; ++x) grey += IsObstacleGrey(image.At(x, y));
+  }
+  return grey;
+}
+
+TEST_F(ViewerMainTest, ScreenshotDrawsTheObstacles) {
+  const std::string pool_png = (dir_.path() / "pool.png").string();
+  const std::string common = " --frames 2 --width " + std::to_string(kWidth) + " --height " +
+                             std::to_string(kHeight) + " --screenshot ";
+  CommandResult r = RunViewer("--server " + server_->address() + common + "'" + pool_png + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+
+  // seed_obstacles: a sphere of radius 1 m and a 1 x 1.5 x 1.6 m box on the floor.
+  const std::filesystem::path other = dir_.path() / "obstacles";
+  std::filesystem::create_directories(other);
+  ServerProcess obstacles(DYSA_SERVER_BINARY, other, {"--scene", "seed_obstacles", "--paused"});
+  ASSERT_TRUE(obstacles.running());
+  const std::string obstacles_png = (dir_.path() / "obstacles.png").string();
+  r = RunViewer("--server " + obstacles.address() + common + "'" + obstacles_png + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+
+  const int pool_grey = CountGrey(LoadPng(pool_png));
+  const int obstacles_grey = CountGrey(LoadPng(obstacles_png));
+  EXPECT_GT(obstacles_grey, kWidth * kHeight / 100);
+  EXPECT_GT(obstacles_grey, 4 * pool_grey + 500);
+}
+
 TEST_F(ViewerMainTest, ScreenshotWithoutAServerFailsWithTheReason) {
   const CommandResult r = RunViewer("--server 127.0.0.1:1 --screenshot '" +
                                     (dir_.path() / "none.png").string() + "' --timeout 2");

@@ -5,6 +5,8 @@
 #include <cmath>
 #include <string>
 
+#include "sphere_impostor.h"
+
 namespace dysa::viewer {
 
 namespace {
@@ -13,15 +15,8 @@ namespace {
 // Shaders. All passes see the particles as spheres of radius `radius`, the caller's surface
 // radius: about the particle spacing or more, so that neighbours overlap into one surface.
 
-// Sphere impostors: a camera-facing quad per particle in the plane of its centre; each fragment
-// intersects its view ray with the true sphere. The quad is made just large enough to hold the
-// sphere's outline (fragments are the cost here): from the eye, the sphere fills a cone of
-// half-angle a = asin(r / D) around the direction to its centre, which is theta off the view
-// axis. In the centre's plane, at distance Z, the cone's far side lies Z tan(theta + a) from
-// the axis, e = Z tan(theta + a) - rho beyond the centre (rho = Z tan(theta)); that is the
-// largest distance from the centre to any point of the outline, so a square of half-width e
-// covers it. Head on, e = r D / sqrt(D^2 - r^2), barely more than r.
-constexpr const char* kImpostorVertex = R"(
+// Sphere impostors: see sphere_impostor.h.
+constexpr const char* kImpostorVertexMain = R"(
 layout(location = 0) in vec4 instance;  // xyz: centre (m); w: speed (unused)
 uniform mat4 view;
 uniform mat4 projection;
@@ -32,16 +27,7 @@ const vec2 kCorners[4] = vec2[4](vec2(-1, -1), vec2(1, -1), vec2(-1, 1), vec2(1,
 void main() {
   vec4 c = view * vec4(instance.xyz, 1.0);
   center_view = c.xyz;
-  float z = max(-c.z, 1e-6);
-  float d2 = dot(c.xyz, c.xyz);
-  float rho = length(c.xy);
-  float tan_theta = rho / z;
-  float tan_a = radius / sqrt(max(d2 - radius * radius, 1e-12));
-  float denominator = 1.0 - tan_theta * tan_a;
-  // Beyond 90 degrees (a sphere beside the eye) the outline is unbounded: a large quad.
-  float extent = denominator > 0.05 ? z * (tan_theta + tan_a) / denominator - rho : 20.0 * radius;
-  extent = min(extent * 1.01, 20.0 * radius);  // 1%: rounding; 20 r: spheres at the eye
-  quad_view = vec3(c.xy + kCorners[gl_VertexID] * extent, c.z);
+  quad_view = vec3(c.xy + kCorners[gl_VertexID] * ImpostorHalfWidth(c.xyz, radius), c.z);
   gl_Position = projection * vec4(quad_view, 1.0);
 }
 )";
@@ -294,6 +280,7 @@ constexpr float kMaxFilterRadius = 64.0f;
 constexpr int kThicknessDivisor = 2;
 
 std::string WithRaySphere(const char* source) { return std::string(kRaySphere) + source; }
+const std::string kImpostorVertex = std::string(kImpostorHalfWidthGlsl) + kImpostorVertexMain;
 
 void SetMatrix(GLint location, const Eigen::Matrix4f& m) {
   glUniformMatrix4fv(location, 1, GL_FALSE, m.data());  // Eigen is column-major, like GLSL
@@ -330,9 +317,9 @@ struct FluidRenderer::Impl {
   int height = 0;
 
   Impl()
-      : depth_program(
-            LinkProgram("fluid depth", kImpostorVertex, WithRaySphere(kDepthFragment).c_str())),
-        thickness_program(LinkProgram("fluid thickness", kImpostorVertex,
+      : depth_program(LinkProgram("fluid depth", kImpostorVertex.c_str(),
+                                  WithRaySphere(kDepthFragment).c_str())),
+        thickness_program(LinkProgram("fluid thickness", kImpostorVertex.c_str(),
                                       WithRaySphere(kThicknessFragment).c_str())),
         filter_program(LinkProgram("fluid depth filter", kFullScreenVertex, kFilterFragment)),
         composite_program(LinkProgram("fluid composite", kFullScreenVertex,

@@ -2,18 +2,19 @@
 
 #include <algorithm>
 #include <cstddef>
+#include <string>
 
 #include "speed_colors.h"
+#include "sphere_impostor.h"
 
 namespace dysa::viewer {
 
 namespace {
 
-// Sphere impostors: each instance is a camera-facing quad around the sphere's centre; every
-// fragment casts its view ray against the true sphere, so silhouettes, normals and depth are
-// exact under perspective. The quad is 1.25 radii wide because a sphere seen from close by
-// covers more than its radius in the plane through its centre (r d / sqrt(d^2 - r^2)).
-constexpr const char* kSphereVertex = R"(
+// Sphere impostors (sphere_impostor.h): each instance is a camera-facing quad just large enough
+// for the sphere's outline; every fragment casts its view ray against the true sphere, so
+// silhouettes, normals and depth are exact under perspective.
+constexpr const char* kSphereVertexMain = R"(
 layout(location = 0) in vec4 instance;  // xyz: centre (m); w: speed (m/s) or radius (m)
 uniform mat4 view;
 uniform mat4 projection;
@@ -29,7 +30,7 @@ void main() {
   center_view = c.xyz;
   sphere_radius = r;
   speed = instance.w;
-  quad_view = vec3(c.xy + kCorners[gl_VertexID] * r * 1.25, c.z);
+  quad_view = vec3(c.xy + kCorners[gl_VertexID] * ImpostorHalfWidth(c.xyz, r), c.z);
   gl_Position = projection * vec4(quad_view, 1.0);
 }
 )";
@@ -153,7 +154,9 @@ void AppendBoxFaces(const Eigen::Vector3f& lo, const Eigen::Vector3f& hi, std::v
 }  // namespace
 
 SceneRenderer::SceneRenderer()
-    : sphere_program_(LinkProgram("sphere impostor", kSphereVertex, kSphereFragment)),
+    : sphere_program_(LinkProgram("sphere impostor",
+                                  (std::string(kImpostorHalfWidthGlsl) + kSphereVertexMain).c_str(),
+                                  kSphereFragment)),
       line_program_(LinkProgram("line", kLineVertex, kLineFragment)),
       lit_program_(LinkProgram("lit solid", kLitVertex, kLitFragment)),
       gradient_(MakeTexture()),
