@@ -10,6 +10,7 @@
 
 #include "support/server_process.h"
 #include "support/temp_dir.h"
+#include "support/wait_for.h"
 
 #ifndef DYSA_SERVER_BINARY
 #error "tests/CMakeLists.txt defines DYSA_SERVER_BINARY"
@@ -19,20 +20,11 @@ namespace dysa::viewer {
 namespace {
 
 using dysa::testing::ServerProcess;
+using dysa::testing::WaitFor;
 using Clock = std::chrono::steady_clock;
 
 // seed_basic: 30^3 particles in the domain [-5, 5] x [-3, 3] x [-5, 5].
 constexpr uint32_t kSeedBasicParticles = 27000;
-
-// Polls `done` until it holds or `seconds` pass.
-bool WaitFor(const std::function<bool()>& done, double seconds = 60) {
-  const auto give_up = Clock::now() + std::chrono::duration<double>(seconds);
-  while (Clock::now() < give_up) {
-    if (done()) return true;
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  }
-  return done();
-}
 
 class FrameReceiverTest : public ::testing::Test {
  protected:

@@ -13,6 +13,7 @@
 
 #include "support/server_process.h"
 #include "support/temp_dir.h"
+#include "support/wait_for.h"
 
 #ifndef DYSA_SERVER_BINARY
 #error "tests/CMakeLists.txt defines DYSA_SERVER_BINARY"
@@ -22,17 +23,9 @@ namespace dysa::viewer {
 namespace {
 
 using dysa::testing::ServerProcess;
+using dysa::testing::WaitFor;
 using ::testing::HasSubstr;
 using Clock = std::chrono::steady_clock;
-
-bool WaitFor(const std::function<bool()>& done, double seconds = 60) {
-  const auto give_up = Clock::now() + std::chrono::duration<double>(seconds);
-  while (Clock::now() < give_up) {
-    if (done()) return true;
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  }
-  return done();
-}
 
 const remote::ParamInfo* Find(const ServerView& view, const std::string& name) {
   auto it = std::find_if(view.params.begin(), view.params.end(),

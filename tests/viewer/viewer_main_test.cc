@@ -18,6 +18,7 @@
 #include "remote_client.h"
 #include "support/server_process.h"
 #include "support/temp_dir.h"
+#include "support/wait_for.h"
 #include "support/xvfb_display.h"
 
 #if !defined(DYSA_VIEWER_BINARY) || !defined(DYSA_SERVER_BINARY)
@@ -30,6 +31,7 @@ using dysa::testing::CommandResult;
 using dysa::testing::RunCaptured;
 using dysa::testing::ServerProcess;
 using dysa::testing::Spawn;
+using dysa::testing::WaitFor;
 using dysa::testing::XvfbDisplay;
 using ::testing::HasSubstr;
 
@@ -219,16 +221,6 @@ bool Xdotool(const std::string& display, const std::string& args) {
   return std::system(("DISPLAY=" + display + " xdotool " + args + " >/dev/null 2>&1").c_str()) == 0;
 }
 
-// Polls `done` for up to 30 s.
-bool WaitUntil(const std::function<bool()>& done) {
-  const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(30);
-  while (!done()) {
-    if (std::chrono::steady_clock::now() > give_up) return false;
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  }
-  return true;
-}
-
 // The interactive viewer steered with real key presses (XTEST events through xdotool): Space
 // resumes and pauses, Right steps a frame, Left steps back, R resets.
 TEST_F(ViewerMainTest, KeysSteerTheServer) {
@@ -247,22 +239,22 @@ TEST_F(ViewerMainTest, KeysSteerTheServer) {
   ASSERT_TRUE(
       Xdotool(display_.display(), "search --sync --name 'DySAQUASIMs viewer' windowfocus --sync"))
       << dysa::testing::ReadFile(log);
-  ASSERT_TRUE(WaitUntil([&] { return client.GetStatus().subscribers > 0; }));
+  ASSERT_TRUE(WaitFor([&] { return client.GetStatus().subscribers > 0; }));
   const std::string display = display_.display();
 
   auto frame = [&] { return client.GetStatus().frame; };
   ASSERT_TRUE(Xdotool(display, "key space"));
-  EXPECT_TRUE(WaitUntil([&] { return frame() >= 10; }));  // running
+  EXPECT_TRUE(WaitFor([&] { return frame() >= 10; }));  // running
   ASSERT_TRUE(Xdotool(display, "key space"));
-  EXPECT_TRUE(WaitUntil([&] { return client.GetStatus().state == "paused"; }));
+  EXPECT_TRUE(WaitFor([&] { return client.GetStatus().state == "paused"; }));
   const uint64_t paused_at = frame();
 
   ASSERT_TRUE(Xdotool(display, "key Right Right Right"));
-  EXPECT_TRUE(WaitUntil([&] { return frame() == paused_at + 3; })) << frame();
+  EXPECT_TRUE(WaitFor([&] { return frame() == paused_at + 3; })) << frame();
   ASSERT_TRUE(Xdotool(display, "key Left"));
-  EXPECT_TRUE(WaitUntil([&] { return frame() == paused_at + 2; })) << frame();
+  EXPECT_TRUE(WaitFor([&] { return frame() == paused_at + 2; })) << frame();
   ASSERT_TRUE(Xdotool(display, "key r"));
-  EXPECT_TRUE(WaitUntil([&] { return frame() == 0; })) << frame();
+  EXPECT_TRUE(WaitFor([&] { return frame() == 0; })) << frame();
   EXPECT_EQ(client.GetStatus().state, "paused");
 
   // SIGTERM closes the window and exits cleanly, like closing it by hand.
