@@ -37,6 +37,7 @@ struct Options {
   int frames = 30;                // rendered frames before the screenshot
   double timeout = 60;            // s: --screenshot gives up without frames after this long
   bool screenshot_panel = false;  // the control panel and overlay in the screenshot too
+  std::string capture_dir = ".";  // where F12 saves dysa-viewer-N.png
   int width = 1280;
   int height = 800;
   std::string mode = "particles";
@@ -61,6 +62,10 @@ int ParseOptions(int argc, char** argv, Options& options) {
                  "Render --frames frames once particles arrive, write this PNG and exit");
   app.add_option("--frames", options.frames, "Frames to render before --screenshot")
       ->check(CLI::Range(1, 100000))
+      ->capture_default_str();
+  app.add_option("--capture-dir", options.capture_dir,
+                 "Folder where F12 saves the view as dysa-viewer-N.png")
+      ->check(CLI::ExistingDirectory)
       ->capture_default_str();
   app.add_flag("--screenshot-panel", options.screenshot_panel,
                "Include the control panel and status overlay in the screenshot");
@@ -116,8 +121,9 @@ void QueueKey(GLFWwindow* window, int key, int /*scancode*/, int action, int /*m
 }
 
 // Mouse and keys go to the camera and server unless ImGui wants them (a slider being dragged,
-// a text field with the focus).
-void HandleInput(OrbitCamera& camera, ServerLink& link, KeyQueue& queue, int framebuffer_height) {
+// a text field with the focus). Returns true when F12 asked for a capture of the view.
+bool HandleInput(OrbitCamera& camera, ServerLink& link, KeyQueue& queue, int framebuffer_height) {
+  bool capture = false;
   const ImGuiIO& io = ImGui::GetIO();
   if (!io.WantCaptureMouse) {
     if (ImGui::IsMouseDragging(ImGuiMouseButton_Left)) {
@@ -146,12 +152,16 @@ void HandleInput(OrbitCamera& camera, ServerLink& link, KeyQueue& queue, int fra
         case GLFW_KEY_R:
           link.Reset();
           break;
+        case GLFW_KEY_F12:
+          capture = true;
+          break;
         default:
           break;
       }
     }
   }
   queue.keys.clear();
+  return capture;
 }
 
 int Run(const Options& options) {
@@ -216,6 +226,7 @@ int Run(const Options& options) {
     ReceivedFrame frame;
     uint64_t scene_revision = 0;
     std::string fitted_scene;
+    int captures = 0;  // F12 presses saved
     bool have_particles = false;
     int frames_after_particles = 0;
     RenderStats render_stats;
@@ -256,7 +267,7 @@ int Run(const Options& options) {
       int width = 0;
       int height = 0;
       glfwGetFramebufferSize(window, &width, &height);
-      if (!screenshot) HandleInput(camera, link, key_queue, height);
+      const bool capture = !screenshot && HandleInput(camera, link, key_queue, height);
       if (panel.Draw(view, receiver_stats, render_stats, link, settings)) {
         receiver.SetStreamOptions(settings.stream);
       }
@@ -297,6 +308,17 @@ int Run(const Options& options) {
               render_stats.particles_drawn, options.frames, seconds,
               seconds > 0 ? options.frames / seconds : 0.0);
           break;
+        }
+        if (capture) {  // F12: the view as it is now, without the panel
+          const std::string path =
+              options.capture_dir + "/dysa-viewer-" + std::to_string(++captures) + ".png";
+          try {
+            WritePng(path, ReadWindowPixels(width, height), width, height);
+            std::printf("dysa-viewer: saved %s (%dx%d)\n", path.c_str(), width, height);
+          } catch (const std::exception& e) {
+            std::fprintf(stderr, "dysa-viewer: %s\n", e.what());
+          }
+          std::fflush(stdout);
         }
         ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
       }

@@ -221,44 +221,121 @@ bool Xdotool(const std::string& display, const std::string& args) {
   return std::system(("DISPLAY=" + display + " xdotool " + args + " >/dev/null 2>&1").c_str()) == 0;
 }
 
+// An interactive viewer on the test's display, focused and streaming from the test's server.
+class InteractiveViewer {
+ public:
+  InteractiveViewer(const std::string& display, const std::string& address,
+                    const std::filesystem::path& dir)
+      : display_(display), log_(dir / "viewer.log") {
+    setenv("DISPLAY", display.c_str(), 1);
+    setenv("ASAN_OPTIONS", "detect_leaks=0", 1);  // see kViewerAsanOptions
+    pid_ = Spawn(
+        DYSA_VIEWER_BINARY,
+        {"--server", address, "--width", "640", "--height", "480", "--capture-dir", dir.string()},
+        log_);
+    unsetenv("DISPLAY");
+    unsetenv("ASAN_OPTIONS");
+    dysa::remote::ConnectOptions connect;
+    connect.address = address;
+    dysa::remote::Client client(connect);
+    // Ready once its window exists and its stream is open.
+    ready_ = Xdotool(display, "search --sync --name 'DySAQUASIMs viewer' windowfocus --sync") &&
+             WaitFor([&] { return client.GetStatus().subscribers > 0; });
+  }
+  ~InteractiveViewer() {
+    if (pid_ > 0) Quit();
+  }
+  bool ready() const { return ready_; }
+  std::string log() const { return dysa::testing::ReadFile(log_); }
+  // Events to the focused viewer window, e.g. "key space".
+  bool Send(const std::string& xdotool_args) const { return Xdotool(display_, xdotool_args); }
+  // SIGTERM closes the window and exits cleanly, like closing it by hand: the exit status.
+  int Quit() {
+    kill(pid_, SIGTERM);
+    const int status = dysa::testing::WaitExit(pid_);
+    pid_ = -1;
+    return status;
+  }
+
+ private:
+  std::string display_;
+  std::filesystem::path log_;
+  pid_t pid_ = -1;
+  bool ready_ = false;
+};
+
 // The interactive viewer steered with real key presses (XTEST events through xdotool): Space
 // resumes and pauses, Right steps a frame, Left steps back, R resets.
 TEST_F(ViewerMainTest, KeysSteerTheServer) {
-  const std::filesystem::path log = dir_.path() / "viewer.log";
-  setenv("DISPLAY", display_.display().c_str(), 1);
-  setenv("ASAN_OPTIONS", "detect_leaks=0", 1);  // see kViewerAsanOptions
-  const pid_t viewer =
-      Spawn(DYSA_VIEWER_BINARY,
-            {"--server", server_->address(), "--width", "640", "--height", "480"}, log);
-  unsetenv("DISPLAY");
-  unsetenv("ASAN_OPTIONS");
+  InteractiveViewer viewer(display_.display(), server_->address(), dir_.path());
+  ASSERT_TRUE(viewer.ready()) << viewer.log();
   dysa::remote::ConnectOptions connect;
   connect.address = server_->address();
   dysa::remote::Client client(connect);
-  // The viewer is ready once its window exists and its stream is open.
-  ASSERT_TRUE(
-      Xdotool(display_.display(), "search --sync --name 'DySAQUASIMs viewer' windowfocus --sync"))
-      << dysa::testing::ReadFile(log);
-  ASSERT_TRUE(WaitFor([&] { return client.GetStatus().subscribers > 0; }));
-  const std::string display = display_.display();
 
   auto frame = [&] { return client.GetStatus().frame; };
-  ASSERT_TRUE(Xdotool(display, "key space"));
+  ASSERT_TRUE(viewer.Send("key space"));
   EXPECT_TRUE(WaitFor([&] { return frame() >= 10; }));  // running
-  ASSERT_TRUE(Xdotool(display, "key space"));
+  ASSERT_TRUE(viewer.Send("key space"));
   EXPECT_TRUE(WaitFor([&] { return client.GetStatus().state == "paused"; }));
   const uint64_t paused_at = frame();
 
-  ASSERT_TRUE(Xdotool(display, "key Right Right Right"));
+  ASSERT_TRUE(viewer.Send("key Right Right Right"));
   EXPECT_TRUE(WaitFor([&] { return frame() == paused_at + 3; })) << frame();
-  ASSERT_TRUE(Xdotool(display, "key Left"));
+  ASSERT_TRUE(viewer.Send("key Left"));
   EXPECT_TRUE(WaitFor([&] { return frame() == paused_at + 2; })) << frame();
-  ASSERT_TRUE(Xdotool(display, "key r"));
+  ASSERT_TRUE(viewer.Send("key r"));
   EXPECT_TRUE(WaitFor([&] { return frame() == 0; })) << frame();
   EXPECT_EQ(client.GetStatus().state, "paused");
 
-  // SIGTERM closes the window and exits cleanly, like closing it by hand.
-  kill(viewer, SIGTERM);
-  EXPECT_EQ(dysa::testing::WaitExit(viewer), 0) << dysa::testing::ReadFile(log);
+  EXPECT_EQ(viewer.Quit(), 0) << viewer.log();
 }
+// F12 saves the view; a left drag orbits the camera; the view follows the window's size.
+TEST_F(ViewerMainTest, MouseOrbitsAndTheViewFollowsTheWindowSize) {
+  InteractiveViewer viewer(display_.display(), server_->address(), dir_.path());
+  ASSERT_TRUE(viewer.ready()) << viewer.log();
+  auto capture = [&](int n) {
+    const std::filesystem::path png = dir_.path() / ("dysa-viewer-" + std::to_string(n) + ".png");
+    EXPECT_TRUE(viewer.Send("key F12"));
+    EXPECT_TRUE(WaitFor([&] {
+      return viewer.log().find("saved " + png.string()) != std::string::npos;
+    })) << viewer.log();
+    return LoadPng(png.string());
+  };
+  // Wait until the pool is drawn (the first frame may still be on its way).
+  Image before;
+  int n = 0;
+  ASSERT_TRUE(WaitFor(
+      [&] {
+        before = capture(++n);
+        int fluid = 0;
+        for (int y = 0; y < before.height; ++y) {
+          for (int x = 0; x < before.width; ++x) fluid += IsFluidColoured(before.At(x, y));
+        }
+        return fluid > 1000;
+      },
+      30));
+  ASSERT_EQ(before.width, 640);
+
+  // Drag left to right over the scene, left of the panel (which starts 430 pixels from the right).
+  // Pauses between the events: ImGui 1.86 reads the mouse's state once a frame, so a press,
+  // move and release within one frame would not be a drag.
+  ASSERT_TRUE(viewer.Send(
+      "getwindowfocus mousemove --window %1 60 300 mousedown 1 sleep 0.3 "
+      "mousemove --window %1 120 300 sleep 0.3 mousemove --window %1 180 300 sleep 0.3 mouseup 1"));
+  const Image after = capture(++n);
+  ASSERT_EQ(after.rgb.size(), before.rgb.size());
+  int changed = 0;
+  for (int y = 150; y < 480; ++y) {
+    for (int x = 0; x < 200; ++x) changed += std::memcmp(before.At(x, y), after.At(x, y), 3) != 0;
+  }
+  EXPECT_GT(changed, 200 * 330 / 20);  // the scene turned
+
+  ASSERT_TRUE(viewer.Send("getwindowfocus windowsize --sync %1 500 400"));
+  const Image resized = capture(++n);
+  EXPECT_EQ(resized.width, 500);
+  EXPECT_EQ(resized.height, 400);
+  EXPECT_EQ(viewer.Quit(), 0) << viewer.log();
+}
+
 }  // namespace
