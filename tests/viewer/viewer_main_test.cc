@@ -238,8 +238,13 @@ class InteractiveViewer {
     dysa::remote::ConnectOptions connect;
     connect.address = address;
     dysa::remote::Client client(connect);
-    // Ready once its window exists and its stream is open.
-    ready_ = Xdotool(display, "search --sync --name 'DySAQUASIMs viewer' windowfocus --sync") &&
+    // Ready once its window is mapped and focused, and its stream is open. Focusing can fail
+    // while the window is being mapped, so it is retried.
+    ready_ = WaitFor([&] {
+               return Xdotool(display,
+                              "search --sync --onlyvisible --name 'DySAQUASIMs viewer' "
+                              "windowfocus --sync");
+             }) &&
              WaitFor([&] { return client.GetStatus().subscribers > 0; });
   }
   ~InteractiveViewer() {
