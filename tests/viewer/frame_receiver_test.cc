@@ -6,6 +6,7 @@
 
 #include <chrono>
 #include <functional>
+#include <memory>
 #include <thread>
 
 #include "support/server_process.h"
@@ -28,19 +29,25 @@ constexpr uint32_t kSeedBasicParticles = 27000;
 
 class FrameReceiverTest : public ::testing::Test {
  protected:
+  // A started receiver of `server`'s stream with the default options.
+  static std::unique_ptr<FrameReceiver> Receive(const ServerProcess& server) {
+    remote::ConnectOptions connect;
+    connect.address = server.address();
+    auto receiver = std::make_unique<FrameReceiver>(connect, remote::StreamOptions{});
+    receiver->Start();
+    return receiver;
+  }
+
   dysa::testing::TempDir dir{"dysa_receiver"};
 };
 
 TEST_F(FrameReceiverTest, DeliversDecodedFramesOfTheRunningScene) {
   ServerProcess server(DYSA_SERVER_BINARY, dir.path(), {"--scene", "seed_basic"});
   ASSERT_TRUE(server.running());
-  remote::ConnectOptions connect;
-  connect.address = server.address();
-  FrameReceiver receiver(connect, remote::StreamOptions{});
-  receiver.Start();
+  std::unique_ptr<FrameReceiver> receiver = Receive(server);
 
   ReceivedFrame frame;
-  ASSERT_TRUE(WaitFor([&] { return receiver.TakeLatest(frame); })) << receiver.Stats().error;
+  ASSERT_TRUE(WaitFor([&] { return receiver->TakeLatest(frame); })) << receiver->Stats().error;
   EXPECT_EQ(frame.frame.count, kSeedBasicParticles);
   ASSERT_EQ(frame.frame.positions.size(), 3u * kSeedBasicParticles);
   ASSERT_EQ(frame.frame.speed.size(), kSeedBasicParticles);  // the default fields
@@ -50,32 +57,29 @@ TEST_F(FrameReceiverTest, DeliversDecodedFramesOfTheRunningScene) {
   EXPECT_GT(frame.bytes, 0u);
   // The simulation runs: later frames follow, each taken once.
   const uint64_t first = frame.sim_frame;
-  ASSERT_TRUE(WaitFor([&] { return receiver.TakeLatest(frame) && frame.sim_frame > first; }));
-  const ReceiverStats stats = receiver.Stats();
+  ASSERT_TRUE(WaitFor([&] { return receiver->TakeLatest(frame) && frame.sim_frame > first; }));
+  const ReceiverStats stats = receiver->Stats();
   EXPECT_TRUE(stats.streaming);
   EXPECT_GE(stats.frames, 2u);
   EXPECT_GT(stats.bytes_per_frame, 0);
   EXPECT_EQ(stats.decode_errors, 0u);
-  receiver.Stop();
+  receiver->Stop();
 }
 
 TEST_F(FrameReceiverTest, NewStreamOptionsRestartTheStream) {
   ServerProcess server(DYSA_SERVER_BINARY, dir.path(), {"--scene", "seed_basic"});
   ASSERT_TRUE(server.running());
-  remote::ConnectOptions connect;
-  connect.address = server.address();
-  FrameReceiver receiver(connect, remote::StreamOptions{});
-  receiver.Start();
+  std::unique_ptr<FrameReceiver> receiver = Receive(server);
   ReceivedFrame frame;
-  ASSERT_TRUE(WaitFor([&] { return receiver.TakeLatest(frame); }));
+  ASSERT_TRUE(WaitFor([&] { return receiver->TakeLatest(frame); }));
   const uint64_t first_stream = frame.stream_id;
 
   remote::StreamOptions options;
   options.stride = 4;  // every 4th particle
   options.fields = codec::kPositions;
-  receiver.SetStreamOptions(options);
+  receiver->SetStreamOptions(options);
   ASSERT_TRUE(
-      WaitFor([&] { return receiver.TakeLatest(frame) && frame.stream_id != first_stream; }));
+      WaitFor([&] { return receiver->TakeLatest(frame) && frame.stream_id != first_stream; }));
   EXPECT_EQ(frame.frame.stride, 4u);
   EXPECT_EQ(frame.frame.count, kSeedBasicParticles / 4);
   EXPECT_TRUE(frame.frame.speed.empty());
@@ -86,27 +90,24 @@ TEST_F(FrameReceiverTest, ReportsALostServerAndReconnectsWhenItReturns) {
                                                 std::vector<std::string>{"--scene", "seed_basic"});
   ASSERT_TRUE(server->running());
   const int port = server->port();
-  remote::ConnectOptions connect;
-  connect.address = server->address();
-  FrameReceiver receiver(connect, remote::StreamOptions{});
-  receiver.Start();
+  std::unique_ptr<FrameReceiver> receiver = Receive(*server);
   ReceivedFrame frame;
-  ASSERT_TRUE(WaitFor([&] { return receiver.TakeLatest(frame); }));
+  ASSERT_TRUE(WaitFor([&] { return receiver->TakeLatest(frame); }));
   const uint64_t first_stream = frame.stream_id;
 
   server.reset();  // SIGTERM: the stream ends with a status
-  ASSERT_TRUE(WaitFor([&] { return !receiver.Stats().streaming; }, 10));
-  EXPECT_FALSE(receiver.Stats().error.empty());
+  ASSERT_TRUE(WaitFor([&] { return !receiver->Stats().streaming; }, 10));
+  EXPECT_FALSE(receiver->Stats().error.empty());
 
   server = std::make_unique<ServerProcess>(DYSA_SERVER_BINARY, dir.path(),
                                            std::vector<std::string>{"--scene", "seed_basic"}, port);
   ASSERT_TRUE(server->running());
   ASSERT_TRUE(WaitFor([&] {
-    return receiver.TakeLatest(frame) && frame.stream_id != first_stream;
-  })) << receiver.Stats().error;
+    return receiver->TakeLatest(frame) && frame.stream_id != first_stream;
+  })) << receiver->Stats().error;
   EXPECT_EQ(frame.frame.count, kSeedBasicParticles);
-  EXPECT_GE(receiver.Stats().reconnects, 1u);
-  EXPECT_TRUE(receiver.Stats().error.empty());
+  EXPECT_GE(receiver->Stats().reconnects, 1u);
+  EXPECT_TRUE(receiver->Stats().error.empty());
 }
 
 TEST_F(FrameReceiverTest, StopReturnsPromptlyWithoutAServer) {
