@@ -11,6 +11,7 @@
 #include <cinttypes>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -525,6 +526,38 @@ TEST(PhysicsTest, ParticlesStayOutOfObstacles) {
     }
   }
   EXPECT_GT(hits, 0) << "the fluid never reached the sphere";
+}
+
+TEST(SpawnParticleRadiusTest, TakesTheSmallestSpacingOverBlocksAndAxes) {
+  Scene scene = ParseScene(R"({"fluid_blocks": [
+      {"size": [1, 2, 3], "particles_per_axis": [11, 11, 1]},
+      {"size": [1, 1, 1], "spacing": 0.25}]})");
+  EXPECT_DOUBLE_EQ(SpawnParticleRadius(scene, scene.params), 0.5 * 0.1);  // 1 m / 10
+  scene.fluid_blocks[1].spacing = 0.05;
+  EXPECT_DOUBLE_EQ(SpawnParticleRadius(scene, scene.params), 0.5 * 0.05);
+  // One particle per block: no spacing; half the smoothing radius.
+  scene = ParseScene(R"({"fluid_blocks": [{"particles_per_axis": 1}]})");
+  EXPECT_DOUBLE_EQ(SpawnParticleRadius(scene, scene.params), 0.5 * scene.params.smoothing_radius);
+}
+
+// The radius is half the distance between neighbouring spawned particles (no jitter): the
+// rule above and the spawner's lattice agree.
+TEST(SpawnParticleRadiusTest, IsHalfTheClosestDistanceOfTheSpawnedParticles) {
+  for (const char* json :
+       {R"({"fluid_blocks": [{"size": [1, 2, 3], "particles_per_axis": [5, 7, 4],
+                                                 "jitter": 0}]})",
+        R"({"fluid_blocks": [{"size": [1, 1, 1], "spacing": 0.2, "jitter": 0}]})"}) {
+    const Scene scene = ParseScene(json);
+    ParticleArrays particles;
+    SpawnParticles(scene, scene.params, particles);
+    double closest = std::numeric_limits<double>::infinity();
+    for (size_t i = 0; i < particles.size(); ++i) {
+      for (size_t j = i + 1; j < particles.size(); ++j) {
+        closest = std::min(closest, double((particles.position[i] - particles.position[j]).norm()));
+      }
+    }
+    EXPECT_NEAR(SpawnParticleRadius(scene, scene.params), 0.5 * closest, 1e-6) << json;
+  }
 }
 
 }  // namespace

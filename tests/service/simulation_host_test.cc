@@ -170,18 +170,6 @@ TEST_F(SimulationHostTest, TheSceneDescriptionChangesWithTheSpawnOnly) {
   EXPECT_DOUBLE_EQ(scene.particle_radius, 0.5 * 4.0 / 23);
 }
 
-TEST(SpawnParticleRadiusTest, TakesTheSmallestSpacingOverBlocksAndAxes) {
-  Scene scene = ParseScene(R"({"fluid_blocks": [
-      {"size": [1, 2, 3], "particles_per_axis": [11, 11, 1]},
-      {"size": [1, 1, 1], "spacing": 0.25}]})");
-  EXPECT_DOUBLE_EQ(SpawnParticleRadius(scene, scene.params), 0.5 * 0.1);  // 1 m / 10
-  scene.fluid_blocks[1].spacing = 0.05;
-  EXPECT_DOUBLE_EQ(SpawnParticleRadius(scene, scene.params), 0.5 * 0.05);
-  // One particle per block: no spacing; half the smoothing radius.
-  scene = ParseScene(R"({"fluid_blocks": [{"particles_per_axis": 1}]})");
-  EXPECT_DOUBLE_EQ(SpawnParticleRadius(scene, scene.params), 0.5 * scene.params.smoothing_radius);
-}
-
 TEST(SimulationHostLimitsTest, TheParticleLimitRefusesScenesAndParameters) {
   HostOptions options = Paused();
   options.max_particles = 1000;

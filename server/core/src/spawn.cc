@@ -1,4 +1,7 @@
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
+#include <limits>
 
 #include "dysa/core/simulation.h"
 
@@ -46,7 +49,8 @@ void SpawnParticles(const Scene& scene, const Params& params, ParticleArrays& pa
     const Vec3d size = block.size.value_or(Vec3d::Constant(params.spawn_size));
     const double jitter = block.jitter.value_or(params.spawn_jitter);
     SplitMix64 rng(block.seed);
-    // The offset of lattice point k along axis a from the block centre.
+    // The offset of lattice point k along axis a from the block centre. The lattice step is
+    // the one SpawnParticleRadius takes (simulation_test checks that they agree).
     auto offset = [&](int a, int k) {
       if (block.spacing) return (k - 0.5 * (n[a] - 1)) * *block.spacing;
       // The thesis's spawner: n points spanning the edge, both ends included.
@@ -70,6 +74,22 @@ void SpawnParticles(const Scene& scene, const Params& params, ParticleArrays& pa
   std::fill(particles.near_density.begin(), particles.near_density.end(), Real(0));
   std::fill(particles.pressure.begin(), particles.pressure.end(), Real(0));
   std::fill(particles.near_pressure.begin(), particles.near_pressure.end(), Real(0));
+}
+
+double SpawnParticleRadius(const Scene& scene, const Params& params) {
+  const std::vector<Eigen::Vector3i> counts = BlockParticleCounts(scene, params);
+  double spacing = std::numeric_limits<double>::infinity();
+  for (size_t b = 0; b < scene.fluid_blocks.size(); ++b) {
+    const FluidBlock& block = scene.fluid_blocks[b];
+    const Vec3d size = block.size.value_or(Vec3d::Constant(params.spawn_size));
+    for (int a = 0; a < 3; ++a) {
+      const int n = counts[b][a];
+      if (n < 2) continue;  // one particle: no neighbour along this axis
+      spacing = std::min(spacing, block.spacing ? *block.spacing : size[a] / (n - 1));
+    }
+  }
+  if (!std::isfinite(spacing)) spacing = params.smoothing_radius;
+  return 0.5 * spacing;
 }
 
 }  // namespace dysa

@@ -310,22 +310,6 @@ void SimulationHost::DescribeScene() {
   scene_ = std::move(d);
 }
 
-double SpawnParticleRadius(const Scene& scene, const Params& params) {
-  const std::vector<Eigen::Vector3i> counts = BlockParticleCounts(scene, params);
-  double spacing = std::numeric_limits<double>::infinity();
-  for (size_t b = 0; b < scene.fluid_blocks.size(); ++b) {
-    const FluidBlock& block = scene.fluid_blocks[b];
-    const Vec3d size = block.size.value_or(Vec3d::Constant(params.spawn_size));
-    for (int a = 0; a < 3; ++a) {
-      const int n = counts[b][a];
-      if (n < 2) continue;  // one particle: no neighbour along this axis
-      spacing = std::min(spacing, block.spacing ? *block.spacing : size[a] / (n - 1));
-    }
-  }
-  if (!std::isfinite(spacing)) spacing = params.smoothing_radius;
-  return 0.5 * spacing;
-}
-
 void GatherSnapshot(const Simulation& sim, uint32_t fields, FrameSnapshot& s) {
   const State& state = sim.state();
   const ParticleArrays& p = state.particles;

@@ -87,4 +87,10 @@ class Simulation {
 // parameters; deterministic for a given scene, parameters and seeds.
 void SpawnParticles(const Scene& scene, const Params& params, ParticleArrays& particles);
 
+// Half the smallest rest spacing of the particles `scene` spawns with `params`, in m: over every
+// block and axis with more than one particle, the block's spacing, or size / (n - 1) for the
+// thesis's edge-to-edge spawner. When no block has two particles along any axis, half the
+// smoothing radius. Throws ConfigError as BlockParticleCounts.
+double SpawnParticleRadius(const Scene& scene, const Params& params);
+
 }  // namespace dysa

@@ -79,12 +79,6 @@ struct HostScene {
   uint64_t scene_version = 0;  // HostStatus::scene_version of this description
 };
 
-// Half the smallest rest spacing of the particles `scene` spawns with `params`, in m: over every
-// block and axis with more than one particle, the block's spacing, or size / (n - 1) for the
-// thesis's edge-to-edge spawner. When no block has two particles along any axis, half the
-// smoothing radius. Throws ConfigError as BlockParticleCounts.
-double SpawnParticleRadius(const Scene& scene, const Params& params);
-
 // Controls, applied between two frames.
 struct PauseControl {};
 struct ResumeControl {};
