@@ -32,19 +32,8 @@ void main() {
 }
 )";
 
-// Shared by the impostor fragment shaders: the ray from the eye (the origin) along d meets the
-// sphere where |t d - c|^2 = r^2, i.e. t = b -+ sqrt(b^2 - |c|^2 + r^2) with b = d.c.
-// Returns false when the ray misses.
+// Shared by the fluid's fragment shaders, after IntersectSphere (sphere_impostor.h).
 constexpr const char* kRaySphere = R"(
-bool IntersectSphere(vec3 d, vec3 c, float r, out float t_near, out float t_far) {
-  float b = dot(d, c);
-  float disc = b * b - dot(c, c) + r * r;
-  if (disc < 0.0) return false;
-  float s = sqrt(disc);
-  t_near = b - s;
-  t_far = b + s;
-  return true;
-}
 // Window depth (what the depth buffer holds) back to the distance in front of the eye along
 // -z, for an OpenGL perspective projection with planes n and f:
 // z_ndc = (f + n - 2 f n / z_eye) / (f - n)  =>  z_eye = 2 f n / (f + n - z_ndc (f - n)).
@@ -279,7 +268,9 @@ constexpr float kMaxFilterRadius = 64.0f;
 // tints and bends, so its detail hardly shows, and it is the pass with the most overdraw.
 constexpr int kThicknessDivisor = 2;
 
-std::string WithRaySphere(const char* source) { return std::string(kRaySphere) + source; }
+std::string WithRaySphere(const char* source) {
+  return std::string(kIntersectSphereGlsl) + kRaySphere + source;
+}
 const std::string kImpostorVertex = std::string(kImpostorHalfWidthGlsl) + kImpostorVertexMain;
 
 void SetMatrix(GLint location, const Eigen::Matrix4f& m) {

@@ -35,7 +35,7 @@ void main() {
 }
 )";
 
-constexpr const char* kSphereFragment = R"(
+constexpr const char* kSphereFragmentMain = R"(
 in vec3 quad_view;
 flat in vec3 center_view;
 flat in float sphere_radius;
@@ -47,12 +47,10 @@ uniform vec3 flat_color;     // used when use_gradient == 0
 uniform int use_gradient;
 out vec4 color;
 void main() {
-  // Ray from the eye (origin) along d: |t d - c|^2 = r^2 gives t = b -+ sqrt(b^2 - |c|^2 + r^2).
   vec3 d = normalize(quad_view);
-  float b = dot(d, center_view);
-  float disc = b * b - dot(center_view, center_view) + sphere_radius * sphere_radius;
-  if (disc < 0.0) discard;
-  vec3 hit = d * (b - sqrt(disc));
+  float t_near, t_far;
+  if (!IntersectSphere(d, center_view, sphere_radius, t_near, t_far)) discard;
+  vec3 hit = d * t_near;
   vec3 n = (hit - center_view) / sphere_radius;
   vec4 clip = projection * vec4(hit, 1.0);
   gl_FragDepth = 0.5 * clip.z / clip.w + 0.5;
@@ -154,9 +152,9 @@ void AppendBoxFaces(const Eigen::Vector3f& lo, const Eigen::Vector3f& hi, std::v
 }  // namespace
 
 SceneRenderer::SceneRenderer()
-    : sphere_program_(LinkProgram("sphere impostor",
-                                  (std::string(kImpostorHalfWidthGlsl) + kSphereVertexMain).c_str(),
-                                  kSphereFragment)),
+    : sphere_program_(LinkProgram(
+          "sphere impostor", (std::string(kImpostorHalfWidthGlsl) + kSphereVertexMain).c_str(),
+          (std::string(kIntersectSphereGlsl) + kSphereFragmentMain).c_str())),
       line_program_(LinkProgram("line", kLineVertex, kLineFragment)),
       lit_program_(LinkProgram("lit solid", kLitVertex, kLitFragment)),
       gradient_(MakeTexture()),

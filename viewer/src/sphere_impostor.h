@@ -1,4 +1,5 @@
-// The screen-space quad of a sphere impostor, shared by the particle and fluid renderers.
+// Sphere impostors in GLSL, shared by the particle and fluid renderers: the screen-space quad
+// that holds a sphere, and the view ray's intersection with it.
 #pragma once
 
 namespace dysa::viewer {
@@ -24,6 +25,21 @@ float ImpostorHalfWidth(vec3 c, float radius) {
   // Beyond 90 degrees (a sphere beside the eye) the outline is unbounded: a large quad.
   float extent = denominator > 0.05 ? z * (tan_theta + tan_a) / denominator - rho : 20.0 * radius;
   return min(extent * 1.01, 20.0 * radius);  // 1%: rounding; 20 r: spheres at the eye
+}
+)";
+
+// IntersectSphere(d, c, r, t_near, t_far): the ray from the eye (the origin) along the unit
+// vector d meets the sphere where |t d - c|^2 = r^2, i.e. t = b -+ sqrt(b^2 - |c|^2 + r^2) with
+// b = d.c. Returns false when the ray misses.
+inline constexpr const char* kIntersectSphereGlsl = R"(
+bool IntersectSphere(vec3 d, vec3 c, float r, out float t_near, out float t_far) {
+  float b = dot(d, c);
+  float disc = b * b - dot(c, c) + r * r;
+  if (disc < 0.0) return false;
+  float s = sqrt(disc);
+  t_near = b - s;
+  t_far = b + s;
+  return true;
 }
 )";
 
