@@ -135,10 +135,10 @@ TEST_F(SimulationHostTest, LoadSceneReplacesTheSceneAndResets) {
 
 TEST_F(SimulationHostTest, TheSceneDescriptionChangesWithTheSpawnOnly) {
   HostScene scene = host_.CurrentScene();
-  EXPECT_EQ(scene.name, "seed_basic");
-  EXPECT_EQ(scene.solver, "seed");
-  EXPECT_EQ(scene.domain.min, Vec3d(-5, -3, -5));
-  EXPECT_EQ(scene.domain.max, Vec3d(5, 3, 5));
+  EXPECT_EQ(scene.scene.name, "seed_basic");
+  EXPECT_EQ(scene.scene.solver, "seed");
+  EXPECT_EQ(scene.scene.domain.min, Vec3d(-5, -3, -5));
+  EXPECT_EQ(scene.scene.domain.max, Vec3d(5, 3, 5));
   EXPECT_DOUBLE_EQ(scene.particle_radius, 0.5 * 1.2 / 9);  // 10 particles over 1.2 m
   const uint64_t version = scene.scene_version;
   EXPECT_GT(version, 0u);
@@ -162,10 +162,10 @@ TEST_F(SimulationHostTest, TheSceneDescriptionChangesWithTheSpawnOnly) {
   ASSERT_EQ(r.code, ControlCode::kOk) << r.message;
   EXPECT_GT(r.status.scene_version, scene.scene_version);
   scene = host_.CurrentScene();
-  EXPECT_EQ(scene.name, "seed_obstacles");
-  ASSERT_EQ(scene.spheres.size(), 1u);
-  ASSERT_EQ(scene.boxes.size(), 1u);
-  EXPECT_DOUBLE_EQ(scene.spheres[0].radius, 1.0);
+  EXPECT_EQ(scene.scene.name, "seed_obstacles");
+  ASSERT_EQ(scene.scene.spheres.size(), 1u);
+  ASSERT_EQ(scene.scene.boxes.size(), 1u);
+  EXPECT_DOUBLE_EQ(scene.scene.spheres[0].radius, 1.0);
   // 18 x 24 x 24 particles over 3 x 4 x 4 m: the closest are 4 / 23 m apart.
   EXPECT_DOUBLE_EQ(scene.particle_radius, 0.5 * 4.0 / 23);
 }

@@ -296,15 +296,9 @@ void SimulationHost::StartScene() {
 }
 
 void SimulationHost::DescribeScene() {
-  const Scene& scene = sim_->scene();
   HostScene d;
-  d.name = scene.name;
-  d.description = scene.description;
-  d.solver = scene.solver;
-  d.domain = scene.domain;
-  d.spheres = scene.spheres;
-  d.boxes = scene.boxes;
-  d.particle_radius = SpawnParticleRadius(scene, sim_->params());
+  d.scene = sim_->scene();
+  d.particle_radius = SpawnParticleRadius(d.scene, sim_->params());
   d.scene_version = ++scene_version_;
   std::lock_guard lock(status_mu_);
   scene_ = std::move(d);

@@ -66,21 +66,22 @@ void ToProto(const Vec3d& v, v1::Vec3& out) {
 }
 
 void ToProto(const HostScene& s, v1::SceneDescription& out) {
-  out.set_name(s.name);
-  out.set_description(s.description);
-  out.set_solver(s.solver);
+  const Scene& scene = s.scene;
+  out.set_name(scene.name);
+  out.set_description(scene.description);
+  out.set_solver(scene.solver);
   out.clear_solvers();
   for (const SolverInfo& info : SolverRegistry()) out.add_solvers(std::string(info.name));
-  ToProto(s.domain.min, *out.mutable_domain_min());
-  ToProto(s.domain.max, *out.mutable_domain_max());
+  ToProto(scene.domain.min, *out.mutable_domain_min());
+  ToProto(scene.domain.max, *out.mutable_domain_max());
   out.clear_spheres();
-  for (const SphereObstacle& sphere : s.spheres) {
+  for (const SphereObstacle& sphere : scene.spheres) {
     v1::Sphere& o = *out.add_spheres();
     ToProto(sphere.center, *o.mutable_center());
     o.set_radius(sphere.radius);
   }
   out.clear_boxes();
-  for (const BoxObstacle& box : s.boxes) {
+  for (const BoxObstacle& box : scene.boxes) {
     v1::Box& o = *out.add_boxes();
     ToProto(box.box.min, *o.mutable_min());
     ToProto(box.box.max, *o.mutable_max());

@@ -67,14 +67,9 @@ struct HostStatus {
   uint64_t scene_version = 0;
 };
 
-// The running scene's geometry, as GetScene describes it.
+// The running scene, as GetScene describes it.
 struct HostScene {
-  std::string name;
-  std::string description;
-  std::string solver;  // registered solver name
-  Aabb domain;         // m
-  std::vector<SphereObstacle> spheres;
-  std::vector<BoxObstacle> boxes;
+  Scene scene;                 // as loaded, with the solver it runs
   double particle_radius = 0;  // m, SpawnParticleRadius with the current parameters
   uint64_t scene_version = 0;  // HostStatus::scene_version of this description
 };
