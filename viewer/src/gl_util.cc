@@ -12,26 +12,19 @@ void DeleteVertexArray(GLuint id) { glDeleteVertexArrays(1, &id); }
 void DeleteTexture(GLuint id) { glDeleteTextures(1, &id); }
 void DeleteFramebuffer(GLuint id) { glDeleteFramebuffers(1, &id); }
 
-Buffer MakeBuffer() {
+namespace {
+// One name from a glGen* function.
+GLuint Generate(void (*gen)(GLsizei, GLuint*)) {
   GLuint id = 0;
-  glGenBuffers(1, &id);
-  return Buffer(id);
+  gen(1, &id);
+  return id;
 }
-VertexArray MakeVertexArray() {
-  GLuint id = 0;
-  glGenVertexArrays(1, &id);
-  return VertexArray(id);
-}
-Texture MakeTexture() {
-  GLuint id = 0;
-  glGenTextures(1, &id);
-  return Texture(id);
-}
-Framebuffer MakeFramebuffer() {
-  GLuint id = 0;
-  glGenFramebuffers(1, &id);
-  return Framebuffer(id);
-}
+}  // namespace
+
+Buffer MakeBuffer() { return Buffer(Generate(glGenBuffers)); }
+VertexArray MakeVertexArray() { return VertexArray(Generate(glGenVertexArrays)); }
+Texture MakeTexture() { return Texture(Generate(glGenTextures)); }
+Framebuffer MakeFramebuffer() { return Framebuffer(Generate(glGenFramebuffers)); }
 
 namespace {
 
