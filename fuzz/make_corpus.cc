@@ -179,6 +179,15 @@ int main(int argc, char** argv) {
   write("pos24_velocity_range_exit",
         Seed(ModeByte(kDifferential, kLengthPrefixed), Flatten(wide_frames), kLengthPrefixed));
 
+  // Octahedral velocity (format version 2) with speed; keyframe, then delta frames.
+  StreamConfig octahedral;
+  octahedral.fields = kPositions | kSpeed | kVelocity;
+  octahedral.velocity_encoding = dysa::codec::VelocityEncoding::kOctahedral;
+  octahedral.velocity_bits = 10;
+  octahedral.chunk_particles = 24;
+  write("octahedral_velocity_diff", Seed(ModeByte(kDifferential, kLengthPrefixed),
+                                         Flatten(Encode(octahedral, 40, 4)), kLengthPrefixed));
+
   // Empty frames (count 0), then a non-empty keyframe.
   {
     FrameEncoder encoder(StreamConfig{});

@@ -200,6 +200,10 @@ class RemoteCommands {
         ->check(CLI::Range(1u, 1u << 30));
     cmd->add_option("--max-fps", max_fps_, "At most F frames per second (default: every frame)")
         ->check(CLI::Range(0.0, 1e6));
+    cmd->add_option("--velocity-encoding", velocity_encoding_,
+                    "With velocity: components (the tightest bound per component) or octahedral "
+                    "(|v| and direction, an error relative to the speed)")
+        ->check(CLI::IsMember({"components", "octahedral"}));
   }
 
   remote::StreamOptions Stream() const {
@@ -208,6 +212,9 @@ class RemoteCommands {
         remote::ParseFields(fields_.empty() ? std::vector<std::string>{"speed"} : fields_);
     stream.stride = stride_;
     stream.max_fps = max_fps_;
+    stream.velocity_encoding = velocity_encoding_ == "octahedral"
+                                   ? dysa::codec::VelocityEncoding::kOctahedral
+                                   : dysa::codec::VelocityEncoding::kComponents;
     return stream;
   }
 
@@ -222,6 +229,7 @@ class RemoteCommands {
   std::vector<std::string> fields_;
   uint32_t stride_ = 0;
   double max_fps_ = 0;
+  std::string velocity_encoding_ = "components";
   remote::RecordOptions record_;
   std::vector<std::pair<CLI::App*, std::function<void(remote::Client&)>>> commands_;
 };

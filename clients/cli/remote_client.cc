@@ -384,6 +384,9 @@ std::unique_ptr<FrameStream> Client::StreamFrames(const StreamOptions& options) 
   request.set_velocity_bits(options.velocity_bits);
   request.set_density_bits(options.density_bits);
   request.set_keyframe_interval(options.keyframe_interval);
+  request.set_velocity_encoding(options.velocity_encoding == codec::VelocityEncoding::kOctahedral
+                                    ? pb::VELOCITY_ENCODING_OCTAHEDRAL
+                                    : pb::VELOCITY_ENCODING_COMPONENTS);
 
   auto impl = std::make_unique<FrameStream::Impl>();
   impl->options = impl_->options;

@@ -144,6 +144,7 @@ struct StreamOptions {
   uint32_t velocity_bits = 0;
   uint32_t density_bits = 0;
   uint32_t keyframe_interval = 0;
+  codec::VelocityEncoding velocity_encoding = codec::VelocityEncoding::kComponents;
 };
 
 // dysa.v1.FrameMessage.

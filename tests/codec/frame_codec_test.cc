@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <string>
 
 #include "codec/frame_codec_test_util.h"
 
@@ -100,6 +101,68 @@ TEST(FrameCodecTest, DeltaFramesAreSmallerThanKeyframes) {
     (f == 0 ? key : delta) = bytes;
   }
   EXPECT_LT(delta, key * 3 / 4) << "key " << key << " delta " << delta;
+}
+
+TEST(FrameCodecTest, OctahedralVelocityStaysWithinItsBoundInKeyAndDeltaFrames) {
+  SyntheticFrames source(6000);
+  StreamConfig config;
+  config.fields = kPositions | kVelocity;
+  config.velocity_encoding = VelocityEncoding::kOctahedral;
+  FrameEncoder encoder(config);
+  FrameDecoder decoder;
+  std::vector<float> x, v, rho;
+  double worst_angle = 0;
+  for (int f = 0; f < 12; ++f) {
+    source.Make(f, x, v, rho);
+    const Frame frame = DecodeAll(decoder, encoder.Encode(Input(x, v, rho, f, f / 60.0)));
+    EXPECT_EQ(frame.keyframe, f == 0);
+    EXPECT_EQ(frame.velocity_encoding, VelocityEncoding::kOctahedral);
+    ExpectWithinBounds(frame, x, v, rho);
+    // The direction error is relative: slow particles keep their direction as well as fast ones.
+    for (uint32_t k = 0; k < frame.count; ++k) {
+      double dot = 0, aa = 0, bb = 0;
+      for (int c = 0; c < 3; ++c) {
+        const double a = v[3 * k + c], b = frame.velocities[3 * k + c];
+        dot += a * b, aa += a * a, bb += b * b;
+      }
+      if (aa < 0.05 * 0.05) continue;
+      worst_angle = std::max(worst_angle, std::acos(std::min(1.0, dot / std::sqrt(aa * bb))));
+    }
+  }
+  // 12 bits: the octahedral cells are 2 / 4095 wide, under 0.1 degrees of arc near the poles.
+  EXPECT_LT(worst_angle, 0.003);
+  EXPECT_GT(worst_angle, 0.0);
+}
+
+TEST(FrameCodecTest, OctahedralVelocityOfEveryDirectionAndOfZero) {
+  // Directions over the whole sphere, both hemispheres, the fold lines (a zero x, y or z) and
+  // the zero vector; magnitudes over four decades.
+  std::vector<float> x, v, rho;
+  for (int i = 0; i < 27 * 4; ++i) {
+    const int d = i % 27;
+    const double scale = std::pow(10.0, i / 27 - 2);
+    for (int a = 0; a < 3; ++a) v.push_back(float(scale * ((d / int(std::pow(3, a))) % 3 - 1)));
+    for (int a = 0; a < 3; ++a) x.push_back(float(i % 7 - a));
+  }
+  rho.assign(x.size() / 3, 1000.0f);
+  StreamConfig config;
+  config.fields = kPositions | kSpeed | kVelocity;
+  config.velocity_encoding = VelocityEncoding::kOctahedral;
+  FrameEncoder encoder(config);
+  FrameDecoder decoder;
+  const Frame frame = DecodeAll(decoder, encoder.Encode(Input(x, v, rho, 0, 0)));
+  for (uint32_t k = 0; k < frame.count; ++k) {
+    for (int a = 0; a < 3; ++a) {
+      ASSERT_LE(std::abs(frame.velocities[3 * k + a] - v[3 * k + a]), frame.velocity_error)
+          << "particle " << k << " component " << a;
+      // Signs survive the fold: a component decodes with the sign it had (or as about 0).
+      if (std::abs(v[3 * k + a]) > 2 * frame.velocity_error) {
+        EXPECT_EQ(std::signbit(frame.velocities[3 * k + a]), std::signbit(v[3 * k + a]));
+      }
+    }
+  }
+  // The zero vector (particle 13 of each block of 27) decodes as exactly zero.
+  for (int a = 0; a < 3; ++a) EXPECT_EQ(frame.velocities[3 * 13 + a], 0.0f);
 }
 
 TEST(FrameCodecTest, KeyframeEveryIntervalAndOnRequest) {
@@ -322,8 +385,9 @@ TEST(FrameDecoderTest, BadMagicAndNewerVersion) {
   bad[0] ^= 0xFF;
   EXPECT_THAT(DecodeErrorOf(decoder, bad), HasSubstr("magic"));
   Chunk newer = chunk;
-  newer[4] = 2;
-  EXPECT_THAT(DecodeErrorOf(decoder, newer), HasSubstr("version 2 is newer than this decoder"));
+  newer[4] = uint8_t(kVersion + 1);
+  EXPECT_THAT(DecodeErrorOf(decoder, newer),
+              HasSubstr("version " + std::to_string(kVersion + 1) + " is newer than this decoder"));
 }
 
 TEST(FrameDecoderTest, CorruptPayloadIsAnErrorAndTheDecoderRecovers) {
@@ -405,6 +469,25 @@ TEST(FrameDecoderTest, ChunksMustCoverTheFrameExactlyOnce) {
   FrameDecoder decoder;
   EXPECT_FALSE(decoder.AddChunk(chunks[0]));
   EXPECT_THAT(DecodeErrorOf(decoder, shifted), HasSubstr("does not fit the frame's other chunks"));
+}
+
+TEST(FrameCodecTest, OctahedralFramesAreVersion2AndOthersStayVersion1) {
+  SyntheticFrames source(500);
+  std::vector<float> x, v, rho;
+  source.Make(0, x, v, rho);
+  StreamConfig config;
+  config.fields = kPositions | kVelocity;
+  const Chunk components = FrameEncoder(config).Encode(Input(x, v, rho, 0, 0)).at(0);
+  config.velocity_encoding = VelocityEncoding::kOctahedral;
+  const Chunk octahedral = FrameEncoder(config).Encode(Input(x, v, rho, 0, 0)).at(0);
+  EXPECT_EQ(components[4], 1);  // older decoders keep reading streams without the new encoding
+  EXPECT_EQ(octahedral[4], 2);
+  EXPECT_EQ(octahedral[6] & 2, 2);
+  // The octahedral flag in a version 1 header is unknown there.
+  Chunk mislabelled = octahedral;
+  mislabelled[4] = 1;
+  FrameDecoder decoder;
+  EXPECT_THAT(DecodeErrorOf(decoder, mislabelled), HasSubstr("unknown flags 3 for version 1"));
 }
 
 }  // namespace

@@ -180,6 +180,21 @@ std::vector<Scenario> Scenarios() {
     s.keyframes = {true, false, false, false, false, true, false};
     out.push_back(s);
   }
+  {
+    // Velocity as |v| and octahedral direction (format version 2), with speed, keyframes and
+    // delta frames of every prediction order.
+    Scenario s;
+    s.name = "e_octahedral_velocity";
+    s.particles = 1500;
+    s.frames = 6;
+    s.config.fields = dysa::codec::kPositions | dysa::codec::kSpeed | dysa::codec::kVelocity;
+    s.config.velocity_encoding = dysa::codec::VelocityEncoding::kOctahedral;
+    s.config.velocity_bits = 10;
+    s.config.chunk_particles = 400;
+    s.config.keyframe_interval = 5;
+    s.keyframes = {true, false, false, false, false, true};
+    out.push_back(s);
+  }
   return out;
 }
 

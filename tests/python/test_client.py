@@ -474,6 +474,24 @@ class ClientTest(unittest.TestCase):
         # The fluid falls: mean vertical velocity below zero after the first frames.
         self.assertLess(float(frames[-1].velocities[:, 1].mean()), 0.0)
 
+    def test_frames_octahedral_velocity(self) -> None:
+        with self.assertRaisesRegex(ValueError, "velocity_encoding must be one of components, "
+                                                "octahedral"):
+            self.client.frames(fields=("velocity",), velocity_encoding="polar")
+        stream = self.client.frames(fields=("velocity",), velocity_encoding="octahedral",
+                                    max_fps=30)
+        self.client.resume()
+        try:
+            frames = _read_frames(stream, 3)
+        finally:
+            self.client.pause()
+        for frame in frames:
+            self.assertEqual(frame.velocity_encoding, "octahedral")
+            self.assertEqual(frame.velocities.shape, (_PARTICLES, 3))
+            self.assertTrue(np.all(np.isfinite(frame.velocities)))
+            self.assertGreater(frame.velocity_error, 0.0)
+        self.assertLess(float(frames[-1].velocities[:, 1].mean()), 0.0)
+
     def test_examples(self) -> None:
         examples = _CLIENT / "examples"
         with tempfile.TemporaryDirectory() as tmp:

@@ -99,6 +99,11 @@ def _with_raw(chunk: bytes, raw: bytes, bits: bytes = b"") -> bytes:
     return _with_payload(chunk, zstandard.ZstdCompressor(level=1).compress(raw), len(raw), bits)
 
 
+def _HEADER_VERSION(chunk: bytes) -> int:  # noqa: N802
+    """The format version a chunk's header states."""
+    return struct.unpack_from("<H", chunk, 4)[0]
+
+
 def _raw(chunk: bytes) -> bytearray:
     """The chunk's payload, decompressed."""
     return bytearray(zstandard.ZstdDecompressor().decompress(_parts(chunk)[0]))
@@ -164,7 +169,8 @@ class VectorTest(_Case):
 
     def test_scenarios_cover_what_they_claim(self):
         self.assertEqual(set(_vectors.scenarios),
-                         {"a_all_fields", "b_stride_low_bits", "c_empty", "d_extreme_bits"})
+                         {"a_all_fields", "b_stride_low_bits", "c_empty", "d_extreme_bits",
+                          "e_octahedral_velocity"})
         a = _vectors.frames("a_all_fields")
         self.assertEqual([f["keyframe"] for f in a], [True, False, False, False, True, False])
         self.assertTrue(all(len(f["chunks"]) == 3 for f in a))
@@ -175,6 +181,18 @@ class VectorTest(_Case):
         d = _vectors.frames("d_extreme_bits")
         self.assertEqual([f["keyframe"] for f in d], [True, False, False, False, False, True,
                                                        False])
+        e = _vectors.frames("e_octahedral_velocity")
+        self.assertEqual([f["keyframe"] for f in e], [True, False, False, False, False, True])
+        self.assertTrue(all(_HEADER_VERSION(f["chunk_bytes"][0]) == 2 for f in e))
+        self.assertTrue(all(_HEADER_VERSION(f["chunk_bytes"][0]) == 1 for f in a))
+
+    def test_octahedral_frames_say_so(self):
+        decoder = FrameDecoder()
+        for f in _vectors.frames("e_octahedral_velocity"):
+            frame = decoder.add_chunks(f["chunk_bytes"])
+            self.assertEqual(frame.velocity_encoding, codec.VELOCITY_OCTAHEDRAL)
+        frame = FrameDecoder().add_chunks(_vectors.frames("a_all_fields")[0]["chunk_bytes"])
+        self.assertEqual(frame.velocity_encoding, codec.VELOCITY_COMPONENTS)
 
     def test_chunks_one_by_one(self):
         for name in _vectors.scenarios:
@@ -250,19 +268,25 @@ class StreamTest(_Case):
 
     def test_newer_and_older_versions(self):
         newer = bytearray(self.chunk(0))
-        newer[4] = 2
+        newer[4] = 3
         self.assertRefused(FrameDecoder(), bytes(newer),
-                           "frame format version 2 is newer than this decoder (version 1); "
+                           "frame format version 3 is newer than this decoder (version 2); "
                            "update the client")
         self.assertRefused(FrameDecoder(), _with_header(self.chunk(0), 4, "H", 0),
                            "frame format version 0 is not supported by this decoder "
-                           "(version 1); update the client")
+                           "(version 2); update the client")
+        # A version 1 frame labelled version 2 decodes the same: version 2 only adds a flag.
+        relabelled = [_with_header(c, 4, "H", 2) for c in self.a[0]["chunk_bytes"]]
+        self.assertFrame(FrameDecoder().add_chunks(relabelled), self.a[0])
 
     def test_corrupt_header_fields(self):
         c = self.chunk(0)
         cases = [
             (_with_header(c, 148, "I", 1), "reserved bytes set"),
-            (_with_header(c, 6, "H", 3), "unknown flags 3"),
+            (_with_header(c, 6, "H", 3), "unknown flags 3 for version 1"),
+            (_with_header(_with_header(c, 4, "H", 2), 6, "H", 5), "unknown flags 5 for version 2"),
+            (_with_header(_with_header(_with_header(c, 4, "H", 2), 6, "H", 3), 44, "I", 1),
+             "octahedral flag without velocity"),
             (_with_header(c, 44, "I", 2), "fields 2 (positions must be present, bits 0-3 only)"),
             (_with_header(c, 44, "I", 17),
              "fields 17 (positions must be present, bits 0-3 only)"),

@@ -223,6 +223,16 @@ TEST(ServerTest, InvalidArgumentsNameTheFieldAndChangeNothing) {
   s = reader->Finish();
   EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
   EXPECT_NE(s.error_message().find("position_bits"), std::string::npos) << s.error_message();
+
+  v1::StreamFramesRequest bad_encoding;
+  bad_encoding.set_velocity_encoding(v1::VelocityEncoding(7));
+  auto encoding_context = Context();
+  auto encoding_reader = stub.StreamFrames(encoding_context.get(), bad_encoding);
+  EXPECT_FALSE(encoding_reader->Read(&message));
+  s = encoding_reader->Finish();
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(s.error_message().find("velocity_encoding: allowed values"), std::string::npos)
+      << s.error_message();
 }
 
 v1::SceneDescription GetScene(Simulation::Stub& stub) {

@@ -477,7 +477,8 @@ class Client:
     def frames(self, fields: Iterable[str] = ("positions", "speed"), max_fps: float = 0.0,
                stride: int = 1, position_bits: int = 16, limit: Optional[int] = None, *,
                speed_bits: int = 0, velocity_bits: int = 0, density_bits: int = 0,
-               keyframe_interval: int = 0) -> "FrameStream":
+               keyframe_interval: int = 0,
+               velocity_encoding: str = "components") -> "FrameStream":
         """Streams particle frames, decoded into numpy arrays (dysa.codec.Frame).
 
         Args:
@@ -492,6 +493,9 @@ class Client:
             speed_bits, velocity_bits, density_bits: 1..16; 0: the server's default (8, 12,
                 16).
             keyframe_interval: frames between keyframes; 0: the server's default (60).
+            velocity_encoding: with "velocity": "components" (vx, vy, vz, the tightest bound
+                per component) or "octahedral" (|v| and an octahedral direction: the error is
+                relative to the speed); Frame.velocity_error is the bound either way.
 
         Returns a FrameStream: iterate it for Frames. The stream starts with the current
         frame (a keyframe), even when paused, then brings each frame as it is simulated,
@@ -512,10 +516,16 @@ class Client:
                 codes.append(FIELDS[name])
         if limit is not None and limit < 1:
             raise ValueError("frames: limit must be >= 1 or None, not %r" % (limit,))
+        encodings = {"components": _pb.VELOCITY_ENCODING_COMPONENTS,
+                     "octahedral": _pb.VELOCITY_ENCODING_OCTAHEDRAL}
+        if velocity_encoding not in encodings:
+            raise ValueError("frames: velocity_encoding must be one of %s, not %r"
+                             % (", ".join(encodings), velocity_encoding))
         request = _pb.StreamFramesRequest(
             fields=codes, max_fps=max_fps, position_bits=position_bits, speed_bits=speed_bits,
             velocity_bits=velocity_bits, density_bits=density_bits, stride=stride,
-            keyframe_interval=keyframe_interval)
+            keyframe_interval=keyframe_interval,
+            velocity_encoding=encodings[velocity_encoding])
         if self._closed:
             raise DysaError("StreamFrames: the client is closed", grpc.StatusCode.CANCELLED)
         # No deadline: a stream lasts as long as the reader wants it.

@@ -1,4 +1,4 @@
-"""Decoder of DySAQUASIMs particle frames, format version 1.
+"""Decoder of DySAQUASIMs particle frames, format versions 1 and 2.
 
 The wire format is server/codec/FORMAT.md. This decoder gives the same floats, bit for bit, as
 the C++ one (dysa::codec::FrameDecoder in server/codec/src/frame_codec.cc) and follows the same
@@ -33,12 +33,21 @@ __all__ = [
     "FIELD_VELOCITY",
     "FORMAT_VERSION",
     "Frame",
+    "VELOCITY_COMPONENTS",
+    "VELOCITY_OCTAHEDRAL",
     "FrameDecoder",
 ]
 
 MAGIC = 0x46535944  # "DYSF"
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2  # the newest version this decoder reads; it reads every older one too
 HEADER_SIZE = 152
+
+_KEYFRAME_FLAG = 1
+_OCTAHEDRAL_FLAG = 2  # version 2 and later
+
+# Frame.velocity_encoding values.
+VELOCITY_COMPONENTS = "components"
+VELOCITY_OCTAHEDRAL = "octahedral"
 
 FIELD_POSITIONS = 1
 FIELD_SPEED = 2
@@ -91,6 +100,7 @@ class Frame:
     speed: Optional[np.ndarray] = None
     velocities: Optional[np.ndarray] = None
     densities: Optional[np.ndarray] = None
+    velocity_encoding: str = VELOCITY_COMPONENTS
     position_error: Tuple[float, float, float] = (0.0, 0.0, 0.0)
     speed_error: float = 0.0
     velocity_error: float = 0.0
@@ -113,6 +123,27 @@ def _error_bound(lo: float, hi: float, bits: int) -> float:
     half_step = 0.5 * (hi - lo) / float(_levels(bits))
     magnitude = max(abs(lo), abs(hi))
     return half_step + magnitude * _FLOAT_EPSILON
+
+
+def _octahedral_error_bound(velocity_max: float, bits: int) -> float:
+    """The bound on each component of an octahedral velocity (derived in FORMAT.md and beside
+    OctahedralErrorBound in frame_codec.cc)."""
+    levels = float(_levels(bits))
+    return velocity_max * ((0.5 + 6.0 * math.sqrt(2.0)) / levels + 8 * _FLOAT_EPSILON)
+
+
+def _from_octahedral(magnitude: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Velocities (m, 3) float32 from |v| and the octahedral coordinates (u, v), all float64:
+    the same IEEE double operations in the same order as FromOctahedral in C++."""
+    au, av = np.abs(u), np.abs(v)
+    z = 1.0 - au - av
+    folded = z < 0
+    sign_u = np.where(u >= 0, 1.0, -1.0)
+    sign_v = np.where(v >= 0, 1.0, -1.0)
+    u = np.where(folded, (1.0 - av) * sign_u, u)
+    v = np.where(folded, (1.0 - au) * sign_v, v)
+    scale = magnitude / np.sqrt(u * u + v * v + z * z)
+    return np.stack([u * scale, v * scale, z * scale], axis=1).astype(np.float32)
 
 
 class _Header:
@@ -138,7 +169,12 @@ class _Header:
     @property
     def keyframe(self) -> bool:
         """Whether the frame is a keyframe (decodes without earlier frames)."""
-        return (self.flags & 1) != 0
+        return (self.flags & _KEYFRAME_FLAG) != 0
+
+    @property
+    def octahedral(self) -> bool:
+        """Whether velocity is sent as |v| and two octahedral coordinates."""
+        return (self.flags & _OCTAHEDRAL_FLAG) != 0
 
     def has(self, c: int) -> bool:
         """Whether component c is in the payload."""
@@ -168,6 +204,8 @@ class _Header:
             return 0.0
         if c == _DENSITY:
             return self.density_min
+        if self.octahedral:
+            return 0.0 if c == _VEL_X else -1.0  # |v|, then the two coordinates
         return -self.velocity_max
 
     def hi(self, c: int) -> float:
@@ -178,6 +216,8 @@ class _Header:
             return self.speed_max
         if c == _DENSITY:
             return self.density_max
+        if self.octahedral:
+            return self.velocity_max if c == _VEL_X else 1.0
         return self.velocity_max
 
     def component_count(self) -> int:
@@ -190,6 +230,7 @@ class _Header:
         Floats compare with ==, so a NaN never matches (as in C++).
         """
         return (self.count == o.count and self.stride == o.stride and self.fields == o.fields
+                and self.octahedral == o.octahedral
                 and self.position_bits == o.position_bits and self.speed_bits == o.speed_bits
                 and self.velocity_bits == o.velocity_bits
                 and self.density_bits == o.density_bits
@@ -208,7 +249,7 @@ def _read_header(chunk: bytes) -> _Header:
     if values[0] != MAGIC:
         raise DecodeError("not a DySAQUASIMs frame (bad magic)")
     h = _Header(values)
-    if h.version != FORMAT_VERSION:
+    if h.version < 1 or h.version > FORMAT_VERSION:
         relation = "is newer than" if h.version > FORMAT_VERSION else "is not supported by"
         raise DecodeError("frame format version %d %s this decoder (version %d); update the "
                           "client" % (h.version, relation, FORMAT_VERSION))
@@ -218,8 +259,11 @@ def _read_header(chunk: bytes) -> _Header:
     def fail(what: str) -> None:
         raise DecodeError("corrupt frame header: " + what)
 
-    if (h.flags & ~1) != 0:
-        fail("unknown flags %d" % h.flags)
+    known_flags = _KEYFRAME_FLAG | _OCTAHEDRAL_FLAG if h.version >= 2 else _KEYFRAME_FLAG
+    if (h.flags & ~known_flags) != 0:
+        fail("unknown flags %d for version %d" % (h.flags, h.version))
+    if h.octahedral and not (h.fields & FIELD_VELOCITY):
+        fail("octahedral flag without velocity")
     if not (h.fields & FIELD_POSITIONS) or (h.fields & ~0xF) != 0:
         fail("fields %d (positions must be present, bits 0-3 only)" % h.fields)
     if h.count > _MAX_COUNT:
@@ -390,7 +434,8 @@ class FrameDecoder:
             stride=h.stride, fields=h.fields, positions=np.zeros((n, 3), np.float32),
             speed=np.zeros(n, np.float32) if h.fields & FIELD_SPEED else None,
             velocities=np.zeros((n, 3), np.float32) if h.fields & FIELD_VELOCITY else None,
-            densities=np.zeros(n, np.float32) if h.fields & FIELD_DENSITY else None)
+            densities=np.zeros(n, np.float32) if h.fields & FIELD_DENSITY else None,
+            velocity_encoding=VELOCITY_OCTAHEDRAL if h.octahedral else VELOCITY_COMPONENTS)
         self._current = [np.zeros(n, np.uint32) if h.has(c) else None
                          for c in range(_COMPONENTS)]
 
@@ -518,6 +563,8 @@ class FrameDecoder:
             if m > 0 and (value.min() < 0 or value.max() > levels):
                 return "decoded value outside its range"
             self._current[c][first:last] = value
+            if h.octahedral and _VEL_X <= c <= _VEL_Z:
+                continue  # needs all three: below
 
             lo = h.lo(c)
             step = (h.hi(c) - lo) / float(levels)
@@ -531,6 +578,12 @@ class FrameDecoder:
                 frame.densities[first:last] = decoded
             else:
                 frame.velocities[first:last, c - _VEL_X] = decoded
+        if h.octahedral and m > 0:
+            levels = float(_levels(h.velocity_bits))
+            q = [self._current[c][first:last].astype(np.float64) for c in (_VEL_X, _VEL_Y, _VEL_Z)]
+            frame.velocities[first:last] = _from_octahedral(
+                0.0 + q[0] * (h.velocity_max / levels), -1.0 + q[1] * (2.0 / levels),
+                -1.0 + q[2] * (2.0 / levels))
         return None
 
     @staticmethod
@@ -571,8 +624,12 @@ class FrameDecoder:
         if first.fields & FIELD_SPEED:
             frame.speed_error = _error_bound(0.0, first.speed_max, first.speed_bits)
         if first.fields & FIELD_VELOCITY:
-            frame.velocity_error = _error_bound(-first.velocity_max, first.velocity_max,
-                                                first.velocity_bits)
+            if first.octahedral:
+                frame.velocity_error = _octahedral_error_bound(first.velocity_max,
+                                                               first.velocity_bits)
+            else:
+                frame.velocity_error = _error_bound(-first.velocity_max, first.velocity_max,
+                                                    first.velocity_bits)
         if first.fields & FIELD_DENSITY:
             frame.density_error = _error_bound(first.density_min, first.density_max,
                                                first.density_bits)

@@ -20,8 +20,11 @@ enum Component { kPosX, kPosY, kPosZ, kSpeedC, kVelX, kVelY, kVelZ, kDensityC, k
 // solver's own limit (kMaxParticles in dysa/core/scene.h), about 1 GB of decoder buffers.
 constexpr uint32_t kMaxCount = 20'000'000;
 
+constexpr uint16_t kKeyframeFlag = 1u << 0;
+constexpr uint16_t kOctahedralFlag = 1u << 1;  // version 2 and later
+
 struct Header {
-  uint16_t version = kVersion;
+  uint16_t version = 1;
   uint16_t flags = 0;
   uint32_t frame_seq = 0;
   uint32_t count = 0;
@@ -40,7 +43,8 @@ struct Header {
   uint32_t payload_size = 0;
   uint32_t bits_size = 0;
 
-  bool keyframe() const { return (flags & 1u) != 0; }
+  bool keyframe() const { return (flags & kKeyframeFlag) != 0; }
+  bool octahedral() const { return (flags & kOctahedralFlag) != 0; }
   bool Has(Component c) const {
     switch (c) {
       case kPosX:
@@ -65,19 +69,22 @@ struct Header {
     if (c <= kPosZ) return position_min[c];
     if (c == kSpeedC) return 0.0;
     if (c == kDensityC) return density_min;
+    if (octahedral()) return c == kVelX ? 0.0 : -1.0;  // |v|, then the two coordinates
     return -velocity_max;
   }
   double Hi(Component c) const {
     if (c <= kPosZ) return position_max[c];
     if (c == kSpeedC) return speed_max;
     if (c == kDensityC) return density_max;
+    if (octahedral()) return c == kVelX ? velocity_max : 1.0;
     return velocity_max;
   }
   // Same stream layout: what a delta frame must share with its reference frame.
   bool SameLayout(const Header& o) const {
     return count == o.count && stride == o.stride && fields == o.fields &&
-           position_bits == o.position_bits && speed_bits == o.speed_bits &&
-           velocity_bits == o.velocity_bits && density_bits == o.density_bits &&
+           octahedral() == o.octahedral() && position_bits == o.position_bits &&
+           speed_bits == o.speed_bits && velocity_bits == o.velocity_bits &&
+           density_bits == o.density_bits &&
            std::equal(position_min, position_min + 3, o.position_min) &&
            std::equal(position_max, position_max + 3, o.position_max) && speed_max == o.speed_max &&
            velocity_max == o.velocity_max && density_min == o.density_min &&
@@ -133,7 +140,7 @@ Header ReadHeader(std::span<const uint8_t> chunk) {
   if (Get<uint32_t>(in) != kMagic) throw DecodeError("not a DySAQUASIMs frame (bad magic)");
   Header h;
   h.version = Get<uint16_t>(in + 4);
-  if (h.version != kVersion) {
+  if (h.version < 1 || h.version > kVersion) {
     throw DecodeError("frame format version " + std::to_string(h.version) +
                       (h.version > kVersion ? " is newer than" : " is not supported by") +
                       " this decoder (version " + std::to_string(kVersion) +
@@ -168,7 +175,11 @@ Header ReadHeader(std::span<const uint8_t> chunk) {
   if (Get<uint32_t>(in + 148) != 0) throw DecodeError("corrupt frame header: reserved bytes set");
 
   auto fail = [](const std::string& what) { throw DecodeError("corrupt frame header: " + what); };
-  if ((h.flags & ~1u) != 0) fail("unknown flags " + std::to_string(h.flags));
+  const uint16_t known_flags = h.version >= 2 ? (kKeyframeFlag | kOctahedralFlag) : kKeyframeFlag;
+  if ((h.flags & ~known_flags) != 0) {
+    fail("unknown flags " + std::to_string(h.flags) + " for version " + std::to_string(h.version));
+  }
+  if (h.octahedral() && !(h.fields & kVelocity)) fail("octahedral flag without velocity");
   if (!(h.fields & kPositions) || (h.fields & ~0xFu) != 0) {
     fail("fields " + std::to_string(h.fields) + " (positions must be present, bits 0-3 only)");
   }
@@ -218,6 +229,39 @@ uint32_t Quantize(double v, double lo, double scale, uint32_t levels) {
 }
 
 float Dequantize(uint32_t q, double lo, double step) { return float(lo + double(q) * step); }
+
+// Octahedral unit vectors (FORMAT.md, "Velocity"): the direction n goes to the octahedron
+// |x| + |y| + |z| = 1, whose lower half folds over the upper one, then to (u, v) in [-1, 1]^2.
+double SignNotZero(double x) { return x >= 0 ? 1.0 : -1.0; }
+
+// (|v|, u, v) of a velocity, in double precision. The zero vector maps to (0, 0, 0).
+std::array<double, 3> ToOctahedral(double x, double y, double z) {
+  const double magnitude = std::sqrt(x * x + y * y + z * z);
+  if (!(magnitude > 0)) return {magnitude, 0.0, 0.0};  // also NaN: quantises to 0
+  const double l1 = std::abs(x) + std::abs(y) + std::abs(z);
+  const double px = x / l1, py = y / l1;
+  if (z >= 0) return {magnitude, px, py};
+  return {magnitude, (1.0 - std::abs(py)) * SignNotZero(px),
+          (1.0 - std::abs(px)) * SignNotZero(py)};
+}
+
+// The decoded velocity: the point of the octahedron at (u, v), scaled to |v| = magnitude. Every
+// operation is a double-precision IEEE operation in this order, so the Python decoder gives the
+// same floats.
+void FromOctahedral(double magnitude, double u, double v, float* out) {
+  const double au = std::abs(u), av = std::abs(v);
+  const double z = 1.0 - au - av;
+  if (z < 0) {
+    const double fu = (1.0 - av) * SignNotZero(u);
+    const double fv = (1.0 - au) * SignNotZero(v);
+    u = fu;
+    v = fv;
+  }
+  const double scale = magnitude / std::sqrt(u * u + v * v + z * z);
+  out[0] = float(u * scale);
+  out[1] = float(v * scale);
+  out[2] = float(z * scale);
+}
 
 uint32_t ZigZag(int32_t r) { return (uint32_t(r) << 1) ^ uint32_t(r >> 31); }
 int32_t UnZigZag(uint32_t z) { return int32_t(z >> 1) ^ -int32_t(z & 1); }
@@ -297,9 +341,10 @@ Values TakeValues(std::vector<Values>& spare, uint32_t count, const std::array<b
 }
 
 // Copies component c of the kept particles (ids 0, stride, 2 stride, ...) into `out` (count
-// values) and returns its extremes. Speed is |v| computed in double and rounded to float.
+// values) and returns its extremes. Speed is |v| computed in double and rounded to float; with
+// the octahedral encoding the velocity components are |v|, u and v, rounded to float.
 std::pair<float, float> GatherComponent(const FrameInput& f, Component c, uint32_t stride,
-                                        uint32_t count, float* out) {
+                                        uint32_t count, bool octahedral, float* out) {
   float mn = std::numeric_limits<float>::infinity();
   float mx = -std::numeric_limits<float>::infinity();
   const int64_t n = count;
@@ -311,6 +356,18 @@ std::pair<float, float> GatherComponent(const FrameInput& f, Component c, uint32
       const size_t i = 3 * size_t(k) * stride;
       const double x = v[i], y = v[i + 1], z = v[i + 2];
       out[k] = float(std::sqrt(x * x + y * y + z * z));
+      mn = std::min(mn, out[k]);
+      mx = std::max(mx, out[k]);
+    }
+    return {mn, mx};
+  }
+  if (c >= kVelX && c <= kVelZ && octahedral) {
+    const float* v = f.velocities.data();
+    const int slot = c - kVelX;
+#pragma omp parallel for reduction(min : mn) reduction(max : mx) schedule(static)
+    for (int64_t k = 0; k < n; ++k) {
+      const size_t i = 3 * size_t(k) * stride;
+      out[k] = float(ToOctahedral(v[i], v[i + 1], v[i + 2])[slot]);
       mn = std::min(mn, out[k]);
       mx = std::max(mx, out[k]);
     }
@@ -398,6 +455,9 @@ void StreamConfig::Validate() const {
   check(stride >= 1, "stride", "[1, 2^32 - 1]");
   check(chunk_particles >= 1 && chunk_particles <= (1u << 20), "chunk_particles", "[1, 2^20]");
   check(zstd_level >= -7 && zstd_level <= 22, "zstd_level", "[-7, 22]");
+  check(velocity_encoding == VelocityEncoding::kComponents ||
+            velocity_encoding == VelocityEncoding::kOctahedral,
+        "velocity_encoding", "components or octahedral");
 }
 
 FrameEncoder::FrameEncoder(StreamConfig config) : config_(config) { config_.Validate(); }
@@ -425,6 +485,12 @@ std::vector<Chunk> FrameEncoder::Encode(const FrameInput& f) {
   h.speed_bits = (h.fields & kSpeed) ? uint8_t(config_.speed_bits) : 0;
   h.velocity_bits = (h.fields & kVelocity) ? uint8_t(config_.velocity_bits) : 0;
   h.density_bits = (h.fields & kDensity) ? uint8_t(config_.density_bits) : 0;
+  const bool octahedral =
+      (h.fields & kVelocity) && config_.velocity_encoding == VelocityEncoding::kOctahedral;
+  if (octahedral) {
+    h.version = 2;
+    h.flags = kOctahedralFlag;  // before the ranges are read from the header
+  }
   std::vector<Component> comps;
   for (int c = 0; c < kComponents; ++c) {
     if (h.Has(Component(c))) comps.push_back(Component(c));
@@ -437,7 +503,7 @@ std::vector<Chunk> FrameEncoder::Encode(const FrameInput& f) {
   values.resize(kComponents);
   for (Component c : comps) {
     values[c].resize(count);
-    const auto [mn, mx] = GatherComponent(f, c, stride, count, values[c].data());
+    const auto [mn, mx] = GatherComponent(f, c, stride, count, octahedral, values[c].data());
     lo[c] = mn;
     hi[c] = mx;
   }
@@ -465,6 +531,10 @@ std::vector<Chunk> FrameEncoder::Encode(const FrameInput& f) {
         const double margin = 0.1 * (b - a) + std::max(1e-3, 1e-3 * std::abs(b));
         a -= margin;
         b += margin;
+      } else if (octahedral) {
+        // |v| like speed; the octahedral coordinates always lie in [-1, 1].
+        a = c == kVelX ? 0.0 : -1.0;
+        b = c == kVelX ? std::max(1.25 * b, 1e-3) : 1.0;
       } else {
         // One range for the three components (the header has one velocity_max).
         b = 1e-3;
@@ -496,7 +566,7 @@ std::vector<Chunk> FrameEncoder::Encode(const FrameInput& f) {
     for (int64_t k = 0; k < int64_t(count); ++k) out[k] = Quantize(v[k], a, scale, levels);
   }
 
-  h.flags = keyframe ? 1 : 0;
+  h.flags |= keyframe ? kKeyframeFlag : 0;
   h.frame_seq = frame_seq_;
   h.count = count;
   h.step = f.step;
@@ -673,6 +743,7 @@ std::string DecodeBody(const Header& h, std::span<const uint8_t> payload,
     bit_at += PackedBytes(m, split);
 
     if (m == 0) continue;  // an empty frame: its arrays may be empty
+    if (h.octahedral() && c >= kVelX && c <= kVelZ) continue;  // needs all three: below
     const double lo = h.Lo(c);
     const double step = (h.Hi(c) - lo) / double(levels);
     float* out = c <= kPosZ       ? frame.positions.data() + 3 * size_t(h.first) + c
@@ -681,6 +752,19 @@ std::string DecodeBody(const Header& h, std::span<const uint8_t> payload,
                                   : frame.velocities.data() + 3 * size_t(h.first) + (c - kVelX);
     const size_t out_stride = (c <= kPosZ || (c >= kVelX && c <= kVelZ)) ? 3 : 1;
     for (uint32_t k = 0; k < m; ++k) out[k * out_stride] = Dequantize(cur[k], lo, step);
+  }
+  if (h.octahedral() && m > 0) {
+    const uint32_t levels = Levels(h.velocity_bits);
+    const double magnitude_step = h.velocity_max / double(levels);
+    const double coordinate_step = 2.0 / double(levels);
+    const uint32_t* qm = q[kVelX].data() + h.first;
+    const uint32_t* qu = q[kVelY].data() + h.first;
+    const uint32_t* qv = q[kVelZ].data() + h.first;
+    float* out = frame.velocities.data() + 3 * size_t(h.first);
+    for (uint32_t k = 0; k < m; ++k) {
+      FromOctahedral(0.0 + double(qm[k]) * magnitude_step, -1.0 + double(qu[k]) * coordinate_step,
+                     -1.0 + double(qv[k]) * coordinate_step, out + 3 * size_t(k));
+    }
   }
   return {};
 }
@@ -721,6 +805,20 @@ double ErrorBound(double lo, double hi, int bits) {
   const double half_step = 0.5 * (hi - lo) / double(Levels(bits));
   const double magnitude = std::max(std::abs(lo), std::abs(hi));
   return half_step + magnitude * std::numeric_limits<float>::epsilon();
+}
+
+// The bound on each component of an octahedral velocity, from |v1 - v0| <= |m1 - m0| +
+// m0 |n1 - n0| with m the magnitude and n the direction. The magnitude is off by at most half a
+// step, velocity_max / (2 L). Each coordinate is off by at most half its step, 1 / L, so (u, v)
+// moves by at most sqrt(2) / L; the octahedron point p(u, v) is piecewise linear with gradient
+// norm at most sqrt(3), and |p| >= 1 / sqrt(3) because |p|_1 = 1; with
+// |a / |a| - b / |b|| <= 2 |a - b| / |a| the direction moves by at most
+// 2 sqrt(3) sqrt(3) sqrt(2) / L = 6 sqrt(2) / L. Float rounding of the gathered values and of
+// the result adds a few float epsilons of velocity_max.
+double OctahedralErrorBound(double velocity_max, int bits) {
+  const double levels = double(Levels(bits));
+  return velocity_max *
+         ((0.5 + 6.0 * std::sqrt(2.0)) / levels + 8 * std::numeric_limits<float>::epsilon());
 }
 
 }  // namespace
@@ -775,6 +873,8 @@ bool FrameDecoder::AddChunks(std::span<const Chunk> chunks, Frame& out) {
       pending_.count = h.count;
       pending_.stride = h.stride;
       pending_.fields = h.fields;
+      pending_.velocity_encoding =
+          h.octahedral() ? VelocityEncoding::kOctahedral : VelocityEncoding::kComponents;
       // Sized without zeroing when the size is unchanged: every value is overwritten.
       pending_.positions.resize(3 * size_t(h.count));
       pending_.speed.resize((h.fields & kSpeed) ? h.count : 0);
@@ -837,7 +937,9 @@ bool FrameDecoder::AddChunks(std::span<const Chunk> chunks, Frame& out) {
       pending_.speed_error = ErrorBound(0, first.speed_max, first.speed_bits);
     if (first.fields & kVelocity) {
       pending_.velocity_error =
-          ErrorBound(-first.velocity_max, first.velocity_max, first.velocity_bits);
+          first.octahedral()
+              ? OctahedralErrorBound(first.velocity_max, first.velocity_bits)
+              : ErrorBound(-first.velocity_max, first.velocity_max, first.velocity_bits);
     }
     if (first.fields & kDensity) {
       pending_.density_error = ErrorBound(first.density_min, first.density_max, first.density_bits);

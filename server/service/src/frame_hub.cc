@@ -24,13 +24,7 @@ struct FrameGroup {
 };
 
 bool SubscriptionOptions::operator==(const SubscriptionOptions& o) const {
-  const codec::StreamConfig& a = stream;
-  const codec::StreamConfig& b = o.stream;
-  return a.fields == b.fields && a.position_bits == b.position_bits &&
-         a.speed_bits == b.speed_bits && a.velocity_bits == b.velocity_bits &&
-         a.density_bits == b.density_bits && a.keyframe_interval == b.keyframe_interval &&
-         a.stride == b.stride && a.chunk_particles == b.chunk_particles &&
-         a.zstd_level == b.zstd_level && max_fps == o.max_fps;
+  return stream == o.stream && max_fps == o.max_fps;
 }
 
 std::shared_ptr<const EncodedFrame> Subscription::Take(uint32_t* skipped) {

@@ -154,6 +154,20 @@ SubscriptionOptions ToOptions(const v1::StreamFramesRequest& r) {
     throw std::invalid_argument("keyframe_interval: allowed range [1, 1000000] frames, or 0");
   }
   if (r.keyframe_interval() != 0) c.keyframe_interval = int(r.keyframe_interval());
+  switch (r.velocity_encoding()) {
+    case v1::VELOCITY_ENCODING_UNSPECIFIED:
+    case v1::VELOCITY_ENCODING_COMPONENTS:
+      c.velocity_encoding = codec::VelocityEncoding::kComponents;
+      break;
+    case v1::VELOCITY_ENCODING_OCTAHEDRAL:
+      c.velocity_encoding = codec::VelocityEncoding::kOctahedral;
+      break;
+    default:
+      throw std::invalid_argument(
+          "velocity_encoding: allowed values VELOCITY_ENCODING_COMPONENTS, "
+          "VELOCITY_ENCODING_OCTAHEDRAL (got " +
+          std::to_string(int(r.velocity_encoding())) + ")");
+  }
   if (r.stride() != 0) c.stride = r.stride();
   if (!std::isfinite(r.max_fps()) || r.max_fps() < 0 || r.max_fps() > 1000) {
     throw std::invalid_argument("max_fps: allowed range [0, 1000] frames per second");

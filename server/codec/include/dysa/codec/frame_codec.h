@@ -14,7 +14,9 @@
 namespace dysa::codec {
 
 inline constexpr uint32_t kMagic = 0x46535944;  // "DYSF"
-inline constexpr uint16_t kVersion = 1;
+// Version 2 added the octahedral velocity encoding; streams without it are still written as
+// version 1, so older decoders keep reading them.
+inline constexpr uint16_t kVersion = 2;
 inline constexpr size_t kHeaderSize = 152;
 
 enum Field : uint32_t {
@@ -24,13 +26,25 @@ enum Field : uint32_t {
   kDensity = 1u << 3,
 };
 
+// How the velocity field is sent (FORMAT.md, "Velocity").
+enum class VelocityEncoding : uint8_t {
+  // Each of vx, vy, vz quantised over [-velocity_max, velocity_max]: the tightest bound per
+  // component, velocity_max / (2^bits - 1).
+  kComponents,
+  // |v| over [0, velocity_max] plus the direction as two octahedral coordinates (Cigolle et al.
+  // 2014, "A Survey of Efficient Representations for Independent Unit Vectors"): the error is
+  // relative to the speed, so slow particles keep their direction as well as fast ones.
+  kOctahedral,
+};
+
 // What one stream carries; chosen by the subscriber. Defaults: positions + speed, 16-bit
 // positions, 8-bit speed, a keyframe every 60 frames.
 struct StreamConfig {
   uint32_t fields = kPositions | kSpeed;
-  int position_bits = 16;               // per axis, 1..24
-  int speed_bits = 8;                   // 1..16
-  int velocity_bits = 12;               // per component, 1..16
+  int position_bits = 16;  // per axis, 1..24
+  int speed_bits = 8;      // 1..16
+  int velocity_bits = 12;  // per component, 1..16
+  VelocityEncoding velocity_encoding = VelocityEncoding::kComponents;
   int density_bits = 16;                // 1..16
   int keyframe_interval = 60;           // frames; >= 1 (1: every frame is a keyframe)
   uint32_t stride = 1;                  // level of detail: send the particles with id % stride == 0
@@ -39,6 +53,7 @@ struct StreamConfig {
 
   // Throws std::invalid_argument naming the field and its allowed range.
   void Validate() const;
+  bool operator==(const StreamConfig&) const = default;
 };
 
 // One frame as the solver has it. Arrays are indexed by particle id 0 .. count-1 (the caller
@@ -63,11 +78,13 @@ struct Frame {
   uint32_t count = 0;
   uint32_t stride = 1;
   uint32_t fields = 0;
+  VelocityEncoding velocity_encoding = VelocityEncoding::kComponents;
   std::vector<float> positions;   // 3 * count
   std::vector<float> speed;       // count
   std::vector<float> velocities;  // 3 * count
   std::vector<float> densities;   // count
-  // Largest possible |decoded - original| of each field, from the header's ranges and bits.
+  // Largest possible |decoded - original| of each field (of each velocity component), from the
+  // header's ranges, bits and velocity encoding.
   std::array<double, 3> position_error{};
   double speed_error = 0;
   double velocity_error = 0;
