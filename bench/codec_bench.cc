@@ -63,6 +63,7 @@ std::vector<CapturedFrame> Record(dysa::Scene scene, double warmup_s, int frames
 struct Combo {
   const char* name;
   uint32_t fields;
+  dysa::codec::VelocityEncoding velocity_encoding = dysa::codec::VelocityEncoding::kComponents;
 };
 
 double Ms(Clock::duration d) { return std::chrono::duration<double, std::milli>(d).count(); }
@@ -94,6 +95,32 @@ std::pair<double, double> PositionResidualEntropy(const std::vector<CapturedFram
     return bits;
   };
   return {entropy(linear), entropy(quadratic)};
+}
+
+// The same for 8-bit speed over [0, 1.25 max] of the first frame (the encoder's keyframe range),
+// constant acceleration: with the positions' figure, the order-0 size of a positions + speed
+// delta frame, (3 H_position + H_speed) / 8 bytes per particle.
+double SpeedResidualEntropy(const std::vector<CapturedFrame>& frames) {
+  auto speed = [&](size_t f, size_t i) {
+    const float* v = frames[f].velocities.data() + 3 * i;
+    return std::sqrt(double(v[0]) * v[0] + double(v[1]) * v[1] + double(v[2]) * v[2]);
+  };
+  const size_t n = frames.front().densities.size();
+  double top = 1e-3;
+  for (size_t i = 0; i < n; ++i) top = std::max(top, 1.25 * speed(0, i));
+  const size_t last = frames.size() - 1;
+  auto q = [&](size_t f, size_t i) { return std::llround(speed(f, i) / top * 255.0); };
+  std::map<long long, size_t> histogram;
+  for (size_t i = 0; i < n; ++i) {
+    const long long a = q(last - 1, i), b = q(last - 2, i), c = q(last - 3, i);
+    ++histogram[q(last, i) - std::clamp(3 * (a - b) + c, 0LL, 255LL)];
+  }
+  double bits = 0;
+  for (const auto& [value, count] : histogram) {
+    const double p = double(count) / double(n);
+    bits -= p * std::log2(p);
+  }
+  return bits;
 }
 
 }  // namespace
@@ -148,20 +175,23 @@ int main(int argc, char** argv) {
       {"positions", Field::kPositions},
       {"positions+speed", Field::kPositions | Field::kSpeed},
       {"positions+velocity", Field::kPositions | Field::kVelocity},
+      {"positions+velocity(oct)", Field::kPositions | Field::kVelocity,
+       dysa::codec::VelocityEncoding::kOctahedral},
       {"positions+density", Field::kPositions | Field::kDensity},
       {"all", Field::kPositions | Field::kSpeed | Field::kVelocity | Field::kDensity},
   };
   std::filesystem::create_directories(out_dir);
   std::ofstream csv(std::filesystem::path(out_dir) / "codec.csv");
   csv << "sequence,particles,fields,threads,kind,bytes_per_particle,encode_ms,decode_ms,"
-         "position_error_m,max_chunk_bytes\n";
-  std::printf("\n%-18s %-20s %8s %11s %11s %11s %11s\n", "frames", "fields", "kind", "B/particle",
-              "encode ms", "decode ms", "max error");
+         "position_error_m,velocity_error_mps,velocity_bound_mps,max_chunk_bytes\n";
+  std::printf("\n%-18s %-24s %8s %11s %11s %11s %11s %11s\n", "frames", "fields", "kind",
+              "B/particle", "encode ms", "decode ms", "max error", "max v err");
   for (const Sequence& seq : sequences) {
     const size_t n = seq.frames.front().densities.size();
     for (const Combo& combo : combos) {
       dysa::codec::StreamConfig config;
       config.fields = combo.fields;
+      config.velocity_encoding = combo.velocity_encoding;
       config.keyframe_interval = 1000000;  // one keyframe, then deltas
       config.chunk_particles = chunk_particles;
       dysa::codec::FrameEncoder encoder(config);
@@ -171,7 +201,7 @@ int main(int argc, char** argv) {
       double bytes[2] = {0, 0}, enc[2] = {0, 0}, dec[2] = {0, 0};
       int counts[2] = {0, 0};
       size_t max_chunk = 0;
-      double max_error = 0;
+      double max_error = 0, max_velocity_error = 0, velocity_bound = 0;
       // Two passes over the sequence: the first warms the encoder and decoder up (their buffers
       // are allocated once per stream), the second, which starts with a requested keyframe as
       // after a reset, is measured: the steady state of a long-running stream.
@@ -215,24 +245,39 @@ int main(int argc, char** argv) {
             }
             max_error = std::max(max_error, err);
           }
+          if (frame->fields & Field::kVelocity) {
+            for (size_t i = 0; i < 3 * n; ++i) {
+              const double err = std::abs(double(frame->velocities[i]) - f.velocities[i]);
+              if (err > frame->velocity_error) {
+                std::fprintf(stderr, "codec_bench: velocity error %g beyond the bound\n", err);
+                return 1;
+              }
+              max_velocity_error = std::max(max_velocity_error, err);
+            }
+            velocity_bound = std::max(velocity_bound, frame->velocity_error);
+          }
         }
       for (int kind = 0; kind < 2; ++kind) {
         if (counts[kind] == 0) continue;
         const char* kind_name = kind == 0 ? "keyframe" : "delta";
         const double b = bytes[kind] / counts[kind], e = enc[kind] / counts[kind],
                      d = dec[kind] / counts[kind];
-        std::printf("%-18s %-20s %8s %11.3f %11.2f %11.2f %11.2e\n", seq.name.c_str(), combo.name,
-                    kind_name, b, e, d, max_error);
+        std::printf("%-18s %-24s %8s %11.3f %11.2f %11.2f %11.2e %11.2e\n", seq.name.c_str(),
+                    combo.name, kind_name, b, e, d, max_error, max_velocity_error);
         csv << seq.name << ',' << n << ',' << combo.name << ',' << threads << ',' << kind_name
-            << ',' << b << ',' << e << ',' << d << ',' << max_error << ',' << max_chunk << '\n';
+            << ',' << b << ',' << e << ',' << d << ',' << max_error << ',' << max_velocity_error
+            << ',' << velocity_bound << ',' << max_chunk << '\n';
       }
     }
   }
   std::printf("\norder-0 entropy of 16-bit position residuals, bits per axis (the last frame):\n");
   for (const Sequence& seq : sequences) {
     const auto [linear, quadratic] = PositionResidualEntropy(seq.frames, seq.scene.domain);
-    std::printf("  %-18s constant velocity %.2f, constant acceleration %.2f\n", seq.name.c_str(),
-                linear, quadratic);
+    const double speed = SpeedResidualEntropy(seq.frames);
+    std::printf(
+        "  %-18s constant velocity %.2f, constant acceleration %.2f; 8-bit speed %.2f: "
+        "positions + speed deltas need >= %.2f B/particle at order 0\n",
+        seq.name.c_str(), linear, quadratic, speed, (3 * quadratic + speed) / 8);
   }
   std::printf("\nwrote %s/codec.csv\n", out_dir.c_str());
   return 0;
