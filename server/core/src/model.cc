@@ -1,5 +1,7 @@
 #include "dysa/core/model.h"
 
+#include "dysa/core/solver.h"
+
 namespace dysa {
 
 Model MakeModel(const Scene& scene, const Params& params) {
@@ -12,6 +14,15 @@ Model MakeModel(const Scene& scene, const Params& params) {
   model.spheres = scene.spheres;
   model.boxes = scene.boxes;
   model.dt = params.time_scale / (params.frame_rate * params.iterations_per_frame);
+  model.physical = IsPhysicalSolver(scene.solver);
+  if (model.physical) {
+    const double d = params.particle_spacing;
+    model.particle_mass = params.rest_density * d * d * d;
+    model.kernel_support = 2 * d;
+  } else {
+    model.particle_mass = params.particle_mass;
+    model.kernel_support = params.smoothing_radius;
+  }
   return model;
 }
 

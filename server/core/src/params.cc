@@ -47,6 +47,20 @@ const std::array kParamTable = {
                "Edge of each fluid block that does not set its own size"),
     DYSA_PARAM(spawn_jitter, "m", 0.0, 100.0, kReset,
                "Random offset radius of each fluid block that does not set its own jitter"),
+    // Physical solvers (wcsph) only.
+    DYSA_PARAM(rest_density, "kg/m^3", 1.0, 1e5, kLive,
+               "wcsph: rest density rho0 of the Tait equation of state"),
+    DYSA_PARAM(particle_spacing, "m", 1e-4, 10.0, kReset,
+               "wcsph: lattice spacing d of the fluid; mass rho0 d^3, kernel support 2 d"),
+    DYSA_PARAM(speed_of_sound, "m/s", 0.1, 1e5, kLive,
+               "wcsph: speed of sound c0; stiffness B = rho0 c0^2 / 7"),
+    DYSA_PARAM(kinematic_viscosity, "m^2/s", 0.0, 10.0, kLive,
+               "wcsph: kinematic viscosity nu of the laminar viscosity (0 turns it off)"),
+    DYSA_PARAM(cfl_factor, "", 0.01, 1.0, kLive,
+               "wcsph: CFL number lambda of dt <= lambda d / (c0 + v_max)"),
+    DYSA_PARAM(max_time_step, "s", 1e-7, 1.0, kLive, "wcsph: upper bound of the adaptive step"),
+    DYSA_PARAM(gravity_ramp_time, "s", 0.0, 100.0, kLive,
+               "wcsph: gravity grows smoothly from 0 to its value over this time (0: at once)"),
 };
 #undef DYSA_PARAM
 

@@ -32,7 +32,7 @@ double Front(const ParticleArrays& p, int axis) {
 }
 
 double Height(const ParticleArrays& p, const Model& model, const ProbeSpec& probe) {
-  const double radius = probe.radius > 0 ? probe.radius : model.params.smoothing_radius;
+  const double radius = probe.radius > 0 ? probe.radius : model.kernel_support;
   double top = model.domain.min.y();
   for (const Vec3& x : p.position) {
     const double dx = x.x() - probe.point.x();
@@ -45,7 +45,7 @@ double Height(const ParticleArrays& p, const Model& model, const ProbeSpec& prob
 // Shepard interpolation sum_j p_j W(r_j) / sum_j W(r_j) with the poly6 kernel; 0 where no
 // particle is within the smoothing radius (a point in air has no fluid pressure).
 double PressureAt(const ParticleArrays& p, const Model& model, const Vec3d& point) {
-  const double h = model.params.smoothing_radius;
+  const double h = model.kernel_support;
   double weighted = 0;
   double weights = 0;
   for (size_t i = 0; i < p.size(); ++i) {
@@ -85,7 +85,7 @@ std::vector<double> EvaluateProbes(std::span<const ProbeSpec> probes, const Mode
       case ProbeKind::kKineticEnergy: {
         double sum = 0;
         for (const Vec3& v : p.velocity) sum += v.cast<double>().squaredNorm();
-        values.push_back(0.5 * model.params.particle_mass * sum);
+        values.push_back(0.5 * model.particle_mass * sum);
         break;
       }
       case ProbeKind::kCountInside: {

@@ -332,18 +332,29 @@ Scene ParseScene(std::string_view json_text) {
 std::vector<Eigen::Vector3i> BlockParticleCounts(const Scene& scene, const Params& params) {
   std::vector<Eigen::Vector3i> counts;
   uint64_t total = 0;
+  const bool physical = IsPhysicalSolver(scene.solver);
   for (size_t i = 0; i < scene.fluid_blocks.size(); ++i) {
     const FluidBlock& b = scene.fluid_blocks[i];
     const std::string path = "fluid_blocks[" + std::to_string(i) + "]";
+    // A physical solver's particle mass is rest_density * particle_spacing^3, so its blocks are
+    // filled at that spacing; a block's own count or spacing would contradict the mass.
+    if (physical && (b.particles_per_axis || b.spacing)) {
+      throw ConfigError(path + (b.spacing ? ".spacing" : ".particles_per_axis"),
+                        "not allowed with the " + scene.solver +
+                            " solver, which fills every block at params.particle_spacing");
+    }
     Eigen::Vector3i n = Eigen::Vector3i::Constant(params.particle_quantity);
     if (b.particles_per_axis) n = *b.particles_per_axis;
-    if (b.spacing) {
+    const std::optional<double> spacing =
+        physical ? std::optional<double>(params.particle_spacing) : b.spacing;
+    if (spacing) {
       const Vec3d size = b.size.value_or(Vec3d::Constant(params.spawn_size));
       for (int a = 0; a < 3; ++a) {
-        const double cells = std::floor(size[a] / *b.spacing + 0.5);
+        const double cells = std::floor(size[a] / *spacing + 0.5);
         if (cells > double(kMaxParticles)) {
-          throw ConfigError(path + ".spacing", "gives more than " + std::to_string(kMaxParticles) +
-                                                   " particles per axis");
+          throw ConfigError(physical ? std::string("params.particle_spacing") : path + ".spacing",
+                            "gives more than " + std::to_string(kMaxParticles) +
+                                " particles per axis in " + path);
         }
         n[a] = std::max(1, int(cells));
       }

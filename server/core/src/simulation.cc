@@ -18,8 +18,15 @@ std::vector<std::string> Simulation::PassNames() const {
   return names;
 }
 
-void Simulation::Step() {
+void Simulation::Step(double until) {
   using Clock = std::chrono::steady_clock;
+  const double start_time = state_.time;
+  const double rest = until - start_time;
+  if (model_.physical) {
+    state_.max_dt = rest > 0 ? rest : std::numeric_limits<double>::infinity();
+  } else {
+    state_.dt = model_.dt;
+  }
   for (size_t k = 0; k < passes_.size(); ++k) {
     const auto start = Clock::now();
     passes_[k].run(model_, state_);
@@ -29,12 +36,20 @@ void Simulation::Step() {
     prof.total_ms += ms;
     ++prof.calls;
   }
-  state_.time += model_.dt;
+  // A physical step clamped to the cap lands on `until` itself, not on start + (until - start),
+  // which can differ from it in the last bit and leave a sliver of a step.
+  state_.time = model_.physical && state_.dt >= state_.max_dt ? until : start_time + state_.dt;
   ++state_.step;
 }
 
 void Simulation::StepFrame() {
-  for (int i = 0; i < model_.params.iterations_per_frame; ++i) Step();
+  if (model_.physical) {
+    // A frame is a fixed slice of simulated time whatever steps the CFL condition allows.
+    const double end = state_.time + model_.FrameTime();
+    while (state_.time < end) Step(end);
+  } else {
+    for (int i = 0; i < model_.params.iterations_per_frame; ++i) Step();
+  }
   ++state_.frame;
 }
 

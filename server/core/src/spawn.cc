@@ -4,6 +4,7 @@
 #include <limits>
 
 #include "dysa/core/simulation.h"
+#include "dysa/core/solver.h"
 
 namespace dysa {
 namespace {
@@ -40,6 +41,7 @@ void SpawnParticles(const Scene& scene, const Params& params, ParticleArrays& pa
   size_t total = 0;
   for (const Eigen::Vector3i& n : counts) total += size_t(n.x()) * n.y() * n.z();
   particles.Resize(total);
+  const bool physical = IsPhysicalSolver(scene.solver);
 
   size_t i = 0;
   for (size_t b = 0; b < scene.fluid_blocks.size(); ++b) {
@@ -47,12 +49,17 @@ void SpawnParticles(const Scene& scene, const Params& params, ParticleArrays& pa
     const Eigen::Vector3i n = counts[b];
     const Vec3d center = block.center.value_or(scene.domain.Center());
     const Vec3d size = block.size.value_or(Vec3d::Constant(params.spawn_size));
-    const double jitter = block.jitter.value_or(params.spawn_jitter);
+    // Physical solvers: the lattice of particle_spacing (BlockParticleCounts rejects a block's
+    // own count or spacing), and no jitter unless the block asks for it: the seed's default
+    // spawn_jitter is in the seed's length scale.
+    const std::optional<double> spacing =
+        physical ? std::optional<double>(params.particle_spacing) : block.spacing;
+    const double jitter = block.jitter.value_or(physical ? 0.0 : params.spawn_jitter);
     SplitMix64 rng(block.seed);
     // The offset of lattice point k along axis a from the block centre. The lattice step is
     // the one SpawnParticleRadius takes (simulation_test checks that they agree).
     auto offset = [&](int a, int k) {
-      if (block.spacing) return (k - 0.5 * (n[a] - 1)) * *block.spacing;
+      if (spacing) return (k - 0.5 * (n[a] - 1)) * *spacing;
       // The thesis's spawner: n points spanning the edge, both ends included.
       return n[a] > 1 ? (double(k) / (n[a] - 1) - 0.5) * size[a] : 0.0;
     };
@@ -78,6 +85,7 @@ void SpawnParticles(const Scene& scene, const Params& params, ParticleArrays& pa
 
 double SpawnParticleRadius(const Scene& scene, const Params& params) {
   const std::vector<Eigen::Vector3i> counts = BlockParticleCounts(scene, params);
+  const bool physical = IsPhysicalSolver(scene.solver);
   double spacing = std::numeric_limits<double>::infinity();
   for (size_t b = 0; b < scene.fluid_blocks.size(); ++b) {
     const FluidBlock& block = scene.fluid_blocks[b];
@@ -85,7 +93,9 @@ double SpawnParticleRadius(const Scene& scene, const Params& params) {
     for (int a = 0; a < 3; ++a) {
       const int n = counts[b][a];
       if (n < 2) continue;  // one particle: no neighbour along this axis
-      spacing = std::min(spacing, block.spacing ? *block.spacing : size[a] / (n - 1));
+      spacing = std::min(spacing, physical        ? params.particle_spacing
+                                  : block.spacing ? *block.spacing
+                                                  : size[a] / (n - 1));
     }
   }
   if (!std::isfinite(spacing)) spacing = params.smoothing_radius;

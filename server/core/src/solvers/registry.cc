@@ -2,6 +2,7 @@
 
 #include "dysa/core/solver.h"
 #include "solvers/seed/seed_solver.h"
+#include "solvers/wcsph/becker_teschner_solver.h"
 
 namespace dysa {
 namespace {
@@ -10,21 +11,35 @@ const std::array kSolvers = {
     SolverInfo{"seed",
                "Clavet, Beaudoin, Poulin 2005, Particle-based viscoelastic fluid simulation "
                "(the DySAQUASIMs thesis model)",
-               seed::CreateSeedSolver},
+               seed::CreateSeedSolver, /*physical=*/false},
+    SolverInfo{"wcsph",
+               "Becker, Teschner 2007, Weakly compressible SPH for free surface flows (SCA); "
+               "boundaries: Akinci et al. 2012, Versatile rigid-fluid coupling for "
+               "incompressible SPH (SIGGRAPH)",
+               wcsph::CreateBeckerTeschnerSolver, /*physical=*/true},
 };
 
 }  // namespace
 
 std::span<const SolverInfo> SolverRegistry() { return kSolvers; }
 
-std::unique_ptr<Solver> CreateSolver(std::string_view name) {
+const SolverInfo& FindSolver(std::string_view name) {
   for (const SolverInfo& info : kSolvers) {
-    if (info.name == name) return info.create();
+    if (info.name == name) return info;
   }
   std::string names;
   for (const SolverInfo& info : kSolvers)
     names += (names.empty() ? "" : ", ") + std::string(info.name);
   throw ConfigError("solver", "unknown solver \"" + std::string(name) + "\"; known: " + names);
+}
+
+std::unique_ptr<Solver> CreateSolver(std::string_view name) { return FindSolver(name).create(); }
+
+bool IsPhysicalSolver(std::string_view name) {
+  for (const SolverInfo& info : kSolvers) {
+    if (info.name == name) return info.physical;
+  }
+  return false;
 }
 
 }  // namespace dysa

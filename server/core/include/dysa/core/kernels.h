@@ -75,4 +75,32 @@ struct SeedKernelFactors {
   T h, h2, spiky2, spiky2_grad, spiky3, spiky3_grad, poly6;
 };
 
+// The cubic spline kernel of the physical solvers (Monaghan 1992, "Smoothed particle
+// hydrodynamics", ARA&A 30), written with its support radius H = 2 h (h the smoothing length)
+// and q = r / H, as in Becker & Teschner 2007 and SPlisHSPlasH:
+//   W(q) = 8 / (pi H^3) * { 6 (q^3 - q^2) + 1   for q <= 1/2
+//                         { 2 (1 - q)^3          for 1/2 < q <= 1,   0 beyond.
+// dW/dr = 48 / (pi H^4) * { q (3 q - 2) ; -(1 - q)^2 }. The physical solvers take H = 2 d with
+// d the particle spacing (h = d), about 33 neighbours in a lattice.
+template <class T>
+struct CubicSpline {
+  static T Sigma(T support) { return T(8) / (std::numbers::pi_v<T> * support * support * support); }
+  static T W(T r, T support) {
+    const T q = r / support;
+    if (q > 1) return 0;
+    if (q <= T(0.5)) return Sigma(support) * (T(6) * (q * q * q - q * q) + 1);
+    const T v = 1 - q;
+    return Sigma(support) * T(2) * v * v * v;
+  }
+  // dW/dr (<= 0)
+  static T dW(T r, T support) {
+    const T q = r / support;
+    if (q > 1) return 0;
+    const T scale = T(6) * Sigma(support) / support;
+    if (q <= T(0.5)) return scale * q * (T(3) * q - T(2));
+    const T v = 1 - q;
+    return -scale * v * v;
+  }
+};
+
 }  // namespace dysa

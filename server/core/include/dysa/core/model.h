@@ -16,9 +16,21 @@ struct Model {
   std::vector<BoxObstacle> boxes;
   double dt = 0;  // s, the step: time_scale / (frame_rate * iterations_per_frame)
 
+  // Solver-dependent constants (see SolverInfo::physical). The seed model: its particle_mass
+  // and smoothing_radius, fixed step dt. A physical solver: rest_density * particle_spacing^3,
+  // 2 * particle_spacing, and an adaptive step (State::dt) of at most max_time_step; a frame
+  // is then time_scale / frame_rate simulated seconds.
+  bool physical = false;
+  double particle_mass = 1;   // kg
+  double kernel_support = 0;  // m, the kernel's radius, also the neighbour grid's cell edge
+
+  // Simulated seconds per displayed frame (the same for both kinds of solver).
+  double FrameTime() const { return params.time_scale / params.frame_rate; }
+
   bool HasObstacles() const { return !spheres.empty() || !boxes.empty(); }
 };
 
+// Takes the solver from scene.solver (an unknown name counts as not physical).
 Model MakeModel(const Scene& scene, const Params& params);
 
 }  // namespace dysa

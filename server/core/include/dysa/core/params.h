@@ -33,6 +33,17 @@ struct Params {
   int particle_quantity = 30;   // particles per axis
   double spawn_size = 5.0;      // m, edge of the spawn cube
   double spawn_jitter = 0.035;  // m, radius of the random offset added to each particle
+
+  // Physical (SI) solvers, wcsph: read only by them; the seed model ignores these, and they
+  // ignore the seed's smoothing_radius, target_density, pressure multipliers, viscosity,
+  // particle_mass, collision_damping, iterations_per_frame and particle_quantity.
+  double rest_density = 1000.0;       // kg/m^3, rho0 (water)
+  double particle_spacing = 0.1;      // m, lattice spacing d; mass rho0 d^3, kernel support 2 d
+  double speed_of_sound = 50.0;       // m/s, c0 of the Tait equation of state
+  double kinematic_viscosity = 1e-6;  // m^2/s, nu of the laminar viscosity term (water: 1e-6)
+  double cfl_factor = 0.25;           // dt <= cfl_factor d / (c0 + v_max)
+  double max_time_step = 0.005;       // s, upper bound of the adaptive step
+  double gravity_ramp_time = 0.0;     // s, gravity grows smoothly from 0 over this time (0: none)
 };
 
 struct ParamDecl {

@@ -1,6 +1,7 @@
 // A running simulation: scene, parameters, state, the pass list of the step and its profile.
 #pragma once
 
+#include <limits>
 #include <memory>
 #include <span>
 #include <string>
@@ -50,10 +51,15 @@ class Simulation {
   std::span<const PassProfile> profile() const { return profile_; }
   std::vector<std::string> PassNames() const;
 
-  // One solver step of model().dt simulated seconds.
-  void Step();
-  // iterations_per_frame steps: one displayed frame of the thesis.
+  // One solver step: model().dt simulated seconds for a fixed-step solver (the seed); for a
+  // physical solver the CFL step its time_step pass picks, never past `until` (s, simulated):
+  // a step that reaches it ends exactly at `until`. Fixed-step solvers ignore `until`.
+  void Step(double until = std::numeric_limits<double>::infinity());
+  // One displayed frame. Fixed step: iterations_per_frame steps, as in the thesis. Physical
+  // solvers: as many adaptive steps as it takes to advance exactly model().FrameTime().
   void StepFrame();
+  // The step the latest Step() took, s.
+  double last_dt() const { return state_.dt; }
   // Re-spawns the particles from the scene with the current parameters; time and step go to 0.
   void Reset();
 

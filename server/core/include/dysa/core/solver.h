@@ -32,10 +32,19 @@ struct SolverInfo {
   std::string_view name;
   std::string_view citation;
   std::unique_ptr<Solver> (*create)();
+  // A physical solver works in SI units from the parameters rest_density, particle_spacing,
+  // speed_of_sound, ...: fluid blocks are filled at particle_spacing, a particle weighs
+  // rest_density * particle_spacing^3, the kernel support is 2 * particle_spacing, and its step
+  // is CFL-adaptive (its passes set State::dt). The seed model is not: fixed step Model::dt,
+  // its own mass and smoothing radius.
+  bool physical = false;
 };
 
 std::span<const SolverInfo> SolverRegistry();
 // Throws ConfigError("solver", ...) listing the known names.
+const SolverInfo& FindSolver(std::string_view name);
 std::unique_ptr<Solver> CreateSolver(std::string_view name);
+// False for an unknown name.
+bool IsPhysicalSolver(std::string_view name);
 
 }  // namespace dysa

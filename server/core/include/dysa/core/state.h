@@ -32,6 +32,17 @@ struct State {
   std::vector<Vec3> vec3_scratch;
   std::vector<Real> real_scratch;
   std::vector<uint32_t> index_scratch;
+  // m/s^2, per particle in storage order: the physical solvers' accelerations of this step,
+  // computed after the neighbour sort (so never carried across steps).
+  std::vector<Vec3> acceleration;
+  // Pa, per boundary particle of the physical solvers, extrapolated from the fluid each step.
+  std::vector<Real> boundary_pressure;
+
+  // s, the step being taken: Model::dt for a fixed-step solver, set before the passes; chosen
+  // by a physical solver's time_step pass (CFL), at most max_dt. Both are rewritten every step
+  // before they are read, so a checkpoint need not hold them.
+  double dt = 0;
+  double max_dt = 0;  // s, a cap on this step's dt from the caller (the end of a frame)
 
   double time = 0;     // s, simulated
   uint64_t step = 0;   // steps since the last reset

@@ -1,0 +1,82 @@
+// Validation cases of the physical solvers against analytic and experimental references
+// (/work/shared/reference/README.md; `dysa validate` prints them, tests/validation asserts them).
+// Each runs a built-in scene of scenes/validation/, optionally at another particle spacing.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "dysa/core/scene.h"
+
+namespace dysa {
+
+struct ValidationRun {
+  std::string solver;
+  double spacing = 0;    // m
+  size_t particles = 0;  // fluid particles
+  uint64_t steps = 0;
+  double time = 0;  // s, simulated
+};
+
+// The scene's fluid slab (domain and blocks between z walls) made `layers` particles of spacing
+// d thick, and particle_spacing set to d. The validation scenes are 3D slabs standing for 2D
+// experiments; a finer spacing keeps the slab as many particles thick.
+Scene SlabAtSpacing(Scene scene, double spacing, int layers = 4);
+
+// Hydrostatic tank (Adami, Hu, Adams 2012): `hydrostatic_tank`, water of depth H at rest
+// under gravity g ramped in over 1 s, run to its end_time. Pressure is sampled along the
+// vertical line through the tank's centre (x = 1, mid-slab) every spacing from y = d up to
+// H - top_layers * d (the free surface's kernel deficit leaves the top layers under-pressured
+// by construction) and compared with rho0 g (H - y).
+struct HydrostaticResult {
+  ValidationRun run;
+  double depth = 0;                // m, H (the fluid block's height)
+  double pressure_error_max = 0;   // max |p - rho0 g (H - y)| / (rho0 g H) over the samples
+  double pressure_error_mean = 0;  // mean of the same
+  // Compression: max(0, rho_i / rho0 - 1) over every fluid particle (a free surface's kernel
+  // deficit is not an error of the solver), mean and max.
+  double density_error_mean = 0;
+  double density_error_max = 0;
+  double max_speed = 0;  // m/s at the end: the tank should be at rest
+  struct Sample {
+    double y, pressure, reference;  // m, Pa, Pa
+  };
+  std::vector<Sample> profile;
+};
+inline constexpr int kHydrostaticTopLayers = 3;
+
+// How to run a case: the scene's own resolution and solver unless given; `sets` are
+// NAME=VALUE parameter overrides applied last (as `dysa run --set`).
+struct ValidationOptions {
+  std::optional<double> spacing;  // m, see SlabAtSpacing
+  std::string solver;             // "": the scene's (wcsph)
+  std::vector<std::string> sets;
+};
+HydrostaticResult RunHydrostaticTank(const ValidationOptions& options = {});
+
+// Dam break against Martin & Moyce 1952 (`dam_break_martin_moyce`): a column a wide and 2a
+// tall collapses; the surge front Z = (x_front + d/2) / a (the particles' extent, not their
+// centres) is compared with the experiment at each tabulated T = t sqrt(2 g / a).
+struct DamBreakResult {
+  ValidationRun run;
+  double column_width = 0;  // m, a
+  double rms_error = 0;     // RMS of |Z - Z_ref| / Z_ref over the table, T > 0
+  double max_error = 0;
+  struct Row {
+    double T, Z, Z_ref;
+  };
+  std::vector<Row> rows;
+};
+DamBreakResult RunDamBreak(const ValidationOptions& options = {});
+
+// Martin & Moyce 1952, collapse of a liquid column, n^2 = 2 (column width a, height 2a): the
+// surge front Z = x/a against T = t sqrt(2 g / a), as tabulated in
+// scenes/validation/dam_break_martin_moyce_1952_front.csv.
+struct MartinMoyceRow {
+  double T, Z;
+};
+const std::vector<MartinMoyceRow>& MartinMoyce1952Front();
+
+}  // namespace dysa

@@ -1,0 +1,68 @@
+// Static walls and obstacles as boundary particles (Akinci, Ihmsen, Akinci, Solenthaler,
+// Teschner 2012, "Versatile rigid-fluid coupling for incompressible SPH", ACM TOG 31(4)),
+// shared by the physical solvers.
+//
+// The domain walls and every obstacle surface are sampled with particles about one particle
+// spacing d apart, in layers behind the surface (kLayers outside the domain; obstacles are
+// filled), each layer d/2 + k d from the surface: where the surface is a lattice plane of the
+// fluid, the boundary continues the fluid's lattice. Each boundary particle b gets the volume of
+// eq. (4) of the paper, V_b = 1 / sum_k W(x_b - x_k) (b included; the sum is completed by the
+// fluid's rest lattice on the other side, see the constructor), so that a denser or sparser
+// sampling weighs the same; its "mass" towards fluid of rest density rho0 is Psi_b = rho0 V_b
+// (eq. 5). A fluid particle then adds
+// sum_b Psi_b W(x_i - x_b) to its density and feels the pressure of the boundary.
+#pragma once
+
+#include <cstddef>
+#include <span>
+#include <vector>
+
+#include "dysa/core/model.h"
+#include "dysa/core/neighbor_grid.h"
+
+namespace dysa {
+
+class BoundaryParticles {
+ public:
+  // Two layers cover the kernel support (2 d) behind a flat wall: a fluid particle at the wall
+  // then has a full neighbourhood, fluid on one side and boundary on the other.
+  static constexpr int kLayers = 2;
+  // Obstacles are sampled through: as many layers as reach their centre.
+  static constexpr int kSolid = 1 << 20;
+
+  // Samples the domain walls and the obstacles of `model` at spacing `spacing`, sorts the
+  // samples on a grid laid like the fluid's (NeighborGrid::Configure(model.domain, support)),
+  // so a fluid particle's cell indexes both, and computes the volumes with the cubic spline of
+  // support `support`.
+  BoundaryParticles(const Model& model, double spacing, double support);
+
+  size_t size() const { return volume_.size(); }
+  // Positions (grid.xs/ys/zs, padded) in the grid's order, and the volumes in the same order
+  // (m^3, also padded with zeros).
+  const NeighborGrid& grid() const { return grid_; }
+  std::span<const Real> volume() const { return {volume_.data(), volume_.size()}; }
+  const Real* padded_volume() const { return padded_volume_.data(); }
+
+ private:
+  NeighborGrid grid_;
+  std::vector<Real> volume_;
+  std::vector<Real> padded_volume_;
+};
+
+// The samplers, appending to `out` the boundary particles and, when `fluid_side` is given, to it
+// the fluid's lattice continued `layers` deep on the other side of the surface (for the
+// volumes; see the constructor). Lattices adjust their step per axis (the extent over
+// round(extent / spacing)) so that both ends of every edge are sampled alike.
+// Walls: the lattice over the domain grown by `layers` spacings, less the points inside it.
+void SampleDomainWalls(const Aabb& domain, double spacing, int layers, std::vector<Vec3>& out,
+                       std::vector<Vec3>* fluid_side = nullptr);
+// Box obstacle: the lattice of the box, less the points deeper than `layers` spacings.
+void SampleBox(const Aabb& box, double spacing, int layers, std::vector<Vec3>& out,
+               std::vector<Vec3>* fluid_side = nullptr);
+// Sphere obstacle: concentric shells of radius R - (k + 1/2) d, each a Fibonacci spiral of
+// about 4 pi r^2 / d^2 points (evenly spread, no poles); a sphere smaller than one spacing is
+// its centre. Its fluid side: shells of radius R + (k + 1/2) d.
+void SampleSphere(const SphereObstacle& sphere, double spacing, int layers, std::vector<Vec3>& out,
+                  std::vector<Vec3>* fluid_side = nullptr);
+
+}  // namespace dysa

@@ -1,0 +1,45 @@
+#include "cfl_time_step.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+
+namespace dysa {
+
+double TimeStepLimits::Min() const { return std::min({sound, viscous, force, max}); }
+
+TimeStepLimits CflLimits(const Params& params, double v_max, double a_max) {
+  const double h = params.particle_spacing;
+  TimeStepLimits limits;
+  limits.sound = params.cfl_factor * h / (params.speed_of_sound + v_max);
+  if (params.kinematic_viscosity > 0) limits.viscous = 0.125 * h * h / params.kinematic_viscosity;
+  if (a_max > 0) limits.force = 0.25 * std::sqrt(h / a_max);
+  limits.max = params.max_time_step;
+  return limits;
+}
+
+double ChooseTimeStep(const TimeStepLimits& limits, double until) {
+  const double dt = limits.Min();
+  if (!(until > 0)) return dt;
+  if (until <= dt) return until;
+  if (until < 2 * dt) return 0.5 * until;
+  return dt;
+}
+
+void ChooseTimeStepPass(const Model& model, State& state) {
+  const ParticleArrays& p = state.particles;
+  const int64_t n = int64_t(p.size());
+  // Maxima are exact whatever the order they are taken in, so the reduction is deterministic.
+  Real v2_max = 0;
+  Real a2_max = 0;
+#pragma omp parallel for schedule(static) reduction(max : v2_max, a2_max)
+  for (int64_t i = 0; i < n; ++i) {
+    v2_max = std::max(v2_max, p.velocity[i].squaredNorm());
+    a2_max = std::max(a2_max, state.acceleration[i].squaredNorm());
+  }
+  const TimeStepLimits limits =
+      CflLimits(model.params, std::sqrt(double(v2_max)), std::sqrt(double(a2_max)));
+  state.dt = ChooseTimeStep(limits, state.max_dt);
+}
+
+}  // namespace dysa

@@ -1,0 +1,40 @@
+// The CFL-adaptive time step of the physical solvers.
+//
+// With h the smoothing length (the particle spacing d: the cubic spline's support is 2 h), the
+// step honours the three limits usual in SPH (Monaghan 1992; Morris, Fox, Zhu 1997; Becker &
+// Teschner 2007, sec. 3.4):
+//   sound / CFL  dt <= lambda h / (c0 + v_max)       lambda = cfl_factor (default 0.25)
+//   viscous      dt <= 0.125 h^2 / nu
+//   force        dt <= 0.25 sqrt(h / |a|_max)
+// and dt <= max_time_step. The step is chosen each step from the velocities and accelerations
+// of that step, so nothing about it carries over between steps.
+#pragma once
+
+#include <limits>
+
+#include "dysa/core/model.h"
+#include "dysa/core/state.h"
+
+namespace dysa {
+
+struct TimeStepLimits {
+  static constexpr double kNone = std::numeric_limits<double>::infinity();
+  double sound = kNone;    // s
+  double viscous = kNone;  // s; none when nu = 0
+  double force = kNone;    // s; none when every acceleration is 0
+  double max = kNone;      // s, max_time_step
+  double Min() const;
+};
+
+TimeStepLimits CflLimits(const Params& params, double v_max, double a_max);
+
+// The step for `limits` when at most `until` seconds remain before a point the step must not
+// pass (the end of a frame): the limit itself; all that remains when it fits; half of it when
+// it would take two steps anyway (so no sliver of a step is left).
+double ChooseTimeStep(const TimeStepLimits& limits, double until);
+
+// The `time_step` pass: v_max and |a|_max over the particles (state.velocity, state.acceleration
+// of this step), then state.dt = ChooseTimeStep(..., state.max_dt).
+void ChooseTimeStepPass(const Model& model, State& state);
+
+}  // namespace dysa

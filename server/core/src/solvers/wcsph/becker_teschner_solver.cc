@@ -1,0 +1,282 @@
+#include "solvers/wcsph/becker_teschner_solver.h"
+
+#include <cmath>
+#include <cstdint>
+#include <numbers>
+
+#include "cfl_time_step.h"
+#include "common_passes.h"
+#include "dysa/core/kernels.h"
+
+namespace dysa::wcsph {
+namespace {
+
+// Calls visit(j, x_ij, r) for every point j of `grid` within `support` of `x` (cell `cell` of
+// the grid's layout), in the grid's fixed order; x_ij = x - x_j, r = |x_ij|.
+template <class Visit>
+inline void ForEachWithin(const NeighborGrid& grid, const Eigen::Vector3i& cell, const Vec3& x,
+                          Real support, Visit&& visit) {
+  const Real* xs = grid.xs().data();
+  const Real* ys = grid.ys().data();
+  const Real* zs = grid.zs().data();
+  const Real support2 = support * support;
+  grid.ForEachNeighborRun(cell, [&](uint32_t begin, uint32_t end) {
+    for (uint32_t j = begin; j < end; ++j) {
+      const Vec3 xij(x.x() - xs[j], x.y() - ys[j], x.z() - zs[j]);
+      const Real r2 = xij.squaredNorm();
+      if (r2 < support2) visit(j, xij, std::sqrt(r2));
+    }
+  });
+}
+
+// grad W(x_ij) = dW/dr x_ij / r (zero at r = 0).
+inline Vec3 GradW(const Vec3& xij, Real r, Real support) {
+  return r > 0 ? Vec3(xij * (CubicSpline<Real>::dW(r, support) / r)) : Vec3::Zero();
+}
+
+}  // namespace
+
+double GravityAt(const Params& params, double time) {
+  const double ramp = params.gravity_ramp_time;
+  if (ramp <= 0 || time >= ramp) return params.gravity;
+  return params.gravity * 0.5 * (1 - std::cos(std::numbers::pi * time / ramp));
+}
+
+void SortIntoGrid(const Model& model, State& state) {
+  ParticleArrays& p = state.particles;
+  state.grid.Configure(model.domain, Real(model.kernel_support));
+  state.grid.Sort(p.position);
+  const auto order = state.grid.order();
+  PermuteInPlace(order, p.position, state.vec3_scratch);
+  PermuteInPlace(order, p.velocity, state.vec3_scratch);
+  PermuteInPlace(order, p.id, state.index_scratch);
+}
+
+void ComputeDensityAndPressure(const Model& model, const BoundaryParticles& boundary,
+                               State& state) {
+  ParticleArrays& p = state.particles;
+  const Real support = Real(model.kernel_support);
+  const Real mass = Real(model.particle_mass);
+  const double rho0 = model.params.rest_density;
+  const Real psi_scale = Real(rho0);  // Psi_b = rho0 V_b
+  const double stiffness = rho0 * model.params.speed_of_sound * model.params.speed_of_sound /
+                           kTaitExponent;  // B = rho0 c0^2 / gamma
+  const Real* volume = boundary.padded_volume();
+  const int64_t n = int64_t(p.size());
+#pragma omp parallel for schedule(static)
+  for (int64_t i = 0; i < n; ++i) {
+    const Eigen::Vector3i cell = state.grid.SortedCell(uint32_t(i));
+    const Vec3& x = p.position[i];
+    Real fluid = 0;
+    ForEachWithin(state.grid, cell, x, support, [&](uint32_t, const Vec3&, Real r) {
+      fluid += CubicSpline<Real>::W(r, support);
+    });
+    Real wall = 0;
+    ForEachWithin(boundary.grid(), cell, x, support, [&](uint32_t b, const Vec3&, Real r) {
+      wall += volume[b] * CubicSpline<Real>::W(r, support);
+    });
+    const Real rho = mass * fluid + psi_scale * wall;
+    p.density[i] = rho;
+    // In double: (rho / rho0)^7 - 1 of a 0.1% compression is 7e-3, which float would round to
+    // a few digits.
+    const double ratio = double(rho) / rho0;
+    const double pressure = stiffness * (std::pow(ratio, kTaitExponent) - 1);
+    p.pressure[i] = Real(pressure > 0 ? pressure : 0);
+  }
+}
+
+void ComputeBoundaryPressure(const Model& model, const BoundaryParticles& boundary, State& state) {
+  const ParticleArrays& p = state.particles;
+  const Real support = Real(model.kernel_support);
+  const Vec3 gravity(0, Real(GravityAt(model.params, state.time)), 0);
+  const NeighborGrid& bgrid = boundary.grid();
+  const Real* bx = bgrid.xs().data();
+  const Real* by = bgrid.ys().data();
+  const Real* bz = bgrid.zs().data();
+  const int64_t n = int64_t(boundary.size());
+  state.boundary_pressure.resize(boundary.size());
+#pragma omp parallel for schedule(static)
+  for (int64_t b = 0; b < n; ++b) {
+    const Vec3 x(bx[b], by[b], bz[b]);
+    Real weights = 0;
+    Real weighted = 0;  // sum_f (p_f + rho_f g . (x_b - x_f)) W_bf
+    // The boundary grid's cell of b is a cell of the fluid grid too (same layout).
+    ForEachWithin(state.grid, bgrid.SortedCell(uint32_t(b)), x, support,
+                  [&](uint32_t f, const Vec3& xbf, Real r) {
+                    const Real w = CubicSpline<Real>::W(r, support);
+                    weights += w;
+                    weighted += (p.pressure[f] + p.density[f] * gravity.dot(xbf)) * w;
+                  });
+    const Real pressure = weights > 0 ? weighted / weights : Real(0);
+    state.boundary_pressure[b] = pressure > 0 ? pressure : Real(0);
+  }
+}
+
+void ComputePressureAcceleration(const Model& model, const BoundaryParticles& boundary,
+                                 State& state) {
+  ParticleArrays& p = state.particles;
+  const Real support = Real(model.kernel_support);
+  const Real mass = Real(model.particle_mass);
+  const double rho0 = model.params.rest_density;
+  const Real psi_scale = Real(rho0);
+  const double stiffness =
+      rho0 * model.params.speed_of_sound * model.params.speed_of_sound / kTaitExponent;
+  const Vec3 gravity(0, Real(GravityAt(model.params, state.time)), 0);
+  const Real* volume = boundary.padded_volume();
+  const size_t n = p.size();
+  const size_t nb = boundary.size();
+  state.acceleration.resize(n);
+  // p_j / rho_j^2 of every fluid particle, then of every boundary particle (its density from
+  // its pressure through the inverse Tait equation), read by the neighbours.
+  state.real_scratch.resize(n + nb);
+  Real* p_over_rho2 = state.real_scratch.data();
+  Real* boundary_p_over_rho2 = p_over_rho2 + n;
+#pragma omp parallel for schedule(static)
+  for (int64_t j = 0; j < int64_t(n); ++j) {
+    p_over_rho2[j] = p.pressure[j] / (p.density[j] * p.density[j]);
+  }
+#pragma omp parallel for schedule(static)
+  for (int64_t b = 0; b < int64_t(nb); ++b) {
+    const double pb = state.boundary_pressure[b];
+    const double rho = rho0 * std::pow(pb / stiffness + 1, 1 / kTaitExponent);
+    boundary_p_over_rho2[b] = Real(pb / (rho * rho));
+  }
+#pragma omp parallel for schedule(static)
+  for (int64_t i = 0; i < int64_t(n); ++i) {
+    const Eigen::Vector3i cell = state.grid.SortedCell(uint32_t(i));
+    const Vec3& x = p.position[i];
+    const Real pi = p_over_rho2[i];
+    Vec3 fluid = Vec3::Zero();  // sum_j (p_i / rho_i^2 + p_j / rho_j^2) grad W_ij
+    ForEachWithin(state.grid, cell, x, support, [&](uint32_t j, const Vec3& xij, Real r) {
+      fluid += (pi + p_over_rho2[j]) * GradW(xij, r, support);
+    });
+    Vec3 wall = Vec3::Zero();  // sum_b V_b (p_i / rho_i^2 + p_b / rho_b^2) grad W_ib
+    ForEachWithin(boundary.grid(), cell, x, support, [&](uint32_t b, const Vec3& xib, Real r) {
+      wall += (volume[b] * (pi + boundary_p_over_rho2[b])) * GradW(xib, r, support);
+    });
+    state.acceleration[i] = gravity - mass * fluid - psi_scale * wall;
+  }
+}
+
+void AddViscosity(const Model& model, State& state) {
+  ParticleArrays& p = state.particles;
+  const Real support = Real(model.kernel_support);
+  const Real h = Real(model.params.particle_spacing);  // smoothing length, support / 2
+  const Real eps = Real(0.01) * h * h;
+  // 2 (dim + 2) nu m
+  const Real scale = Real(10 * model.params.kinematic_viscosity * model.particle_mass);
+  const int64_t n = int64_t(p.size());
+#pragma omp parallel for schedule(static)
+  for (int64_t i = 0; i < n; ++i) {
+    const Eigen::Vector3i cell = state.grid.SortedCell(uint32_t(i));
+    const Vec3& x = p.position[i];
+    const Vec3& v = p.velocity[i];
+    Vec3 sum = Vec3::Zero();
+    ForEachWithin(state.grid, cell, x, support, [&](uint32_t j, const Vec3& xij, Real r) {
+      if (r <= 0) return;
+      const Real vx = (v - p.velocity[j]).dot(xij);
+      sum += (vx / (p.density[j] * (r * r + eps))) * GradW(xij, r, support);
+    });
+    state.acceleration[i] += scale * sum;
+  }
+}
+
+namespace {
+
+// Monaghan's (1994) wall force per unit mass at distance `dist` from a surface, for r0 and D
+// as in AddWallContact; clamped at dist = r0 / 2 so that a particle found deeper (which the
+// force should have prevented) is pushed out hard but finitely.
+inline Real ContactAcceleration(Real dist, Real r0, Real strength) {
+  if (dist >= r0) return 0;
+  const Real r = dist > Real(0.5) * r0 ? dist : Real(0.5) * r0;
+  const Real q = r0 / r;
+  const Real q2 = q * q;
+  const Real q4 = q2 * q2;
+  return strength * (q4 * q4 * q4 - q4) / r;
+}
+
+}  // namespace
+
+void AddWallContact(const Model& model, State& state) {
+  ParticleArrays& p = state.particles;
+  const Real r0 = Real(kContactRange * model.params.particle_spacing);
+  const Real strength =
+      Real(kContactStrength * model.params.speed_of_sound * model.params.speed_of_sound);
+  const Vec3 lo = model.domain.min.cast<Real>();
+  const Vec3 hi = model.domain.max.cast<Real>();
+  const int64_t n = int64_t(p.size());
+#pragma omp parallel for schedule(static)
+  for (int64_t i = 0; i < n; ++i) {
+    const Vec3& x = p.position[i];
+    Vec3 a = Vec3::Zero();
+    for (int k = 0; k < 3; ++k) {
+      a[k] += ContactAcceleration(x[k] - lo[k], r0, strength);
+      a[k] -= ContactAcceleration(hi[k] - x[k], r0, strength);
+    }
+    for (const SphereObstacle& s : model.spheres) {
+      const Vec3 d = x - s.center.cast<Real>();
+      const Real norm = d.norm();
+      if (norm > 0) a += (ContactAcceleration(norm - Real(s.radius), r0, strength) / norm) * d;
+    }
+    for (const BoxObstacle& b : model.boxes) {
+      // Outside: the distance to the box and the direction away from its nearest point;
+      // inside: out through the nearest face.
+      const Vec3 bl = b.box.min.cast<Real>(), bh = b.box.max.cast<Real>();
+      const Vec3 nearest = x.cwiseMax(bl).cwiseMin(bh);
+      const Vec3 d = x - nearest;
+      const Real dist = d.norm();
+      if (dist > 0) {
+        a += (ContactAcceleration(dist, r0, strength) / dist) * d;
+      } else {
+        int axis = 0;
+        Real depth = x[0] - bl[0], sign = -1;
+        for (int k = 0; k < 3; ++k) {
+          if (x[k] - bl[k] < depth) depth = x[k] - bl[k], axis = k, sign = -1;
+          if (bh[k] - x[k] < depth) depth = bh[k] - x[k], axis = k, sign = 1;
+        }
+        a[axis] += sign * ContactAcceleration(0, r0, strength);
+      }
+    }
+    state.acceleration[i] += a;
+  }
+}
+
+void Integrate(const Model& model, State& state) {
+  ParticleArrays& p = state.particles;
+  const Real dt = Real(state.dt);
+  const int64_t n = int64_t(p.size());
+#pragma omp parallel for schedule(static)
+  for (int64_t i = 0; i < n; ++i) {
+    p.velocity[i] += state.acceleration[i] * dt;
+    p.position[i] += p.velocity[i] * dt;
+    CollideWithDomainWalls(model.domain, Real(0), p.position[i], p.velocity[i]);
+  }
+}
+
+std::vector<Pass> BeckerTeschnerSolver::BuildPasses(const Model& model) const {
+  const auto boundary = std::make_shared<const BoundaryParticles>(
+      model, model.params.particle_spacing, model.kernel_support);
+  std::vector<Pass> passes;
+  passes.push_back({"neighbour_grid", SortIntoGrid});
+  passes.push_back({"density", [boundary](const Model& m, State& s) {
+                      ComputeDensityAndPressure(m, *boundary, s);
+                    }});
+  passes.push_back({"boundary_pressure", [boundary](const Model& m, State& s) {
+                      ComputeBoundaryPressure(m, *boundary, s);
+                    }});
+  passes.push_back({"pressure_force", [boundary](const Model& m, State& s) {
+                      ComputePressureAcceleration(m, *boundary, s);
+                    }});
+  if (model.params.kinematic_viscosity > 0) passes.push_back({"viscosity", AddViscosity});
+
+  passes.push_back({"wall_contact", AddWallContact});
+  passes.push_back({"time_step", ChooseTimeStepPass});
+  passes.push_back({"integrate", Integrate});
+  return passes;
+}
+
+std::unique_ptr<Solver> CreateBeckerTeschnerSolver() {
+  return std::make_unique<BeckerTeschnerSolver>();
+}
+
+}  // namespace dysa::wcsph

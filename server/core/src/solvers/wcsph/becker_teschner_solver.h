@@ -1,0 +1,72 @@
+// Weakly compressible SPH: Becker, Teschner 2007, "Weakly compressible SPH for free surface
+// flows", Proc. ACM SIGGRAPH/Eurographics Symposium on Computer Animation (SCA), 209-217.
+//
+// In SI units, with d = particle_spacing, support H = 2 d of the cubic spline (kernels.h),
+// particle mass m = rho0 d^3:
+//   density      rho_i = sum_j m W_ij + sum_b Psi_b W_ib           (Akinci et al. 2012, eq. 6)
+//   Tait EOS     p_i = B ((rho_i / rho0)^gamma - 1), B = rho0 c0^2 / gamma, gamma = 7 (eq. 7),
+//                clamped at 0: a free surface's kernel deficit must not pull particles together
+//   pressure     a_i = -sum_j m (p_i / rho_i^2 + p_j / rho_j^2) grad W_ij          (eq. 6)
+//                      -sum_b Psi_b (2 p_i / rho_i^2) grad W_ib
+//                the boundary term mirrors the fluid's pressure and density onto the boundary
+//                particle (p_b = p_i, rho_b = rho_i; Akinci et al. 2012, sec. 4.1)
+//   viscosity    a_i += 2 (dim + 2) nu sum_j (m / rho_j) (v_ij . x_ij) / (|x_ij|^2 + 0.01 h^2)
+//                       grad W_ij: the laminar viscosity of Morris et al. 1997 in the form of
+//                Monaghan 2005 (sec. 5.6), with a physical kinematic viscosity nu (m^2/s). It
+//                acts between fluid particles only, so walls are free-slip. Monaghan's
+//                artificial viscosity alpha corresponds to nu = alpha h c0 / (2 (dim + 2)).
+//   contact      a_i += D [(r0 / r)^12 - (r0 / r)^4] / r along the normal, for a distance r
+//                < r0 = 0.4 d to a wall or obstacle surface (Monaghan 1994, "Simulating free
+//                surface flows with SPH", J. Comput. Phys. 110, eq. 4.5), D = 0.01 c0^2. The
+//                boundary particles' pressure acts only where the fluid is compressed; a thin
+//                splash or surge tip has a density below rho0 and no pressure, and would sink
+//                through them. At rest the first fluid layer is d/2 from a wall, outside r0,
+//                so the force is 0 there and hydrostatics are unaffected.
+//   gravity      g(t) = g min(1, (1 - cos(pi t / T)) / 2) for a ramp time T (0: none)
+//   integration  semi-implicit (symplectic) Euler, v += a dt; x += v dt, with the CFL step of
+//                cfl_time_step.h; the speed of sound c0 >= 10 v_max keeps density variations
+//                near 1% (Becker & Teschner, sec. 3.1; Monaghan 1994).
+// Every neighbour loop gathers into the particle it is for, reading the state of the previous
+// pass, so a step is bit-identical for any thread count. The positions are finally clamped to
+// the domain (velocity into the wall removed) as a last resort only: the boundary particles'
+// pressure holds the fluid well inside it.
+#pragma once
+
+#include <memory>
+
+#include "boundary_particles.h"
+#include "dysa/core/solver.h"
+
+namespace dysa::wcsph {
+
+inline constexpr double kTaitExponent = 7;
+inline constexpr double kContactRange = 0.4;      // r0 / d
+inline constexpr double kContactStrength = 0.01;  // D / c0^2
+
+class BeckerTeschnerSolver final : public Solver {
+ public:
+  // The boundary particles are sampled here (from the domain, the obstacles and the spacing)
+  // and shared by the passes of this list.
+  std::vector<Pass> BuildPasses(const Model& model) const override;
+};
+
+std::unique_ptr<Solver> CreateBeckerTeschnerSolver();
+
+// The passes, exposed for tests (and for dfsph, which shares the grid and density passes).
+void SortIntoGrid(const Model& model, State& state);
+void ComputeDensityAndPressure(const Model& model, const BoundaryParticles& boundary, State& state);
+// state.boundary_pressure: each boundary particle's pressure extrapolated from the fluid.
+void ComputeBoundaryPressure(const Model& model, const BoundaryParticles& boundary, State& state);
+// Sets state.acceleration to gravity plus the pressure acceleration.
+void ComputePressureAcceleration(const Model& model, const BoundaryParticles& boundary,
+                                 State& state);
+// Adds the viscous acceleration to state.acceleration.
+void AddViscosity(const Model& model, State& state);
+// Adds the contact force of the walls and obstacles (Monaghan 1994) to state.acceleration.
+void AddWallContact(const Model& model, State& state);
+void Integrate(const Model& model, State& state);
+
+// m/s^2 along y at simulated time `time`: params.gravity, ramped in over gravity_ramp_time.
+double GravityAt(const Params& params, double time);
+
+}  // namespace dysa::wcsph

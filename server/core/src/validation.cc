@@ -1,0 +1,136 @@
+#include "dysa/core/validation.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "dysa/core/probes.h"
+#include "dysa/core/simulation.h"
+#include "dysa/core/solver.h"
+
+namespace dysa {
+
+const std::vector<MartinMoyceRow>& MartinMoyce1952Front() {
+  // scenes/validation/dam_break_martin_moyce_1952_front.csv (validation_test checks that the
+  // two agree), from J. C. Martin, W. J. Moyce 1952, "An experimental study of the collapse of
+  // liquid columns on a rigid horizontal plane", Phil. Trans. R. Soc. Lond. A 244, 312-324.
+  static const std::vector<MartinMoyceRow> rows = {
+      {0.00, 1.00}, {0.41, 1.11}, {0.84, 1.23}, {1.19, 1.44}, {1.43, 1.67},
+      {1.63, 1.89}, {1.82, 2.11}, {1.97, 2.33}, {2.20, 2.56}, {2.32, 2.78},
+      {2.50, 3.00}, {2.64, 3.22}, {2.82, 3.44}, {2.96, 3.67},
+  };
+  return rows;
+}
+
+Scene SlabAtSpacing(Scene scene, double spacing, int layers) {
+  SetParam(scene.params, "particle_spacing", spacing);
+  const double thickness = layers * spacing;
+  const double z0 = scene.domain.min.z();
+  scene.domain.max.z() = z0 + thickness;
+  for (FluidBlock& block : scene.fluid_blocks) {
+    Vec3d center = block.center.value_or(scene.domain.Center());
+    Vec3d size = block.size.value_or(Vec3d::Constant(scene.params.spawn_size));
+    center.z() = z0 + 0.5 * thickness;
+    size.z() = thickness;
+    block.center = center;
+    block.size = size;
+  }
+  return scene;
+}
+
+namespace {
+
+Scene ValidationScene(const char* name, const ValidationOptions& options) {
+  Scene scene = LoadScene(name);
+  if (!options.solver.empty()) {
+    FindSolver(options.solver);  // throws for an unknown name
+    scene.solver = options.solver;
+  }
+  if (options.spacing) scene = SlabAtSpacing(std::move(scene), *options.spacing);
+  for (const std::string& assignment : options.sets) SetParamFromString(scene.params, assignment);
+  BlockParticleCounts(scene, scene.params);
+  return scene;
+}
+
+ValidationRun RunInfo(const Simulation& sim) {
+  return {sim.scene().solver, sim.params().particle_spacing, sim.state().particles.size(),
+          sim.state().step, sim.state().time};
+}
+
+}  // namespace
+
+HydrostaticResult RunHydrostaticTank(const ValidationOptions& options) {
+  Simulation sim(ValidationScene("hydrostatic_tank", options));
+  const Scene& scene = sim.scene();
+  const double end = scene.end_time;
+  while (sim.state().time < end) sim.Step(end);
+
+  HydrostaticResult result;
+  result.run = RunInfo(sim);
+  const double d = sim.params().particle_spacing;
+  const double rho0 = sim.params().rest_density;
+  const double g = std::abs(sim.params().gravity);
+  const FluidBlock& block = scene.fluid_blocks.at(0);
+  const double floor = scene.domain.min.y();
+  result.depth = block.size->y();
+  const double H = result.depth;
+  const Vec3d center = scene.domain.Center();
+
+  double sum = 0;
+  for (double y = d; y <= H - kHydrostaticTopLayers * d + 1e-9; y += d) {
+    ProbeSpec probe;
+    probe.kind = ProbeKind::kPressure;
+    probe.point = Vec3d(center.x(), floor + y, center.z());
+    const double p = EvaluateProbes({&probe, 1}, sim.model(), sim.state()).at(0);
+    const double reference = rho0 * g * (H - y);
+    const double error = std::abs(p - reference) / (rho0 * g * H);
+    result.profile.push_back({y, p, reference});
+    result.pressure_error_max = std::max(result.pressure_error_max, error);
+    sum += error;
+  }
+  if (!result.profile.empty()) result.pressure_error_mean = sum / double(result.profile.size());
+
+  const ParticleArrays& p = sim.state().particles;
+  double compression = 0;
+  for (size_t i = 0; i < p.size(); ++i) {
+    const double e = std::max(0.0, double(p.density[i]) / rho0 - 1);
+    compression += e;
+    result.density_error_max = std::max(result.density_error_max, e);
+    result.max_speed = std::max(result.max_speed, double(p.velocity[i].norm()));
+  }
+  result.density_error_mean = p.size() ? compression / double(p.size()) : 0;
+  return result;
+}
+
+DamBreakResult RunDamBreak(const ValidationOptions& options) {
+  Simulation sim(ValidationScene("dam_break_martin_moyce", options));
+  const Scene& scene = sim.scene();
+  DamBreakResult result;
+  const double d = sim.params().particle_spacing;
+  const double a = scene.fluid_blocks.at(0).size->x();
+  const double g = std::abs(sim.params().gravity);
+  const double x_wall = scene.domain.min.x();
+  result.column_width = a;
+  const double time_unit = std::sqrt(a / (2 * g));  // t = T sqrt(a / (2 g))
+
+  double sum2 = 0;
+  int count = 0;
+  for (const MartinMoyceRow& row : MartinMoyce1952Front()) {
+    const double t = row.T * time_unit;
+    while (sim.state().time < t) sim.Step(t);
+    double front = -1e300;
+    for (const Vec3& x : sim.state().particles.position) front = std::max(front, double(x.x()));
+    const double Z = (front + 0.5 * d - x_wall) / a;
+    result.rows.push_back({row.T, Z, row.Z});
+    if (row.T > 0) {
+      const double e = std::abs(Z - row.Z) / row.Z;
+      sum2 += e * e;
+      result.max_error = std::max(result.max_error, e);
+      ++count;
+    }
+  }
+  result.rms_error = count ? std::sqrt(sum2 / count) : 0;
+  result.run = RunInfo(sim);
+  return result;
+}
+
+}  // namespace dysa

@@ -1,0 +1,102 @@
+// Tests of server/core/src/boundary_particles.{h,cc}: samples lie behind the surfaces, a flat
+// wall's particles weigh like the fluid they replace, and a fluid lattice at rest has the rest
+// density everywhere, walls, edges and corners included.
+#include "boundary_particles.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "dysa/core/scene.h"
+#include "dysa/core/simulation.h"
+#include "solvers/wcsph/becker_teschner_solver.h"
+
+namespace dysa {
+namespace {
+
+const Aabb kDomain{Vec3d(0, 0, 0), Vec3d(0.4, 0.2, 0.1)};
+constexpr double kD = 0.02;
+
+TEST(SampleDomainWallsTest, TwoLayersOutsideTheDomainOnEverySide) {
+  std::vector<Vec3> points, fluid_side;
+  SampleDomainWalls(kDomain, kD, 2, points, &fluid_side);
+  // The lattice of the grown box (24 x 14 x 9) less the domain's (20 x 10 x 5).
+  EXPECT_EQ(points.size(), 24u * 14 * 9 - 20 * 10 * 5);
+  for (const Vec3& p : points) {
+    const Vec3d x = p.cast<double>();
+    EXPECT_FALSE(kDomain.Contains(x));
+    EXPECT_TRUE((Aabb{kDomain.min - Vec3d::Constant(2 * kD), kDomain.max + Vec3d::Constant(2 * kD)})
+                    .Contains(x));
+  }
+  for (const Vec3& p : fluid_side) EXPECT_TRUE(kDomain.Contains(p.cast<double>()));
+}
+
+TEST(SampleObstaclesTest, SpheresAndBoxesAreSampledInside) {
+  std::vector<Vec3> points, fluid_side;
+  const SphereObstacle sphere{Vec3d(0.1, 0.1, 0.05), 0.05};
+  SampleSphere(sphere, kD, 2, points, &fluid_side);
+  ASSERT_FALSE(points.empty());
+  for (const Vec3& p : points) {
+    const double r = (p.cast<double>() - sphere.center).norm();
+    EXPECT_LT(r, sphere.radius);
+    EXPECT_GT(r, sphere.radius - 2 * kD);
+  }
+  for (const Vec3& p : fluid_side) EXPECT_GT((p.cast<double>() - sphere.center).norm(), 0.05);
+  // About 4 pi r^2 / d^2 points on the outer shell (r = R - d/2).
+  const double shell = 4 * M_PI * 0.04 * 0.04 / (kD * kD);
+  EXPECT_NEAR(double(points.size()), shell + 4 * M_PI * 0.02 * 0.02 / (kD * kD), 2);
+
+  points.clear();
+  const Aabb box{Vec3d(0.2, 0, 0), Vec3d(0.3, 0.12, 0.1)};
+  SampleBox(box, kD, 2, points);
+  EXPECT_EQ(points.size(), 5u * 6 * 5 - 1 * 2 * 1);  // all but the core deeper than 2 d
+  for (const Vec3& p : points) EXPECT_TRUE(box.Contains(p.cast<double>()));
+}
+
+Scene FilledDomain() {
+  Scene scene = ParseScene(R"({
+    "domain": {"min": [0, 0, 0], "max": [0.4, 0.2, 0.1]},
+    "fluid_blocks": [{"center": [0.2, 0.1, 0.05], "size": [0.4, 0.2, 0.1]}],
+    "solver": "wcsph",
+    "params": {"particle_spacing": 0.02, "gravity": 0}
+  })");
+  return scene;
+}
+
+TEST(BoundaryParticlesTest, FlatWallsWeighLikeTheFluidTheyReplace) {
+  const Simulation sim(FilledDomain());
+  const BoundaryParticles boundary(sim.model(), kD, 2 * kD);
+  ASSERT_GT(boundary.size(), 0u);
+  // Every wall of a box is a lattice plane, so the volume of every particle of the layer next
+  // to the fluid (faces, edges, corners) is d^3. (The outer layer lacks neighbours beyond it
+  // and weighs more, but it is 2 d from any fluid particle, where the kernel is 0.)
+  const NeighborGrid& grid = boundary.grid();
+  int inner = 0;
+  for (size_t b = 0; b < boundary.size(); ++b) {
+    const Vec3d x(grid.xs()[b], grid.ys()[b], grid.zs()[b]);
+    const Vec3d outside = (kDomain.min - x).cwiseMax(x - kDomain.max).cwiseMax(0.0);
+    if (outside.maxCoeff() > kD) continue;
+    ++inner;
+    EXPECT_NEAR(boundary.volume()[b], kD * kD * kD, 1e-3 * kD * kD * kD);
+  }
+  EXPECT_EQ(inner, 22 * 12 * 7 - 20 * 10 * 5);
+}
+
+TEST(BoundaryParticlesTest, AFluidLatticeAtRestHasTheRestDensityAtEveryWall) {
+  Simulation sim(FilledDomain());
+  const BoundaryParticles boundary(sim.model(), kD, 2 * kD);
+  State& state = const_cast<State&>(sim.state());
+  wcsph::SortIntoGrid(sim.model(), state);
+  wcsph::ComputeDensityAndPressure(sim.model(), boundary, state);
+  const auto& density = state.particles.density;
+  ASSERT_EQ(density.size(), 20u * 10 * 5);
+  const auto [lo, hi] = std::minmax_element(density.begin(), density.end());
+  EXPECT_NEAR(*lo, 1000, 0.1);
+  EXPECT_NEAR(*hi, 1000, 0.1);
+  // At rest nothing is compressed (to 1e-4), so no pressure pushes the lattice apart.
+  for (Real p : state.particles.pressure) EXPECT_LT(p, 1e-4 * 1000 * 50 * 50);
+}
+
+}  // namespace
+}  // namespace dysa

@@ -1,0 +1,58 @@
+// Tests of server/core/src/cfl_time_step.{h,cc}: each limit of the adaptive step binds when it
+// is the smallest, and a step never overshoots the point it must stop at.
+#include "cfl_time_step.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+namespace dysa {
+namespace {
+
+Params Physical() {
+  Params p;
+  p.particle_spacing = 0.01;
+  p.speed_of_sound = 20;
+  p.cfl_factor = 0.25;
+  p.kinematic_viscosity = 1e-6;
+  p.max_time_step = 1;
+  return p;
+}
+
+TEST(CflLimitsTest, SoundLimitGrowsSlowerWithSpeed) {
+  const Params p = Physical();
+  const TimeStepLimits still = CflLimits(p, 0, 0);
+  EXPECT_DOUBLE_EQ(still.sound, 0.25 * 0.01 / 20);
+  EXPECT_EQ(still.force, TimeStepLimits::kNone);  // no acceleration: no force limit
+  EXPECT_DOUBLE_EQ(still.Min(), still.sound);
+  EXPECT_DOUBLE_EQ(CflLimits(p, 5, 0).sound, 0.25 * 0.01 / 25);
+}
+
+TEST(CflLimitsTest, ViscousForceAndMaxLimitsBindWhenSmallest) {
+  Params p = Physical();
+  p.kinematic_viscosity = 1;  // 0.125 h^2 / nu = 1.25e-5 s < sound 1.25e-4 s
+  EXPECT_DOUBLE_EQ(CflLimits(p, 0, 0).Min(), 0.125 * 0.01 * 0.01 / 1);
+  p = Physical();
+  const double a = 1e5;  // 0.25 sqrt(h / a) = 7.9e-5 s
+  EXPECT_DOUBLE_EQ(CflLimits(p, 0, a).Min(), 0.25 * std::sqrt(0.01 / a));
+  p.max_time_step = 1e-6;
+  EXPECT_DOUBLE_EQ(CflLimits(p, 0, a).Min(), 1e-6);
+  p = Physical();
+  p.kinematic_viscosity = 0;
+  EXPECT_EQ(CflLimits(p, 0, 0).viscous, TimeStepLimits::kNone);
+}
+
+TEST(ChooseTimeStepTest, TakesTheRestOrSplitsItEvenly) {
+  TimeStepLimits limits;
+  limits.sound = 1.0;
+  EXPECT_EQ(ChooseTimeStep(limits, TimeStepLimits::kNone), 1.0);
+  EXPECT_EQ(ChooseTimeStep(limits, 5.0), 1.0);
+  EXPECT_EQ(ChooseTimeStep(limits, 0.4), 0.4);  // fits: all of it
+  EXPECT_EQ(ChooseTimeStep(limits, 1.0), 1.0);
+  EXPECT_EQ(ChooseTimeStep(limits, 1.5), 0.75);  // two steps anyway: no sliver
+  EXPECT_EQ(ChooseTimeStep(limits, 2.0), 1.0);
+  EXPECT_EQ(ChooseTimeStep(limits, 0.0), 1.0);  // no cap
+}
+
+}  // namespace
+}  // namespace dysa
