@@ -9,6 +9,7 @@
 #include "dysa/core/scene.h"
 #include "dysa/core/solver.h"
 #include "run_command.h"
+#include "validate_command.h"
 
 #ifdef DYSA_WITH_REMOTE
 #include <atomic>
@@ -268,6 +269,18 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1, 1 << 30));
   run_cmd->footer(ParameterHelp());
 
+  dysa::ValidateOptions validate;
+  CLI::App* validate_cmd = app.add_subcommand(
+      "validate",
+      "Run the validation cases (hydrostatic tank, Martin & Moyce dam break) offline and print "
+      "their errors; exits 1 when a target is missed");
+  validate_cmd->add_flag("--quick", validate.quick,
+                         "Coarse resolutions with the CI test's bounds (about a minute)");
+  validate_cmd->add_option("--solver", validate.solver, "Solver instead of the scenes' (wcsph)");
+  validate_cmd->add_option("--set", validate.sets, "Override a parameter, NAME=VALUE (repeatable)");
+  validate_cmd->add_option("--threads", validate.threads, "OpenMP threads (default: all cores)")
+      ->check(CLI::Range(1, 1024));
+
 #ifdef DYSA_WITH_REMOTE
   RemoteCommands remote(app);
 #endif
@@ -292,6 +305,14 @@ int main(int argc, char** argv) {
     } catch (const std::exception& e) {
       std::cerr << "dysa run: error: " << e.what() << "\n";
       return 1;
+    }
+  }
+  if (validate_cmd->parsed()) {
+    try {
+      return dysa::RunValidate(validate, std::cout);
+    } catch (const std::exception& e) {
+      std::cerr << "dysa validate: error: " << e.what() << "\n";
+      return 2;
     }
   }
   return 0;

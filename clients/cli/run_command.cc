@@ -2,6 +2,7 @@
 
 #include <omp.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -83,7 +84,11 @@ void RunOffline(const RunOptions& options, std::ostream& out, std::ostream& prog
   Simulation sim(std::move(scene));
   const Scene& sc = sim.scene();
   const double end_time = options.end_time.value_or(sc.end_time);
-  const double frame_time = sim.model().dt * sim.params().iterations_per_frame;
+  // A physical solver's steps are CFL-adaptive: each is capped so that it lands exactly on the
+  // next probe row, VTK frame or the end (so rows are at exact multiples of the interval).
+  const bool adaptive = sim.model().physical;
+  const double frame_time =
+      adaptive ? sim.model().FrameTime() : sim.model().dt * sim.params().iterations_per_frame;
   const double interval = sc.probe_interval.value_or(frame_time);
 
   const std::filesystem::path dir(options.out_dir);
@@ -93,7 +98,10 @@ void RunOffline(const RunOptions& options, std::ostream& out, std::ostream& prog
   if (options.vtk_every > 0) vtk.emplace(dir, "frames");
 
   out << "scene " << sc.name << ": " << sim.state().particles.size() << " particles, solver "
-      << sc.solver << ", dt " << sim.model().dt << " s, "
+      << sc.solver << ", "
+      << (adaptive ? "adaptive dt <= " + Number(sim.params().max_time_step)
+                   : "dt " + Number(sim.model().dt))
+      << " s, "
       << (options.steps ? std::to_string(*options.steps) + " steps"
                         : "until t = " + Number(end_time) + " s")
       << ", output in " << dir.string() << "\n";
@@ -101,22 +109,38 @@ void RunOffline(const RunOptions& options, std::ostream& out, std::ostream& prog
   probes.Write(sim);
   if (vtk) vtk->WriteFrame(sim.state().particles, 0.0);
   double next_output = interval;
+  const double vtk_interval = frame_time * std::max(options.vtk_every, 1);
+  double next_vtk = vtk_interval;
   const auto start = Clock::now();
   auto last_progress = start;
   auto done = [&] {
-    return options.steps ? sim.state().step >= *options.steps
-                         : sim.state().time + 0.5 * sim.model().dt >= end_time;
+    if (options.steps) return sim.state().step >= *options.steps;
+    return adaptive ? sim.state().time >= end_time
+                    : sim.state().time + 0.5 * sim.model().dt >= end_time;
   };
   while (!done()) {
-    sim.Step();
+    if (adaptive) {
+      double until = std::min(next_output, options.steps ? next_output : end_time);
+      if (vtk) until = std::min(until, next_vtk);
+      sim.Step(until);
+    } else {
+      sim.Step();
+    }
     const State& st = sim.state();
     if (st.time + 1e-9 * interval >= next_output) {
       probes.Write(sim);
       while (next_output <= st.time + 1e-9 * interval) next_output += interval;
     }
-    const uint64_t ipf = uint64_t(sim.params().iterations_per_frame);
-    if (vtk && st.step % ipf == 0 && (st.step / ipf) % uint64_t(options.vtk_every) == 0) {
-      vtk->WriteFrame(st.particles, st.time);
+    if (adaptive) {
+      if (vtk && st.time + 1e-9 * vtk_interval >= next_vtk) {
+        vtk->WriteFrame(st.particles, st.time);
+        while (next_vtk <= st.time + 1e-9 * vtk_interval) next_vtk += vtk_interval;
+      }
+    } else {
+      const uint64_t ipf = uint64_t(sim.params().iterations_per_frame);
+      if (vtk && st.step % ipf == 0 && (st.step / ipf) % uint64_t(options.vtk_every) == 0) {
+        vtk->WriteFrame(st.particles, st.time);
+      }
     }
     const auto now = Clock::now();
     if (options.progress && Seconds(now - last_progress) > 0.25) {

@@ -95,6 +95,31 @@ TEST(RunOfflineTest, WritesProbesCsvWithAHeaderAndARowPerFrame) {
   EXPECT_FALSE(fs::exists(fs::path(options.out_dir) / "frames.pvd"));  // no --vtk-every
 }
 
+// wcsph takes adaptive steps; each probe row still lands on an exact multiple of the interval.
+TEST(RunOfflineTest, AdaptiveSolverWritesProbeRowsAtExactTimes) {
+  TempDir dir;
+  RunOptions options;
+  options.scene = "dam_break_martin_moyce";
+  options.sets = {"particle_spacing=0.0057"};  // 10 x 20 x 1 particles: quick
+  options.end_time = 0.02;
+  options.out_dir = (dir.path() / "out").string();
+  std::ostringstream out, progress;
+  RunOffline(options, out, progress);
+  EXPECT_THAT(out.str(), HasSubstr("solver wcsph, adaptive dt <= 0.001 s"));
+  EXPECT_THAT(out.str(), HasSubstr("wall_contact"));
+  const std::vector<std::string> lines =
+      Split(ReadFile(fs::path(options.out_dir) / "probes.csv"), '\n');
+  // probe_interval 0.005 s: rows at 0, 0.005, ..., 0.02.
+  ASSERT_EQ(lines.size(), 1u + 5);
+  int previous_step = -1;
+  for (size_t r = 1; r < lines.size(); ++r) {
+    const std::vector<std::string> cells = Split(lines[r], ',');
+    EXPECT_NEAR(std::stod(cells[0]), 0.005 * double(r - 1), 1e-12) << lines[r];
+    EXPECT_GT(std::stoi(cells[1]), previous_step + (r > 1 ? 10 : 0));  // many steps per row
+    previous_step = std::stoi(cells[1]);
+  }
+}
+
 TEST(RunOfflineTest, PrintsEveryPassAndTheThroughput) {
   TempDir dir;
   std::ostringstream out, progress;

@@ -14,6 +14,7 @@
 #include <thread>
 
 #include "dysa/codec/frame_codec.h"
+#include "dysa/core/model.h"
 #include "dysa/core/solver.h"
 #include "dysa/v1/simulation.grpc.pb.h"
 #include "support/temp_dir.h"
@@ -285,9 +286,11 @@ TEST(ServerTest, GetSceneDescribesEveryBuiltInScene) {
       ExpectVec3(d.boxes(int(i)).min(), scene.boxes[i].box.min, "box min");
       ExpectVec3(d.boxes(int(i)).max(), scene.boxes[i].box.max, "box max");
     }
-    // Plausible: a fraction of the smoothing radius, far below the domain.
-    EXPECT_GT(d.particle_radius(), 0.1 * scene.params.smoothing_radius);
-    EXPECT_LT(d.particle_radius(), scene.params.smoothing_radius);
+    // Plausible: a fraction of the kernel's radius (the seed's smoothing radius, 2 spacings for
+    // the physical solvers), far below the domain.
+    const double support = MakeModel(scene, scene.params).kernel_support;
+    EXPECT_GT(d.particle_radius(), 0.1 * support);
+    EXPECT_LT(d.particle_radius(), support);
   }
 
   // seed_obstacles by the numbers of scenes/seed_obstacles.json.

@@ -7,9 +7,15 @@
 //   Tait EOS     p_i = B ((rho_i / rho0)^gamma - 1), B = rho0 c0^2 / gamma, gamma = 7 (eq. 7),
 //                clamped at 0: a free surface's kernel deficit must not pull particles together
 //   pressure     a_i = -sum_j m (p_i / rho_i^2 + p_j / rho_j^2) grad W_ij          (eq. 6)
-//                      -sum_b Psi_b (2 p_i / rho_i^2) grad W_ib
-//                the boundary term mirrors the fluid's pressure and density onto the boundary
-//                particle (p_b = p_i, rho_b = rho_i; Akinci et al. 2012, sec. 4.1)
+//                      -sum_b Psi_b (p_i / rho_i^2 + p_b / rho_b^2) grad W_ib
+//                with the boundary particle's pressure extrapolated from the fluid around it,
+//                p_b = sum_f (p_f + rho_f g . (x_b - x_f)) W_bf / sum_f W_bf (Adami, Hu, Adams
+//                2012, "A generalized wall boundary condition for SPH", eq. 27), clamped at 0,
+//                and rho_b from p_b by the inverse Tait equation. Akinci's mirrored pressure
+//                (p_b = p_i) gives either a spurious push into the wall (Akinci's eq. 10,
+//                p_i / rho_i^2 alone) or, symmetrised, a non-conservative force that made the
+//                hydrostatic tank unstable; the extrapolated pressure carries the hydrostatic
+//                gradient into the wall, which the tank needs to within 2%.
 //   viscosity    a_i += 2 (dim + 2) nu sum_j (m / rho_j) (v_ij . x_ij) / (|x_ij|^2 + 0.01 h^2)
 //                       grad W_ij: the laminar viscosity of Morris et al. 1997 in the form of
 //                Monaghan 2005 (sec. 5.6), with a physical kinematic viscosity nu (m^2/s). It
@@ -22,14 +28,15 @@
 //                splash or surge tip has a density below rho0 and no pressure, and would sink
 //                through them. At rest the first fluid layer is d/2 from a wall, outside r0,
 //                so the force is 0 there and hydrostatics are unaffected.
-//   gravity      g(t) = g min(1, (1 - cos(pi t / T)) / 2) for a ramp time T (0: none)
+//   gravity      g(t) = g (1 - cos(pi t / T)) / 2 for t < T, g after (ramp time T; 0: none)
 //   integration  semi-implicit (symplectic) Euler, v += a dt; x += v dt, with the CFL step of
 //                cfl_time_step.h; the speed of sound c0 >= 10 v_max keeps density variations
 //                near 1% (Becker & Teschner, sec. 3.1; Monaghan 1994).
 // Every neighbour loop gathers into the particle it is for, reading the state of the previous
 // pass, so a step is bit-identical for any thread count. The positions are finally clamped to
-// the domain (velocity into the wall removed) as a last resort only: the boundary particles'
-// pressure holds the fluid well inside it.
+// the domain (velocity into the wall removed) as a last resort only: the boundary particles and
+// the contact force hold the fluid inside it (becker_teschner_solver_test checks that the clamp
+// never acts in a dam break past obstacles).
 #pragma once
 
 #include <memory>

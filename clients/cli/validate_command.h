@@ -1,0 +1,21 @@
+// `dysa validate`: the validation cases of dysa/core/validation.h with their errors and targets.
+#pragma once
+
+#include <iosfwd>
+#include <string>
+#include <vector>
+
+namespace dysa {
+
+struct ValidateOptions {
+  bool quick = false;             // the coarse resolutions of the CI test (tests/validation)
+  std::string solver;             // "": the scenes' (wcsph)
+  int threads = 0;                // 0: OpenMP's default
+  std::vector<std::string> sets;  // NAME=VALUE overrides for every case
+};
+
+// Runs every case, prints one table row per measure (value, target, ok/MISSED) to `out`, and
+// returns 0 when every target is met, 1 otherwise. Throws ConfigError for bad options.
+int RunValidate(const ValidateOptions& options, std::ostream& out);
+
+}  // namespace dysa
