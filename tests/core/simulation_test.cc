@@ -169,6 +169,29 @@ TEST(SimulationTest, StepAdvancesTimeByDtAndStepFrameByAFrame) {
   EXPECT_NEAR(sim.state().time, 4 * dt, 1e-12);
 }
 
+TEST(SimulationTest, ANonFiniteStateStopsTheSimulationWithAnAlarm) {
+  Simulation sim(BasicScene(6));
+  sim.StepFrame();
+  EXPECT_EQ(sim.alarm(), "");
+  Checkpoint broken = sim.SaveCheckpoint();
+  broken.velocity[5].x() = std::numeric_limits<Real>::quiet_NaN();
+  sim.RestoreCheckpoint(broken);
+  sim.Step();
+  EXPECT_THAT(sim.alarm(), ::testing::HasSubstr("non-finite particle state after step"));
+  // Stopped: nothing advances until a reset.
+  const uint64_t step = sim.state().step;
+  const double time = sim.state().time;
+  sim.StepFrame();
+  sim.Step();
+  EXPECT_EQ(sim.state().step, step);
+  EXPECT_EQ(sim.state().time, time);
+  sim.Reset();
+  EXPECT_EQ(sim.alarm(), "");
+  sim.StepFrame();
+  EXPECT_EQ(sim.alarm(), "");
+  EXPECT_TRUE(StateIsFinite(sim.state().particles));
+}
+
 TEST(SimulationTest, ResetRestoresTimeStepAndTheInitialState) {
   Simulation sim(BasicScene(8));
   const uint64_t initial = StateHash(sim.state());

@@ -42,15 +42,17 @@ uint64_t StateHash(const State& state) {
 
 bool StateIsFinite(const ParticleArrays& particles) {
   // Branch-free per particle, so the loop vectorises; x - x is NaN exactly when x is not finite.
-  bool finite = true;
-  for (size_t i = 0; i < particles.size(); ++i) {
+  int finite = 1;
+  const int64_t n = int64_t(particles.size());
+#pragma omp parallel for reduction(& : finite) schedule(static)
+  for (int64_t i = 0; i < n; ++i) {
     const Vec3& x = particles.position[i];
     const Vec3& v = particles.velocity[i];
     const Real sum = (x.x() - x.x()) + (x.y() - x.y()) + (x.z() - x.z()) + (v.x() - v.x()) +
                      (v.y() - v.y()) + (v.z() - v.z());
     finite &= sum == 0;
   }
-  return finite;
+  return finite != 0;
 }
 
 }  // namespace dysa

@@ -144,11 +144,10 @@ void SimulationHost::Loop() {
 
 void SimulationHost::AdvanceFrame() {
   sim_->StepFrame();
-  if (!StateIsFinite(sim_->state().particles)) {
-    const State& s = sim_->state();
-    alarm_ = "non-finite particle state at step " + std::to_string(s.step) + " (frame " +
-             std::to_string(s.frame) +
-             "): the solver diverged; paused. Step back, reset, or lower the time step";
+  if (!sim_->alarm().empty()) {
+    // The core stopped at the first step that diverged.
+    alarm_ = sim_->alarm() + " (frame " + std::to_string(sim_->state().frame) +
+             "); paused. Step back, reset, or lower the time step";
     running_ = false;
     Log("alarm: " + alarm_);
     RefreshStatus();

@@ -60,6 +60,11 @@ class Simulation {
   void StepFrame();
   // The step the latest Step() took, s.
   double last_dt() const { return state_.dt; }
+  // Empty while the state is healthy. Otherwise why the simulation stopped by itself: a NaN or
+  // Inf in a position or velocity after a step, or an adaptive step that collapsed to zero.
+  // Step() and StepFrame() then do nothing (nothing integrates or shows garbage) until Reset(),
+  // RestoreCheckpoint() or a parameter change that resets.
+  const std::string& alarm() const { return alarm_; }
   // Re-spawns the particles from the scene with the current parameters; time and step go to 0.
   void Reset();
 
@@ -87,6 +92,7 @@ class Simulation {
   std::unique_ptr<Solver> solver_;
   std::vector<Pass> passes_;
   std::vector<PassProfile> profile_;
+  std::string alarm_;
 };
 
 // Creates the particles of every fluid block (positions, velocities, ids) from the scene and
