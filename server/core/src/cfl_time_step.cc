@@ -8,10 +8,11 @@ namespace dysa {
 
 double TimeStepLimits::Min() const { return std::min({sound, viscous, force, max}); }
 
-TimeStepLimits CflLimits(const Params& params, double v_max, double a_max) {
+TimeStepLimits CflLimits(const Params& params, double v_max, double a_max, bool acoustic) {
   const double h = params.particle_spacing;
   TimeStepLimits limits;
-  limits.sound = params.cfl_factor * h / (params.speed_of_sound + v_max);
+  const double speed = acoustic ? params.speed_of_sound + v_max : v_max;
+  if (speed > 0) limits.sound = params.cfl_factor * h / speed;
   if (params.kinematic_viscosity > 0) limits.viscous = 0.125 * h * h / params.kinematic_viscosity;
   if (a_max > 0) limits.force = 0.25 * std::sqrt(h / a_max);
   limits.max = params.max_time_step;
@@ -26,7 +27,9 @@ double ChooseTimeStep(const TimeStepLimits& limits, double until) {
   return dt;
 }
 
-void ChooseTimeStepPass(const Model& model, State& state) {
+namespace {
+
+void ChooseStep(const Model& model, State& state, bool acoustic) {
   const ParticleArrays& p = state.particles;
   const int64_t n = int64_t(p.size());
   // Maxima are exact whatever the order they are taken in, so the reduction is deterministic.
@@ -38,8 +41,16 @@ void ChooseTimeStepPass(const Model& model, State& state) {
     a2_max = std::max(a2_max, state.acceleration[i].squaredNorm());
   }
   const TimeStepLimits limits =
-      CflLimits(model.params, std::sqrt(double(v2_max)), std::sqrt(double(a2_max)));
+      CflLimits(model.params, std::sqrt(double(v2_max)), std::sqrt(double(a2_max)), acoustic);
   state.dt = ChooseTimeStep(limits, state.max_dt);
+}
+
+}  // namespace
+
+void ChooseTimeStepPass(const Model& model, State& state) { ChooseStep(model, state, true); }
+
+void ChooseIncompressibleTimeStepPass(const Model& model, State& state) {
+  ChooseStep(model, state, false);
 }
 
 }  // namespace dysa

@@ -26,7 +26,9 @@ struct TimeStepLimits {
   double Min() const;
 };
 
-TimeStepLimits CflLimits(const Params& params, double v_max, double a_max);
+// `acoustic`: the sound limit of a weakly compressible solver; an incompressible one (dfsph)
+// takes lambda h / v_max instead (none when nothing moves).
+TimeStepLimits CflLimits(const Params& params, double v_max, double a_max, bool acoustic = true);
 
 // The step for `limits` when at most `until` seconds remain before a point the step must not
 // pass (the end of a frame): the limit itself; all that remains when it fits; half of it when
@@ -36,5 +38,7 @@ double ChooseTimeStep(const TimeStepLimits& limits, double until);
 // The `time_step` pass: v_max and |a|_max over the particles (state.velocity, state.acceleration
 // of this step), then state.dt = ChooseTimeStep(..., state.max_dt).
 void ChooseTimeStepPass(const Model& model, State& state);
+// The same without the speed of sound (dfsph).
+void ChooseIncompressibleTimeStepPass(const Model& model, State& state);
 
 }  // namespace dysa

@@ -59,6 +59,12 @@ const std::array kParamTable = {
     DYSA_PARAM(cfl_factor, "", 0.01, 1.0, kLive,
                "wcsph: CFL number lambda of dt <= lambda d / (c0 + v_max)"),
     DYSA_PARAM(max_time_step, "s", 1e-7, 1.0, kLive, "wcsph: upper bound of the adaptive step"),
+    DYSA_PARAM(density_tolerance, "", 1e-7, 0.1, kLive,
+               "dfsph: mean density error (rho - rho0) / rho0 the density solve stops at"),
+    DYSA_PARAM(divergence_tolerance, "", 1e-7, 0.1, kLive,
+               "dfsph: mean (D rho / Dt) dt / rho0 the divergence solve stops at"),
+    DYSA_PARAM(max_iterations, "", 1, 10000, kLive,
+               "dfsph: iteration cap of each solve (reaching it is counted in the solver stats)"),
     DYSA_PARAM(gravity_ramp_time, "s", 0.0, 100.0, kLive,
                "wcsph: gravity grows smoothly from 0 to its value over this time (0: at once)"),
 };

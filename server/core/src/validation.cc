@@ -98,6 +98,7 @@ HydrostaticResult RunHydrostaticTank(const ValidationOptions& options) {
     result.max_speed = std::max(result.max_speed, double(p.velocity[i].norm()));
   }
   result.density_error_mean = p.size() ? compression / double(p.size()) : 0;
+  result.capped_solves = sim.state().solver_stats.capped_solves;
   return result;
 }
 

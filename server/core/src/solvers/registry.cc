@@ -1,6 +1,7 @@
 #include <array>
 
 #include "dysa/core/solver.h"
+#include "solvers/dfsph/bender_koschier_solver.h"
 #include "solvers/seed/seed_solver.h"
 #include "solvers/wcsph/becker_teschner_solver.h"
 
@@ -17,6 +18,10 @@ const std::array kSolvers = {
                "boundaries: Akinci et al. 2012, Versatile rigid-fluid coupling for "
                "incompressible SPH (SIGGRAPH)",
                wcsph::CreateBeckerTeschnerSolver, /*physical=*/true},
+    SolverInfo{"dfsph",
+               "Bender, Koschier 2015/2017, Divergence-free smoothed particle hydrodynamics "
+               "(SCA 2015; IEEE TVCG 2017); boundaries: Akinci et al. 2012",
+               dfsph::CreateBenderKoschierSolver, /*physical=*/true},
 };
 
 }  // namespace

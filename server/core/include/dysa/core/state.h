@@ -44,6 +44,18 @@ struct State {
   double dt = 0;
   double max_dt = 0;  // s, a cap on this step's dt from the caller (the end of a frame)
 
+  // Diagnostics of an iterative pressure solver (dfsph): the latest step's iterations and
+  // errors, and how many solves since the start stopped at max_iterations before reaching
+  // their tolerance. Not part of a checkpoint: nothing reads them back.
+  struct SolverStats {
+    int density_iterations = 0;
+    int divergence_iterations = 0;
+    double density_error = 0;     // mean (rho - rho0) / rho0 at the end of the density solve
+    double divergence_error = 0;  // mean (D rho / Dt) dt / rho0 at the end of the divergence solve
+    uint64_t capped_solves = 0;
+  } solver_stats;
+  std::vector<Real> solver_scratch;  // per particle, the solvers' work arrays
+
   double time = 0;     // s, simulated
   uint64_t step = 0;   // steps since the last reset
   uint64_t frame = 0;  // frames (Simulation::StepFrame) since the last reset

@@ -40,6 +40,8 @@ struct HydrostaticResult {
   double density_error_mean = 0;
   double density_error_max = 0;
   double max_speed = 0;  // m/s at the end: the tank should be at rest
+  // An iterative solver's (dfsph) solves that stopped at max_iterations, over the run.
+  uint64_t capped_solves = 0;
   struct Sample {
     double y, pressure, reference;  // m, Pa, Pa
   };

@@ -1,0 +1,247 @@
+#include "solvers/dfsph/bender_koschier_solver.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+
+#include "cfl_time_step.h"
+#include "common_passes.h"
+#include "dysa/core/kernels.h"
+#include "solvers/wcsph/becker_teschner_solver.h"
+#include "sph_loops.h"
+
+namespace dysa::dfsph {
+namespace {
+
+// The solvers' per-particle arrays, in state.solver_scratch: alpha_i, kappa_i of the current
+// iteration, the error of particle i, and the density solve's accumulated kappa (for p_i).
+struct Work {
+  Real* alpha;
+  Real* kappa;
+  Real* error;
+  Real* kappa_sum;
+};
+
+Work Arrays(State& state) {
+  const size_t n = state.particles.size();
+  state.solver_scratch.resize(4 * n);
+  Real* base = state.solver_scratch.data();
+  return {base, base + n, base + 2 * n, base + 3 * n};
+}
+
+void DensityAndFactor(const Model& model, const BoundaryParticles& boundary, State& state) {
+  ParticleArrays& p = state.particles;
+  const Work w = Arrays(state);
+  const Real support = Real(model.kernel_support);
+  const Real mass = Real(model.particle_mass);
+  const Real rho0 = Real(model.params.rest_density);
+  const Real* volume = boundary.padded_volume();
+  const int64_t n = int64_t(p.size());
+#pragma omp parallel for schedule(static)
+  for (int64_t i = 0; i < n; ++i) {
+    const Eigen::Vector3i cell = state.grid.SortedCell(uint32_t(i));
+    const Vec3& x = p.position[i];
+    Real fluid = 0, squares = 0;
+    Vec3 grad = Vec3::Zero();
+    ForEachWithin(state.grid, cell, x, support, [&](uint32_t, const Vec3& xij, Real r) {
+      fluid += CubicSpline<Real>::W(r, support);
+      const Vec3 g = mass * GradW(xij, r, support);
+      grad += g;
+      squares += g.squaredNorm();
+    });
+    Real wall = 0;
+    ForEachWithin(boundary.grid(), cell, x, support, [&](uint32_t b, const Vec3& xib, Real r) {
+      wall += volume[b] * CubicSpline<Real>::W(r, support);
+      grad += (rho0 * volume[b]) * GradW(xib, r, support);
+    });
+    const Real rho = mass * fluid + rho0 * wall;
+    p.density[i] = rho;
+    const Real denominator = grad.squaredNorm() + squares;
+    // A particle without neighbours has no pressure to solve for.
+    w.alpha[i] = denominator > Real(1e-6) * rho * rho / (support * support) ? rho / denominator : 0;
+  }
+}
+
+// D rho_i / Dt = sum_j m (v_i - v_j) . grad W_ij + sum_b Psi_b v_i . grad W_ib
+Real DensityRate(const Model& model, const BoundaryParticles& boundary, const State& state,
+                 int64_t i) {
+  const ParticleArrays& p = state.particles;
+  const Real support = Real(model.kernel_support);
+  const Real mass = Real(model.particle_mass);
+  const Real rho0 = Real(model.params.rest_density);
+  const Real* volume = boundary.padded_volume();
+  const Eigen::Vector3i cell = state.grid.SortedCell(uint32_t(i));
+  const Vec3& x = p.position[i];
+  const Vec3& v = p.velocity[i];
+  Real rate = 0;
+  ForEachWithin(state.grid, cell, x, support, [&](uint32_t j, const Vec3& xij, Real r) {
+    rate += mass * (v - p.velocity[j]).dot(GradW(xij, r, support));
+  });
+  ForEachWithin(boundary.grid(), cell, x, support, [&](uint32_t b, const Vec3& xib, Real r) {
+    rate += rho0 * volume[b] * v.dot(GradW(xib, r, support));
+  });
+  return rate;
+}
+
+// v_i -= dt [sum_j m (kappa_i / rho_i + kappa_j / rho_j) grad W_ij
+//            + sum_b Psi_b (kappa_i / rho_i) grad W_ib], from the kappa of every particle.
+void ApplyKappa(const Model& model, const BoundaryParticles& boundary, State& state, Real dt) {
+  ParticleArrays& p = state.particles;
+  const Work w = Arrays(state);
+  const Real support = Real(model.kernel_support);
+  const Real mass = Real(model.particle_mass);
+  const Real rho0 = Real(model.params.rest_density);
+  const Real* volume = boundary.padded_volume();
+  const int64_t n = int64_t(p.size());
+  // kappa_j / rho_j, read by the neighbours; in the error array, free until the next iteration.
+#pragma omp parallel for schedule(static)
+  for (int64_t j = 0; j < n; ++j) w.error[j] = w.kappa[j] / p.density[j];
+#pragma omp parallel for schedule(static)
+  for (int64_t i = 0; i < n; ++i) {
+    const Eigen::Vector3i cell = state.grid.SortedCell(uint32_t(i));
+    const Vec3& x = p.position[i];
+    const Real ki = w.error[i];
+    Vec3 fluid = Vec3::Zero(), wall = Vec3::Zero();
+    ForEachWithin(state.grid, cell, x, support, [&](uint32_t j, const Vec3& xij, Real r) {
+      fluid += (ki + w.error[j]) * GradW(xij, r, support);
+    });
+    ForEachWithin(boundary.grid(), cell, x, support, [&](uint32_t b, const Vec3& xib, Real r) {
+      wall += volume[b] * GradW(xib, r, support);
+    });
+    p.velocity[i] -= dt * (mass * fluid + (rho0 * ki) * wall);
+  }
+}
+
+// The serial mean of error[0, n), so the stopping test (and the iteration count) does not
+// depend on the thread count.
+double Mean(const Real* error, size_t n) {
+  double sum = 0;
+  for (size_t i = 0; i < n; ++i) sum += error[i];
+  return n ? sum / double(n) : 0;
+}
+
+double MaxSpeed(const ParticleArrays& p) {
+  Real v2 = 0;
+  for (const Vec3& v : p.velocity) v2 = std::max(v2, v.squaredNorm());
+  return std::sqrt(double(v2));
+}
+
+void DivergenceSolve(const Model& model, const BoundaryParticles& boundary, State& state) {
+  ParticleArrays& p = state.particles;
+  const Work w = Arrays(state);
+  const int64_t n = int64_t(p.size());
+  const double rho0 = model.params.rest_density;
+  // The step these velocities will be integrated with, as the time_step pass will choose it
+  // (up to the frame's end): a function of the state, so nothing is carried between steps.
+  const double dt =
+      std::min(CflLimits(model.params, MaxSpeed(p), std::abs(model.params.gravity), false).Min(),
+               model.params.max_time_step);
+  const Real inv_dt = Real(1 / dt);
+  State::SolverStats& stats = state.solver_stats;
+  int iteration = 0;
+  for (;; ++iteration) {
+#pragma omp parallel for schedule(static)
+    for (int64_t i = 0; i < n; ++i) {
+      const Real rate = std::max(DensityRate(model, boundary, state, i), Real(0));
+      w.error[i] = rate;
+      w.kappa[i] = rate * w.alpha[i] * inv_dt;
+    }
+    stats.divergence_error = Mean(w.error, size_t(n)) * dt / rho0;
+    if (iteration >= 2 && stats.divergence_error <= model.params.divergence_tolerance) break;
+    if (iteration == model.params.max_iterations) {
+      ++stats.capped_solves;
+      break;
+    }
+    ApplyKappa(model, boundary, state, Real(dt));
+  }
+  stats.divergence_iterations = iteration;
+}
+
+void DensitySolve(const Model& model, const BoundaryParticles& boundary, State& state) {
+  ParticleArrays& p = state.particles;
+  const Work w = Arrays(state);
+  const int64_t n = int64_t(p.size());
+  const Real rho0 = Real(model.params.rest_density);
+  const Real dt = Real(state.dt);
+  const Real inv_dt2 = 1 / (dt * dt);
+  std::fill(w.kappa_sum, w.kappa_sum + n, Real(0));
+  State::SolverStats& stats = state.solver_stats;
+  int iteration = 0;
+  for (;; ++iteration) {
+#pragma omp parallel for schedule(static)
+    for (int64_t i = 0; i < n; ++i) {
+      // Only compression is an error: a free surface's kernel deficit is not.
+      const Real predicted = p.density[i] + dt * DensityRate(model, boundary, state, i);
+      const Real excess = std::max(predicted - rho0, Real(0));
+      w.error[i] = excess;
+      w.kappa[i] = excess * inv_dt2 * w.alpha[i];
+      w.kappa_sum[i] += w.kappa[i];
+    }
+    stats.density_error = Mean(w.error, size_t(n)) / rho0;
+    if (iteration >= 2 && stats.density_error <= model.params.density_tolerance) break;
+    if (iteration == model.params.max_iterations) {
+      ++stats.capped_solves;
+      break;
+    }
+    ApplyKappa(model, boundary, state, dt);
+  }
+  stats.density_iterations = iteration;
+  // p_i = rho_i kappa_i, from the kappa applied this step (the probes read it). The last
+  // iteration's kappa was not applied.
+#pragma omp parallel for schedule(static)
+  for (int64_t i = 0; i < n; ++i) {
+    p.pressure[i] = (w.kappa_sum[i] - w.kappa[i]) * p.density[i];
+  }
+}
+
+void SetGravity(const Model& model, State& state) {
+  const Vec3 g(0, Real(wcsph::GravityAt(model.params, state.time)), 0);
+  state.acceleration.assign(state.particles.size(), g);
+}
+
+void PredictVelocities(const Model&, State& state) {
+  ParticleArrays& p = state.particles;
+  const Real dt = Real(state.dt);
+  const int64_t n = int64_t(p.size());
+#pragma omp parallel for schedule(static)
+  for (int64_t i = 0; i < n; ++i) p.velocity[i] += state.acceleration[i] * dt;
+}
+
+void IntegratePositions(const Model& model, State& state) {
+  ParticleArrays& p = state.particles;
+  const Real dt = Real(state.dt);
+  const int64_t n = int64_t(p.size());
+#pragma omp parallel for schedule(static)
+  for (int64_t i = 0; i < n; ++i) {
+    p.position[i] += p.velocity[i] * dt;
+    CollideWithDomainWalls(model.domain, Real(0), p.position[i], p.velocity[i]);
+  }
+}
+
+}  // namespace
+
+std::vector<Pass> BenderKoschierSolver::BuildPasses(const Model& model) const {
+  const auto boundary = std::make_shared<const BoundaryParticles>(
+      model, model.params.particle_spacing, model.kernel_support);
+  std::vector<Pass> passes;
+  passes.push_back({"neighbour_grid", wcsph::SortIntoGrid});
+  passes.push_back(
+      {"density", [boundary](const Model& m, State& s) { DensityAndFactor(m, *boundary, s); }});
+  passes.push_back({"divergence_solve",
+                    [boundary](const Model& m, State& s) { DivergenceSolve(m, *boundary, s); }});
+  passes.push_back({"external_forces", SetGravity});
+  if (model.params.kinematic_viscosity > 0) passes.push_back({"viscosity", wcsph::AddViscosity});
+  passes.push_back({"wall_contact", wcsph::AddWallContact});
+  passes.push_back({"time_step", ChooseIncompressibleTimeStepPass});
+  passes.push_back({"predict_velocity", PredictVelocities});
+  passes.push_back(
+      {"density_solve", [boundary](const Model& m, State& s) { DensitySolve(m, *boundary, s); }});
+  passes.push_back({"integrate", IntegratePositions});
+  return passes;
+}
+
+std::unique_ptr<Solver> CreateBenderKoschierSolver() {
+  return std::make_unique<BenderKoschierSolver>();
+}
+
+}  // namespace dysa::dfsph

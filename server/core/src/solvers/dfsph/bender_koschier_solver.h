@@ -1,0 +1,44 @@
+// Divergence-free SPH: Bender, Koschier 2015, "Divergence-free smoothed particle hydrodynamics"
+// (SCA), and 2017, "Divergence-free SPH for incompressible and highly viscous fluids", IEEE
+// TVCG 23(3), Algorithm 1.
+//
+// Same discretisation as wcsph (becker_teschner_solver.h): cubic spline of support 2 d, mass
+// rho0 d^3, the Akinci boundary particles of boundary_particles.h, laminar viscosity, the wall
+// contact force, CFL-adaptive step (without a speed of sound: dt <= lambda d / v_max). Instead of
+// an equation of state two solvers find the pressure (as kappa_i = p_i / rho_i):
+//   factor       alpha_i = rho_i / (|sum_j m grad W_ij + sum_b Psi_b grad W_ib|^2
+//                                   + sum_j |m grad W_ij|^2)                       (eq. 11)
+//   acceleration a_i = -sum_j m (kappa_i / rho_i + kappa_j / rho_j) grad W_ij
+//                      -sum_b Psi_b (kappa_i / rho_i) grad W_ib
+//   divergence   kappa_i = (1 / dt) max(D rho_i / Dt, 0) alpha_i with
+//                D rho_i / Dt = sum_j m (v_i - v_j) . grad W_ij + sum_b Psi_b v_i . grad W_ib,
+//                iterated until mean (D rho / Dt) dt / rho0 <= divergence_tolerance  (eq. 15)
+//   density      kappa_i = (max(rho*_i, rho0) - rho0) / dt^2 alpha_i with the predicted
+//                rho*_i = rho_i + dt D rho_i / Dt, iterated until mean (rho* - rho0) / rho0 <=
+//                density_tolerance                                                 (eq. 17)
+// each at least twice and at most max_iterations times (state.solver_stats counts the solves
+// that stopped at the cap). The step, in the order of the passes:
+//   neighbours, rho, alpha; divergence solve on v; non-pressure accelerations; dt;
+//   v += dt a; density solve; x += dt v.
+// The divergence solve's velocity change does not depend on dt (kappa ~ 1 / dt times dt); its
+// stopping test uses the CFL step of the current velocities, so no state carries over between
+// steps and a checkpoint (positions, velocities) reproduces the following steps bit for bit.
+// Errors are summed serially in particle order, so the iteration counts do not depend on the
+// thread count.
+#pragma once
+
+#include <memory>
+
+#include "boundary_particles.h"
+#include "dysa/core/solver.h"
+
+namespace dysa::dfsph {
+
+class BenderKoschierSolver final : public Solver {
+ public:
+  std::vector<Pass> BuildPasses(const Model& model) const override;
+};
+
+std::unique_ptr<Solver> CreateBenderKoschierSolver();
+
+}  // namespace dysa::dfsph

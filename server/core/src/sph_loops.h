@@ -1,0 +1,35 @@
+// Neighbour loops shared by the physical solvers (scalar, gather-only).
+#pragma once
+
+#include <cmath>
+#include <cstdint>
+
+#include "dysa/core/kernels.h"
+#include "dysa/core/neighbor_grid.h"
+
+namespace dysa {
+
+// Calls visit(j, x_ij, r) for every point j of `grid` within `support` of `x` (cell `cell` of
+// the grid's layout), in the grid's fixed order; x_ij = x - x_j, r = |x_ij|.
+template <class Visit>
+inline void ForEachWithin(const NeighborGrid& grid, const Eigen::Vector3i& cell, const Vec3& x,
+                          Real support, Visit&& visit) {
+  const Real* xs = grid.xs().data();
+  const Real* ys = grid.ys().data();
+  const Real* zs = grid.zs().data();
+  const Real support2 = support * support;
+  grid.ForEachNeighborRun(cell, [&](uint32_t begin, uint32_t end) {
+    for (uint32_t j = begin; j < end; ++j) {
+      const Vec3 xij(x.x() - xs[j], x.y() - ys[j], x.z() - zs[j]);
+      const Real r2 = xij.squaredNorm();
+      if (r2 < support2) visit(j, xij, std::sqrt(r2));
+    }
+  });
+}
+
+// grad W(x_ij) = dW/dr x_ij / r (zero at r = 0).
+inline Vec3 GradW(const Vec3& xij, Real r, Real support) {
+  return r > 0 ? Vec3(xij * (CubicSpline<Real>::dW(r, support) / r)) : Vec3::Zero();
+}
+
+}  // namespace dysa
