@@ -551,6 +551,81 @@ TEST(PhysicsTest, ParticlesStayOutOfObstacles) {
   EXPECT_GT(hits, 0) << "the fluid never reached the sphere";
 }
 
+TEST(SpawnTest, NoParticleStartsInsideAnObstacle) {
+  const Scene scene = ParseScene(R"({
+    "domain": {"min": [-2, -2, -2], "max": [2, 2, 2]},
+    "fluid_blocks": [{"size": [2, 2, 2], "particles_per_axis": 11, "jitter": 0}],
+    "obstacles": [{"type": "sphere", "center": [0, 0, 0], "radius": 0.5},
+                  {"type": "box", "center": [0.8, 0.8, 0.8], "size": [0.5, 0.5, 0.5]}]
+  })");
+  Simulation sim(scene);
+  const ParticleArrays& p = sim.state().particles;
+  // 11^3 lattice points 0.2 m apart: the 81 within 0.5 m of the centre and the 3^3 with every
+  // coordinate in {0.6, 0.8, 1.0}, inside the box, are left out.
+  EXPECT_EQ(p.size(), 1331u - 81u - 27u);
+  std::vector<uint32_t> ids(p.id.begin(), p.id.end());
+  std::sort(ids.begin(), ids.end());
+  for (size_t i = 0; i < ids.size(); ++i) ASSERT_EQ(ids[i], i);  // still 0 .. n-1
+  for (size_t i = 0; i < p.size(); ++i) {
+    EXPECT_GE(p.position[i].cast<double>().norm(), 0.5);
+    EXPECT_FALSE((p.position[i].array() > 0.55f).all());
+  }
+}
+
+TEST(StabilityTest, BeyondTheCflLimitTheVelocityLimiterBoundsTheStateAndWarns) {
+  Scene scene = BasicScene(8);
+  SetParam(scene.params, "time_scale", 10);  // dt = 1 / 18 s: h / dt = 3.6 m/s
+  SetParam(scene.params, "iterations_per_frame", 1);
+  SetParam(scene.params, "pressure_multiplier", 1e4);
+  Simulation sim(scene);
+  bool warned = false;
+  for (int f = 0; f < 30; ++f) {
+    sim.StepFrame();
+    warned |= sim.warning().find("velocity limiter") != std::string::npos;
+    const ParticleArrays& p = sim.state().particles;
+    for (size_t i = 0; i < p.size(); ++i) {
+      ASSERT_LE(p.velocity[i].norm(), 3.6f * 1.0001f) << "frame " << f;
+    }
+  }
+  EXPECT_TRUE(warned);
+  EXPECT_EQ(sim.alarm(), "");
+  // The thesis's own settings never reach the limit.
+  Simulation basic(BasicScene(8));
+  for (int f = 0; f < 30; ++f) {
+    basic.StepFrame();
+    ASSERT_EQ(basic.warning(), "") << "frame " << f;
+  }
+}
+
+TEST(StabilityTest, ViscosityFarBeyondItsStepLimitOnlyTakesEnergyAway) {
+  // Random velocities, no gravity or pressure: viscosity alone, 1000 times the thesis's.
+  Scene scene = FreeBlockScene(/*viscosity=*/10.0, /*near_pressure=*/0);
+  SetParam(scene.params, "pressure_multiplier", 0);
+  Simulation sim(scene);
+  Checkpoint random = sim.SaveCheckpoint();
+  uint64_t state = 12345;
+  for (Vec3& v : random.velocity) {
+    for (int a = 0; a < 3; ++a) {
+      state = state * 6364136223846793005ull + 1442695040888963407ull;
+      v[a] = Real(double(state >> 11) * 0x1.0p-53 * 4 - 2);
+    }
+  }
+  sim.RestoreCheckpoint(random);
+  auto kinetic = [&] {
+    double sum = 0;
+    for (const Vec3& v : sim.state().particles.velocity) sum += double(v.squaredNorm());
+    return sum;
+  };
+  double previous = kinetic();
+  ASSERT_GT(previous, 0);
+  for (int s = 0; s < 30; ++s) {
+    sim.Step();
+    const double now = kinetic();
+    EXPECT_LE(now, previous * (1 + 1e-4)) << "step " << s;
+    previous = now;
+  }
+}
+
 TEST(SpawnParticleRadiusTest, TakesTheSmallestSpacingOverBlocksAndAxes) {
   Scene scene = ParseScene(R"({"fluid_blocks": [
       {"size": [1, 2, 3], "particles_per_axis": [11, 11, 1]},

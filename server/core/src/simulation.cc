@@ -56,6 +56,7 @@ void Simulation::Step(double until) {
 }
 
 void Simulation::StepFrame() {
+  state_.warning.clear();
   if (model_.physical) {
     // A frame is a fixed slice of simulated time whatever steps the CFL condition allows.
     const double end = state_.time + model_.FrameTime();
@@ -68,6 +69,7 @@ void Simulation::StepFrame() {
 
 void Simulation::Reset() {
   alarm_.clear();
+  state_.warning.clear();
   SpawnParticles(scene_, model_.params, state_.particles);
   state_.time = 0;
   state_.step = 0;
@@ -89,6 +91,7 @@ void Simulation::RestoreCheckpoint(const Checkpoint& checkpoint) {
   model_ = MakeModel(scene_, checkpoint.params);
   Rebuild();
   alarm_.clear();
+  state_.warning.clear();
   ParticleArrays& p = state_.particles;
   p.Resize(checkpoint.id.size());
   std::copy(checkpoint.id.begin(), checkpoint.id.end(), p.id.begin());

@@ -34,6 +34,23 @@ class SplitMix64 {
   uint64_t state_;
 };
 
+// Whether a lattice point lies inside an obstacle, or closer than `margin` to one: fluid is not
+// spawned inside solids (a particle there would be thrown out by the wall's full pressure in
+// one step).
+bool InsideObstacle(const Scene& scene, const Vec3d& x, double margin) {
+  for (const SphereObstacle& s : scene.spheres) {
+    if ((x - s.center).norm() < s.radius + margin) return true;
+  }
+  for (const BoxObstacle& b : scene.boxes) {
+    const Vec3d outside = (b.box.min - x).cwiseMax(x - b.box.max).cwiseMax(0.0);
+    if (outside.norm() < margin ||
+        ((x.array() >= b.box.min.array()).all() && (x.array() <= b.box.max.array()).all())) {
+      return true;
+    }
+  }
+  return false;
+}
+
 }  // namespace
 
 void SpawnParticles(const Scene& scene, const Params& params, ParticleArrays& particles) {
@@ -42,6 +59,9 @@ void SpawnParticles(const Scene& scene, const Params& params, ParticleArrays& pa
   for (const Eigen::Vector3i& n : counts) total += size_t(n.x()) * n.y() * n.z();
   particles.Resize(total);
   const bool physical = IsPhysicalSolver(scene.solver);
+  // Boundary particles of the physical solvers sit on the obstacle's surface: keep the fluid
+  // half a spacing away, as from the domain walls.
+  const double obstacle_margin = physical ? 0.5 * params.particle_spacing : 0.0;
 
   size_t i = 0;
   for (size_t b = 0; b < scene.fluid_blocks.size(); ++b) {
@@ -68,6 +88,7 @@ void SpawnParticles(const Scene& scene, const Params& params, ParticleArrays& pa
         for (int z = 0; z < n.z(); ++z) {
           Vec3d pos = center + Vec3d(offset(0, x), offset(1, y), offset(2, z));
           if (jitter > 0) pos += rng.InUnitBall() * jitter;
+          if (InsideObstacle(scene, pos, obstacle_margin)) continue;
           particles.id[i] = static_cast<uint32_t>(i);
           particles.position[i] = pos.cast<Real>();
           particles.predicted[i] = particles.position[i];
@@ -77,6 +98,7 @@ void SpawnParticles(const Scene& scene, const Params& params, ParticleArrays& pa
       }
     }
   }
+  particles.Resize(i);  // less the points inside obstacles
   std::fill(particles.density.begin(), particles.density.end(), Real(0));
   std::fill(particles.near_density.begin(), particles.near_density.end(), Real(0));
   std::fill(particles.pressure.begin(), particles.pressure.end(), Real(0));

@@ -65,6 +65,9 @@ class Simulation {
   // Step() and StepFrame() then do nothing (nothing integrates or shows garbage) until Reset(),
   // RestoreCheckpoint() or a parameter change that resets.
   const std::string& alarm() const { return alarm_; }
+  // Empty unless a step of the latest frame (or of the Step() calls since it) could not hold the
+  // solver's accuracy and limited it: which limit, how often, and why. The run goes on.
+  const std::string& warning() const { return state_.warning; }
   // Re-spawns the particles from the scene with the current parameters; time and step go to 0.
   void Reset();
 

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "dysa/core/neighbor_grid.h"
@@ -55,6 +56,11 @@ struct State {
     uint64_t capped_solves = 0;
   } solver_stats;
   std::vector<Real> solver_scratch;  // per particle, the solvers' work arrays
+
+  // Set by a pass when its step could not hold the model's accuracy and the pass had to limit
+  // it (the seed's velocity limiter, an iteration cap); the run goes on. Cleared at the start of
+  // each frame (Simulation::StepFrame) and on reset.
+  std::string warning;
 
   double time = 0;     // s, simulated
   uint64_t step = 0;   // steps since the last reset
