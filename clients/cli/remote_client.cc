@@ -57,6 +57,7 @@ ServerStatus FromProto(const pb::Status& s) {
   for (const pb::PassTiming& p : s.passes()) out.passes.push_back(FromProto(p));
   out.subscribers = s.subscribers();
   out.alarm = s.alarm();
+  out.warning = s.warning();
   out.history_frames = s.history_frames();
   out.history_bytes = s.history_bytes();
   out.frames_encoded = s.frames_encoded();

@@ -67,6 +67,7 @@ struct ServerStatus {
   std::vector<PassTiming> passes;
   uint32_t subscribers = 0;
   std::string alarm;
+  std::string warning;  // the solver's latest accuracy warning; empty when none
   uint64_t history_frames = 0;
   uint64_t history_bytes = 0;
   uint64_t frames_encoded = 0;

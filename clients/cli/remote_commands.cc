@@ -107,6 +107,7 @@ Json ToJson(const ServerStatus& s) {
           {"passes", passes},
           {"subscribers", s.subscribers},
           {"alarm", s.alarm},
+          {"warning", s.warning},
           {"history_frames", s.history_frames},
           {"history_bytes", s.history_bytes},
           {"frames_encoded", s.frames_encoded},
@@ -328,6 +329,7 @@ void PrintStatus(Client& client, bool json, std::ostream& out) {
     rows.push_back({"state hash", hash});
   }
   if (!s.alarm.empty()) rows.push_back({"alarm", s.alarm});
+  if (!s.warning.empty()) rows.push_back({"warning", s.warning});
   PrintTable(rows, {}, out);
   if (s.passes.empty()) return;
   out << "\n";

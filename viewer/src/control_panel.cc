@@ -216,6 +216,9 @@ void ControlPanel::DrawOverlay(const ServerView& view, const ReceiverStats& rece
     if (!view.status.alarm.empty()) {
       ImGui::TextColored(ImVec4(1, 0.3f, 0.3f, 1), "ALARM: %s", view.status.alarm.c_str());
     }
+    if (!view.status.warning.empty()) {
+      ImGui::TextColored(ImVec4(1, 0.75f, 0.3f, 1), "warning: %s", view.status.warning.c_str());
+    }
     for (const UserMessage& m : view.messages) {
       ImGui::TextColored(m.error ? ImVec4(1, 0.35f, 0.35f, 1) : ImVec4(0.7f, 0.85f, 1, 1), "%s",
                          m.text.c_str());

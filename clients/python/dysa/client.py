@@ -126,6 +126,7 @@ class Status:
     passes: Tuple[PassTiming, ...]  # per-pass timings, in pass order
     subscribers: int  # open frame streams
     alarm: str  # empty when healthy, else why the simulation paused itself
+    warning: str  # empty unless the latest frame's steps had to limit the solver's accuracy
     history_frames: int  # frames available to step back right now
     history_bytes: int  # bytes of memory the history holds
     frames_encoded: int  # frames encoded for subscribers since the server started
@@ -230,7 +231,7 @@ def _status(m: Any) -> Status:
         particles=m.particles, solver=m.solver, scene=m.scene,
         frames_per_second=m.frames_per_second, target_frame_rate=m.target_frame_rate,
         passes=tuple(PassTiming(p.name, p.last_ms, p.mean_ms, p.calls) for p in m.passes),
-        subscribers=m.subscribers, alarm=m.alarm, history_frames=m.history_frames,
+        subscribers=m.subscribers, alarm=m.alarm, warning=m.warning, history_frames=m.history_frames,
         history_bytes=m.history_bytes, frames_encoded=m.frames_encoded,
         scene_version=m.scene_version)
 

@@ -367,6 +367,7 @@ void SimulationHost::RefreshStatus() {
   }
   if (publish_.calls > 0) s.passes.push_back(publish_);
   s.alarm = alarm_;
+  s.warning = sim_->warning();
   s.history_frames = history_.available(state.frame);
   s.history_bytes = history_.bytes();
   if (!running_) s.state_hash = StateHash(state);

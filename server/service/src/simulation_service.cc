@@ -52,6 +52,7 @@ void ToProto(const HostStatus& s, v1::Status& out) {
   }
   out.set_subscribers(s.subscribers);
   out.set_alarm(s.alarm);
+  out.set_warning(s.warning);
   out.set_history_frames(s.history_frames);
   out.set_history_bytes(s.history_bytes);
   out.set_frames_encoded(s.frames_encoded);

@@ -57,7 +57,8 @@ struct HostStatus {
   // per frame) once anyone has subscribed.
   std::vector<PassStatus> passes;
   uint32_t subscribers = 0;
-  std::string alarm;  // empty when healthy
+  std::string alarm;    // empty when healthy
+  std::string warning;  // the solver's latest accuracy warning (Simulation::warning())
   uint64_t history_frames = 0;
   uint64_t history_bytes = 0;
   uint64_t frames_encoded = 0;
