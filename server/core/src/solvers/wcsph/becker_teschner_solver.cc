@@ -173,10 +173,13 @@ inline Real ContactAcceleration(Real dist, Real r0, Real strength) {
 }  // namespace
 
 void AddWallContact(const Model& model, State& state) {
+  AddWallContactAtSpeed(model, state, model.params.speed_of_sound);
+}
+
+void AddWallContactAtSpeed(const Model& model, State& state, double speed) {
   ParticleArrays& p = state.particles;
   const Real r0 = Real(kContactRange * model.params.particle_spacing);
-  const Real strength =
-      Real(kContactStrength * model.params.speed_of_sound * model.params.speed_of_sound);
+  const Real strength = Real(kContactStrength * speed * speed);
   const Vec3 lo = model.domain.min.cast<Real>();
   const Vec3 hi = model.domain.max.cast<Real>();
   const int64_t n = int64_t(p.size());

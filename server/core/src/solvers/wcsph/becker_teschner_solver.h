@@ -71,6 +71,9 @@ void ComputePressureAcceleration(const Model& model, const BoundaryParticles& bo
 void AddViscosity(const Model& model, State& state);
 // Adds the contact force of the walls and obstacles (Monaghan 1994) to state.acceleration.
 void AddWallContact(const Model& model, State& state);
+// The same with the strength D = kContactStrength speed^2 of another reference speed (dfsph,
+// whose fluid has no speed of sound).
+void AddWallContactAtSpeed(const Model& model, State& state, double speed);
 void Integrate(const Model& model, State& state);
 
 // m/s^2 along y at simulated time `time`: params.gravity, ramped in over gravity_ramp_time.
