@@ -238,8 +238,9 @@ TEST_P(SolverStressTest, StaysFiniteInsideTheDomainAndEnergyBounded) {
 }
 
 INSTANTIATE_TEST_SUITE_P(AllSolvers, SolverStressTest, ::testing::ValuesIn(AllCases()),
-                         [](const ::testing::TestParamInfo<StressCase>& info) {
-                           std::string name = info.param.solver + "_" + info.param.c.name;
+                         [](const ::testing::TestParamInfo<StressCase>& param_info) {
+                           const StressCase& c = param_info.param;
+                           std::string name = c.solver + "_" + c.c.name;
                            for (char& ch : name) {
                              if (!std::isalnum(static_cast<unsigned char>(ch))) ch = '_';
                            }
