@@ -1,0 +1,154 @@
+// Run time against error: the validation cases (hydrostatic tank, Martin & Moyce dam break) for
+// every physical solver, particle spacing and time-step or tolerance setting. Writes
+// bench/results/accuracy.csv; bench/accuracy/plot_accuracy.py draws error against wall time with
+// the Pareto front (bench/README.md, "Run time against error").
+//
+//   build/release/bench/accuracy_bench [--threads 2] [--case all|hydrostatic|dam_break]
+//                                      [--solvers wcsph,dfsph] [--quick | --fine]
+#include <omp.h>
+
+#include <CLI/CLI.hpp>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "dysa/core/solver.h"
+#include "dysa/core/validation.h"
+
+namespace {
+
+// One point of the sweep: a case at a spacing with parameter overrides.
+struct Setting {
+  std::string label;              // e.g. "cfl_factor=0.25"
+  std::vector<std::string> sets;  // NAME=VALUE
+};
+
+// What is swept per solver besides the spacing: the CFL factor of the adaptive step for both,
+// and DFSPH's density error tolerance (its iterations trade time for incompressibility).
+std::vector<Setting> SettingsFor(const std::string& solver, bool quick) {
+  std::vector<Setting> out;
+  // DFSPH steps with at most kIncompressibleMaxCfl = 0.3 (cfl_time_step.h).
+  const std::vector<double> cfl = quick               ? std::vector<double>{0.25}
+                                  : solver == "dfsph" ? std::vector<double>{0.1, 0.2, 0.3}
+                                                      : std::vector<double>{0.1, 0.25, 0.4};
+  for (double c : cfl) {
+    const std::string s = "cfl_factor=" + std::to_string(c).substr(0, 4);
+    out.push_back({s, {s}});
+  }
+  if (solver == "dfsph" && !quick) {
+    for (const char* tol : {"0.001", "0.01"}) {
+      const std::string s = std::string("density_tolerance=") + tol;
+      out.push_back({s, {s}});
+    }
+  }
+  return out;
+}
+
+struct Point {
+  std::string case_name, solver, setting;
+  double spacing = 0;
+  size_t particles = 0;
+  uint64_t steps = 0;
+  double wall_s = 0;
+  double error = 0;        // the case's headline error (fraction)
+  double error_other = 0;  // hydrostatic: max pressure error; dam break: max front error
+  double density_error_mean = 0;
+};
+
+double Seconds(std::chrono::steady_clock::duration d) {
+  return std::chrono::duration<double>(d).count();
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"Run time against error of the physical solvers on the validation cases"};
+  int threads = 2;
+  std::string which = "all";
+  std::vector<std::string> solvers;
+  bool quick = false, fine = false;
+  std::string out_dir = "bench/results";
+  app.add_option("--threads", threads, "OpenMP threads")->check(CLI::Range(1, 1024));
+  app.add_option("--case", which, "all, hydrostatic or dam_break")
+      ->check(CLI::IsMember({"all", "hydrostatic", "dam_break"}));
+  app.add_option("--solvers", solvers, "Solvers (default: every physical one)")->delimiter(',');
+  app.add_flag("--quick", quick, "Two coarse spacings and one setting (a smoke run)");
+  app.add_flag("--fine", fine, "Also the validation scenes' own spacings (minutes per run)");
+  app.add_option("--out", out_dir, "Directory for accuracy.csv")->capture_default_str();
+  CLI11_PARSE(app, argc, argv);
+  omp_set_num_threads(threads);
+
+  if (solvers.empty()) {
+    for (const dysa::SolverInfo& info : dysa::SolverRegistry()) {
+      if (info.physical) solvers.emplace_back(info.name);
+    }
+  }
+  // Spacings in m: the hydrostatic tank is 0.9 m deep (default 0.02), the dam break's column
+  // a = 0.05715 m wide (default a / 30).
+  const double a = 0.05715;
+  std::vector<double> tank = {0.05, 0.04, 0.03};
+  std::vector<double> dam = {a / 10, a / 15, a / 20};
+  if (quick) tank.pop_back(), dam.pop_back();
+  if (fine) tank.push_back(0.02), dam.push_back(a / 30);  // the scenes' own resolutions
+  try {
+    std::filesystem::create_directories(out_dir);
+    std::ofstream csv(std::filesystem::path(out_dir) / "accuracy.csv");
+    csv << "case,solver,setting,spacing_m,particles,steps,particle_steps,wall_s,error,"
+           "error_max,density_error_mean\n";
+    std::printf("%-12s %-6s %-24s %10s %9s %8s %9s %10s %10s\n", "case", "solver", "setting",
+                "spacing m", "particles", "steps", "wall s", "error", "max error");
+    for (const std::string& solver : solvers) {
+      for (const Setting& setting : SettingsFor(solver, quick)) {
+        for (int c = 0; c < 2; ++c) {
+          const bool hydrostatic = c == 0;
+          if (which != "all" && which != (hydrostatic ? "hydrostatic" : "dam_break")) continue;
+          for (double spacing : hydrostatic ? tank : dam) {
+            dysa::ValidationOptions options;
+            options.solver = solver;
+            options.spacing = spacing;
+            options.sets = setting.sets;
+            Point p;
+            p.case_name = hydrostatic ? "hydrostatic" : "dam_break";
+            p.solver = solver;
+            p.setting = setting.label;
+            p.spacing = spacing;
+            const auto start = std::chrono::steady_clock::now();
+            dysa::ValidationRun run;
+            if (hydrostatic) {
+              const dysa::HydrostaticResult r = dysa::RunHydrostaticTank(options);
+              run = r.run;
+              p.error = r.pressure_error_mean;
+              p.error_other = r.pressure_error_max;
+              p.density_error_mean = r.density_error_mean;
+            } else {
+              const dysa::DamBreakResult r = dysa::RunDamBreak(options);
+              run = r.run;
+              p.error = r.rms_error;
+              p.error_other = r.max_error;
+            }
+            p.wall_s = Seconds(std::chrono::steady_clock::now() - start);
+            p.particles = run.particles;
+            p.steps = run.steps;
+            std::printf("%-12s %-6s %-24s %10.5f %9zu %8llu %9.2f %10.4f %10.4f\n",
+                        p.case_name.c_str(), solver.c_str(), p.setting.c_str(), spacing,
+                        p.particles, (unsigned long long)p.steps, p.wall_s, p.error, p.error_other);
+            std::fflush(stdout);
+            csv << p.case_name << ',' << solver << ',' << p.setting << ',' << spacing << ','
+                << p.particles << ',' << p.steps << ',' << double(p.particles) * double(p.steps)
+                << ',' << p.wall_s << ',' << p.error << ',' << p.error_other << ','
+                << p.density_error_mean << '\n';
+            csv.flush();
+          }
+        }
+      }
+    }
+    std::printf("wrote %s/accuracy.csv\n", out_dir.c_str());
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "accuracy_bench: error: %s\n", e.what());
+    return 1;
+  }
+  return 0;
+}
