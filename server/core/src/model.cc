@@ -1,5 +1,6 @@
 #include "dysa/core/model.h"
 
+#include "dysa/core/kernels.h"
 #include "dysa/core/solver.h"
 
 namespace dysa {
@@ -19,6 +20,7 @@ Model MakeModel(const Scene& scene, const Params& params) {
     const double d = params.particle_spacing;
     model.particle_mass = params.rest_density * d * d * d;
     model.kernel_support = 2 * d;
+    model.gradient_moment = CubicSplineLatticeGradientMoment(d, model.kernel_support);
   } else {
     model.particle_mass = params.particle_mass;
     model.kernel_support = params.smoothing_radius;

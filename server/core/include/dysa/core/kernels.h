@@ -8,6 +8,7 @@
 // int_0^h 4 pi r^2 (h - r)^3 dr = pi h^6 / 15, int_0^h 4 pi r^2 (h^2 - r^2)^3 dr = 64 pi h^9 / 315.
 #pragma once
 
+#include <cmath>
 #include <numbers>
 
 namespace dysa {
@@ -102,5 +103,25 @@ struct CubicSpline {
     return -scale * v * v;
   }
 };
+
+// The gradient moment of the cubic spline on a cubic lattice of spacing d (volume d^3 per
+// particle): for a linear field f, the SPH gradient sum_j d^3 (f_j - f_i) grad W_ij equals
+// mu grad f with mu = -(1/3) sum_{j != i} d^3 r_ij W'(r_ij) (the lattice's symmetry makes the
+// moment tensor mu I). mu is 1 for an exact gradient; at support 2 d it is 1.0200: the
+// pressure gradient comes out 2% too strong, so a fluid at rest settles with a pressure 2% below
+// rho g (H - y). The physical solvers divide their pressure gradients by it.
+inline double CubicSplineLatticeGradientMoment(double spacing, double support) {
+  const int reach = int(support / spacing) + 1;
+  double sum = 0;
+  for (int i = -reach; i <= reach; ++i) {
+    for (int j = -reach; j <= reach; ++j) {
+      for (int k = -reach; k <= reach; ++k) {
+        const double r = spacing * std::sqrt(double(i * i + j * j + k * k));
+        if (r > 0) sum += r * CubicSpline<double>::dW(r, support);
+      }
+    }
+  }
+  return -sum * spacing * spacing * spacing / 3;
+}
 
 }  // namespace dysa

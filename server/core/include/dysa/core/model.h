@@ -23,6 +23,10 @@ struct Model {
   bool physical = false;
   double particle_mass = 1;   // kg
   double kernel_support = 0;  // m, the kernel's radius, also the neighbour grid's cell edge
+  // A physical solver's kernel gradient moment on the rest lattice,
+  // CubicSplineLatticeGradientMoment (kernels.h); the pressure gradients are divided by it so
+  // that hydrostatic equilibrium holds with p = rho g (H - y). 1 for the seed model.
+  double gradient_moment = 1;
 
   // Simulated seconds per displayed frame (the same for both kinds of solver).
   double FrameTime() const { return params.time_scale / params.frame_rate; }

@@ -94,6 +94,7 @@ void ComputePressureAcceleration(const Model& model, const BoundaryParticles& bo
   const Real mass = Real(model.particle_mass);
   const double rho0 = model.params.rest_density;
   const Real psi_scale = Real(rho0);
+  const Real gradient_scale = Real(1 / model.gradient_moment);
   const double stiffness =
       rho0 * model.params.speed_of_sound * model.params.speed_of_sound / kTaitExponent;
   const Vec3 gravity(0, Real(GravityAt(model.params, state.time)), 0);
@@ -129,7 +130,7 @@ void ComputePressureAcceleration(const Model& model, const BoundaryParticles& bo
     ForEachWithin(boundary.grid(), cell, x, support, [&](uint32_t b, const Vec3& xib, Real r) {
       wall += (volume[b] * (pi + boundary_p_over_rho2[b])) * GradW(xib, r, support);
     });
-    state.acceleration[i] = gravity - mass * fluid - psi_scale * wall;
+    state.acceleration[i] = gravity - gradient_scale * (mass * fluid + psi_scale * wall);
   }
 }
 

@@ -6,8 +6,11 @@
 //   density      rho_i = sum_j m W_ij + sum_b Psi_b W_ib           (Akinci et al. 2012, eq. 6)
 //   Tait EOS     p_i = B ((rho_i / rho0)^gamma - 1), B = rho0 c0^2 / gamma, gamma = 7 (eq. 7),
 //                clamped at 0: a free surface's kernel deficit must not pull particles together
-//   pressure     a_i = -sum_j m (p_i / rho_i^2 + p_j / rho_j^2) grad W_ij          (eq. 6)
-//                      -sum_b Psi_b (p_i / rho_i^2 + p_b / rho_b^2) grad W_ib
+//   pressure     a_i = -[sum_j m (p_i / rho_i^2 + p_j / rho_j^2) grad W_ij          (eq. 6)
+//                       + sum_b Psi_b (p_i / rho_i^2 + p_b / rho_b^2) grad W_ib] / mu
+//                with mu the kernel's gradient moment on the rest lattice (1.020 at support
+//                2 d, kernels.h), so that the discrete force of a linear pressure field is its
+//                exact gradient: without it the tank settles 2% below rho g (H - y).
 //                with the boundary particle's pressure extrapolated from the fluid around it,
 //                p_b = sum_f (p_f + rho_f g . (x_b - x_f)) W_bf / sum_f W_bf (Adami, Hu, Adams
 //                2012, "A generalized wall boundary condition for SPH", eq. 27), clamped at 0,
