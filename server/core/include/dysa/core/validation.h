@@ -29,7 +29,10 @@ Scene SlabAtSpacing(Scene scene, double spacing, int layers = 4);
 // under gravity g ramped in over 1 s, run to its end_time. Pressure is sampled along the
 // vertical line through the tank's centre (x = 1, mid-slab) every spacing from y = d up to
 // H - top_layers * d (the free surface's kernel deficit leaves the top layers under-pressured
-// by construction) and compared with rho0 g (H - y).
+// by construction), averaged over the run's last kHydrostaticAveragingTime, and compared with
+// rho0 g (H - y). The average takes out wcsph's acoustic ringing (period 2 H / c0 = 0.09 s)
+// and dfsph's step-to-step noise: its pressure is the impulse of two iterative solves, each
+// stopped at a tolerance, and the divergence solve corrects compression only.
 struct HydrostaticResult {
   ValidationRun run;
   double depth = 0;                // m, H (the fluid block's height)
@@ -45,9 +48,12 @@ struct HydrostaticResult {
   struct Sample {
     double y, pressure, reference;  // m, Pa, Pa
   };
-  std::vector<Sample> profile;
+  std::vector<Sample> profile;  // the averaged pressure
+  int samples = 0;              // pressure samples averaged
 };
 inline constexpr int kHydrostaticTopLayers = 3;
+inline constexpr double kHydrostaticAveragingTime = 0.5;    // s
+inline constexpr double kHydrostaticSampleInterval = 0.01;  // s
 
 // How to run a case: the scene's own resolution and solver unless given; `sets` are
 // NAME=VALUE parameter overrides applied last (as `dysa run --set`).

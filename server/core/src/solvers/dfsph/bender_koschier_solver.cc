@@ -16,7 +16,8 @@ namespace dysa::dfsph {
 namespace {
 
 // The solvers' per-particle arrays, in state.solver_scratch: alpha_i, kappa_i of the current
-// iteration, the error of particle i, and the density solve's accumulated kappa (for p_i).
+// iteration, the error of particle i, and sum kappa_i dt over the iterations both solves
+// applied this step (for p_i).
 struct Work {
   Real* alpha;
   Real* kappa;
@@ -86,7 +87,8 @@ Real DensityRate(const Model& model, const BoundaryParticles& boundary, const St
 }
 
 // v_i -= dt [sum_j m (kappa_i / rho_i + kappa_j / rho_j) grad W_ij
-//            + sum_b Psi_b (kappa_i / rho_i) grad W_ib], from the kappa of every particle.
+//            + sum_b Psi_b (kappa_i / rho_i) grad W_ib], from the kappa of every particle;
+// kappa_sum_i += kappa_i dt.
 void ApplyKappa(const Model& model, const BoundaryParticles& boundary, State& state, Real dt) {
   ParticleArrays& p = state.particles;
   const Work w = Arrays(state);
@@ -111,6 +113,7 @@ void ApplyKappa(const Model& model, const BoundaryParticles& boundary, State& st
       wall += volume[b] * GradW(xib, r, support);
     });
     p.velocity[i] -= dt * (mass * fluid + (rho0 * ki) * wall);
+    w.kappa_sum[i] += w.kappa[i] * dt;
   }
 }
 
@@ -156,6 +159,7 @@ void DivergenceSolve(const Model& model, const BoundaryParticles& boundary, Stat
       std::min(CflLimits(model.params, MaxSpeed(p), std::abs(model.params.gravity), false).Min(),
                model.params.max_time_step);
   const Real inv_dt = Real(1 / dt);
+  std::fill(w.kappa_sum, w.kappa_sum + n, Real(0));
   State::SolverStats& stats = state.solver_stats;
   int iteration = 0;
   for (;; ++iteration) {
@@ -185,7 +189,6 @@ void DensitySolve(const Model& model, const BoundaryParticles& boundary, State& 
   const Real rho0 = Real(model.params.rest_density);
   const Real dt = Real(state.dt);
   const Real inv_dt2 = 1 / (dt * dt);
-  std::fill(w.kappa_sum, w.kappa_sum + n, Real(0));
   State::SolverStats& stats = state.solver_stats;
   int iteration = 0;
   for (;; ++iteration) {
@@ -200,7 +203,6 @@ void DensitySolve(const Model& model, const BoundaryParticles& boundary, State& 
       // kMaxCorrection rho0 per step, over several steps: removing it in one would turn it into
       // velocities that blow the fluid apart.
       w.kappa[i] = std::min(excess, Real(kMaxCorrection) * rho0) * inv_dt2 * w.alpha[i];
-      w.kappa_sum[i] += w.kappa[i];
     }
     stats.density_error = Mean(w.error, size_t(n)) / rho0;
     if (iteration >= 2 && stats.density_error <= model.params.density_tolerance) break;
@@ -213,12 +215,15 @@ void DensitySolve(const Model& model, const BoundaryParticles& boundary, State& 
     ApplyKappa(model, boundary, state, dt);
   }
   stats.density_iterations = iteration;
-  // p_i = rho_i kappa_i, from the kappa applied this step (the probes read it). The last
-  // iteration's kappa was not applied.
+  // The step's pressure (the probes read it): both solves' velocity changes taken as one
+  // acceleration over the step, p_i = rho_i sum kappa_i dt_solve / dt. The divergence solve's
+  // part is not small: at rest it holds part of the weight (the tank's pressure read 16% low
+  // without it). Times the gradient moment (kernels.h): the pressure whose exact gradient the
+  // discrete forces are, as wcsph divides its forces by it; scaling the forces and alpha
+  // instead would give the same iterates.
+  const Real scale = Real(model.gradient_moment) / dt;
 #pragma omp parallel for schedule(static)
-  for (int64_t i = 0; i < n; ++i) {
-    p.pressure[i] = (w.kappa_sum[i] - w.kappa[i]) * p.density[i];
-  }
+  for (int64_t i = 0; i < n; ++i) p.pressure[i] = scale * w.kappa_sum[i] * p.density[i];
 }
 
 void SetGravity(const Model& model, State& state) {

@@ -20,6 +20,9 @@
 // that stopped at the cap). The step, in the order of the passes:
 //   neighbours, rho, alpha; divergence solve on v; non-pressure accelerations; dt;
 //   v += dt a; density solve; x += dt v.
+// The pressure reported (p_i, which the probes read) is both solves' velocity change over the
+// step taken as one acceleration, p_i = mu rho_i sum kappa_i dt_solve / dt, with mu the
+// gradient moment of kernels.h as in wcsph.
 // The divergence solve's velocity change does not depend on dt (kappa ~ 1 / dt times dt); its
 // stopping test uses the CFL step of the current velocities, so no state carries over between
 // steps and a checkpoint (positions, velocities) reproduces the following steps bit for bit.
