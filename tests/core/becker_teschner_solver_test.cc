@@ -15,6 +15,7 @@
 #include "cfl_time_step.h"
 #include "dysa/core/scene.h"
 #include "dysa/core/simulation.h"
+#include "support/with_threads.h"
 
 namespace dysa {
 namespace {
@@ -23,15 +24,7 @@ using ::testing::Contains;
 using ::testing::HasSubstr;
 using ::testing::Not;
 
-template <class F>
-auto WithThreads(int threads, F&& body) {
-  struct Restore {
-    int previous = omp_get_max_threads();
-    ~Restore() { omp_set_num_threads(previous); }
-  } restore;
-  omp_set_num_threads(threads);
-  return body();
-}
+using dysa::testing::WithThreads;
 
 // A small dam break: a 0.2 x 0.3 m column of water in a 0.6 x 0.4 m tank, 4 particles thick,
 // past a sphere and a box on the floor. d = 0.02 m: 10 x 15 x 4 = 600 particles.

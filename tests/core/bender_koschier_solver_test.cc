@@ -11,19 +11,12 @@
 
 #include "dysa/core/scene.h"
 #include "dysa/core/simulation.h"
+#include "support/with_threads.h"
 
 namespace dysa {
 namespace {
 
-template <class F>
-auto WithThreads(int threads, F&& body) {
-  struct Restore {
-    int previous = omp_get_max_threads();
-    ~Restore() { omp_set_num_threads(previous); }
-  } restore;
-  omp_set_num_threads(threads);
-  return body();
-}
+using dysa::testing::WithThreads;
 
 // The small dam break of becker_teschner_solver_test: 600 particles past a sphere and a box.
 Scene DamScene() {

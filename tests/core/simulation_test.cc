@@ -18,6 +18,7 @@
 #include "dysa/core/params.h"
 #include "dysa/core/probes.h"
 #include "dysa/core/scene.h"
+#include "support/with_threads.h"
 
 namespace dysa {
 namespace {
@@ -50,16 +51,7 @@ std::string HashText(uint64_t hash) {
   return text;
 }
 
-// Runs `body` with OpenMP limited to `threads`, restoring the previous limit afterwards.
-template <class F>
-auto WithThreads(int threads, F&& body) {
-  struct Restore {
-    int previous = omp_get_max_threads();
-    ~Restore() { omp_set_num_threads(previous); }
-  } restore;
-  omp_set_num_threads(threads);
-  return body();
-}
+using dysa::testing::WithThreads;
 
 Vec3d TotalMomentum(const State& state, double mass) {
   Vec3d sum = Vec3d::Zero();

@@ -14,6 +14,7 @@
 
 #include <cctype>
 #include <cmath>
+#include <ostream>
 #include <string>
 #include <vector>
 
@@ -198,6 +199,9 @@ struct StressCase {
   std::string solver;
   Case c;
 };
+
+// gtest prints a failing case's parameter; without this, as the bytes of the struct.
+void PrintTo(const StressCase& c, std::ostream* os) { *os << c.solver << " " << c.c.name; }
 
 std::vector<StressCase> AllCases() {
   std::vector<StressCase> out;
