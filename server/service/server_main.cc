@@ -2,7 +2,6 @@
 //
 // Phases: parse flags -> read files (scene, token, TLS) -> block SIGINT/SIGTERM for every
 // thread -> start host and server -> wait for a signal -> shut down in reverse order.
-#include <omp.h>
 #include <pthread.h>
 #include <signal.h>
 
@@ -141,7 +140,7 @@ int main(int argc, char** argv) {
     std::cerr << "dysa-server: error: " << e.what() << "\n";
     return 2;
   }
-  if (threads > 0) omp_set_num_threads(threads);
+  host_options.solver_threads = threads;
   host_options.frame_rate = frame_rate;
   host_options.history.frames = history_frames;
   host_options.history.max_bytes = size_t(history_mib) << 20;
@@ -177,7 +176,7 @@ int main(int argc, char** argv) {
       (server_options.token.empty()
            ? ""
            : (protect_watch ? ", token for every call" : ", token for controls")) +
-      ", " + std::to_string(omp_get_max_threads()) + " solver threads");
+      ", " + std::to_string(host->Status().solver_threads) + " solver threads");
 
   int signal_number = 0;
   sigwait(&signals, &signal_number);

@@ -214,5 +214,17 @@ TEST_F(SimulationHostTest, ALateJoinerOfAPausedSimulationGetsAFrame) {
   host_.hub().Unsubscribe(sub);
 }
 
+// The OpenMP thread count is per native thread: the option must reach the simulation thread,
+// not only the thread that created the host (dysa-server --threads was once lost that way).
+TEST(SimulationHostThreadsTest, TheSolverThreadCountReachesTheSimulationThread) {
+  HostOptions options = Paused();
+  options.solver_threads = 3;
+  SimulationHost host(SmallScene(), options);
+  host.Start();
+  const ControlResult r = Apply(host, StepControl{1});
+  ASSERT_EQ(r.code, ControlCode::kOk) << r.message;
+  EXPECT_EQ(r.status.solver_threads, 3u);
+}
+
 }  // namespace
 }  // namespace dysa::service

@@ -1,5 +1,7 @@
 #include "dysa/service/simulation_host.h"
 
+#include <omp.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -35,7 +37,12 @@ int64_t UnixMicros() {
 }  // namespace
 
 SimulationHost::SimulationHost(Scene scene, HostOptions options)
-    : options_(std::move(options)), hub_(options_.max_subscribers), history_(options_.history) {
+    : options_(std::move(options)),
+      solver_threads_(options_.solver_threads > 0 ? options_.solver_threads
+                                                  : omp_get_max_threads()),
+      hub_(options_.max_subscribers),
+      publisher_(hub_, std::max(1, omp_get_num_procs() - solver_threads_)),
+      history_(options_.history) {
   if (const std::string over = CheckParticleLimit(scene, scene.params); !over.empty()) {
     throw ConfigError("max_particles", over);
   }
@@ -64,6 +71,7 @@ void SimulationHost::Stop() {
   }
   wake_.notify_one();
   if (thread_.joinable()) thread_.join();
+  publisher_.Stop();
   // Answer what the thread left (or everything, if it never ran).
   std::deque<Job> left;
   {
@@ -109,6 +117,10 @@ void SimulationHost::Submit(Control control, std::function<void(ControlResult)> 
 }
 
 void SimulationHost::Loop() {
+  // The OpenMP thread count is per native thread: this one's is set here.
+  omp_set_num_threads(solver_threads_);
+  running_threads_ = omp_get_max_threads();
+  RefreshStatus();
   auto next_frame = Clock::now();
   while (true) {
     std::deque<Job> jobs;
@@ -285,7 +297,8 @@ void SimulationHost::StartScene() {
   alarm_.clear();
   history_.Start(*sim_);
   recent_frames_.clear();
-  publish_ = PassStatus{"publish_frames"};
+  gather_ = PassStatus{"gather_frames"};
+  publisher_.ResetTiming();
   const Scene& scene = sim_->scene();
   Log("scene '" + scene.name + "': " + std::to_string(sim_->state().particles.size()) +
       " particles, solver " + scene.solver + ", history " + std::to_string(history_.window()) +
@@ -338,10 +351,10 @@ void SimulationHost::Publish(bool force, bool discontinuity) {
   if (fields == 0) return;  // no one watches: nothing gathered, nothing encoded
   const auto start = Clock::now();
   GatherSnapshot(*sim_, fields, snapshot_);
-  hub_.Publish(snapshot_, force, discontinuity);
-  publish_.last_ms = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
-  publish_.mean_ms = (publish_.mean_ms * publish_.calls + publish_.last_ms) / (publish_.calls + 1);
-  ++publish_.calls;
+  gather_.last_ms = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+  gather_.mean_ms = (gather_.mean_ms * gather_.calls + gather_.last_ms) / (gather_.calls + 1);
+  ++gather_.calls;
+  publisher_.Offer(snapshot_, force, discontinuity);
 }
 
 void SimulationHost::RefreshStatus() {
@@ -365,7 +378,11 @@ void SimulationHost::RefreshStatus() {
                                   prof.calls ? prof.total_ms / double(prof.calls) : 0.0,
                                   prof.calls});
   }
-  if (publish_.calls > 0) s.passes.push_back(publish_);
+  if (gather_.calls > 0) s.passes.push_back(gather_);
+  if (const PublishTiming t = publisher_.timing(); t.calls > 0) {
+    s.passes.push_back(PassStatus{"publish_frames", t.last_ms, t.mean_ms, t.calls});
+  }
+  s.solver_threads = uint32_t(running_threads_);
   s.alarm = alarm_;
   s.warning = sim_->warning();
   s.history_frames = history_.available(state.frame);

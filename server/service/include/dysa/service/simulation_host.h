@@ -23,6 +23,7 @@
 #include "dysa/core/scene.h"
 #include "dysa/core/simulation.h"
 #include "dysa/service/frame_hub.h"
+#include "dysa/service/frame_publisher.h"
 
 namespace dysa::service {
 
@@ -32,6 +33,10 @@ struct HostOptions {
   uint64_t max_particles = kMaxParticles;  // scenes and parameter sets beyond it are refused
   size_t max_subscribers = 64;
   bool start_paused = false;
+  // OpenMP threads the solver steps with; 0: the creating thread's OpenMP default (every core
+  // unless OMP_NUM_THREADS says otherwise). Frames are encoded on a thread of their own with the
+  // cores left over, at least one.
+  int solver_threads = 0;
   // One line per significant event (scene loaded, reset, alarm, ...); may be empty.
   std::function<void(const std::string&)> log;
 };
@@ -53,9 +58,11 @@ struct HostStatus {
   std::string scene;
   double frames_per_second = 0;  // simulated frames per wall second, over the last second
   double target_frame_rate = 0;
-  // The solver's passes, then "publish_frames" (gathering and encoding frames for subscribers,
-  // per frame) once anyone has subscribed.
+  // The solver's passes, then, once anyone has subscribed, "gather_frames" (copying the
+  // particles into a frame in id order, on the simulation thread) and "publish_frames"
+  // (encoding it and starting the writes, on the publishing thread), per frame.
   std::vector<PassStatus> passes;
+  uint32_t solver_threads = 0;  // OpenMP threads the simulation thread steps with
   uint32_t subscribers = 0;
   std::string alarm;    // empty when healthy
   std::string warning;  // the solver's latest accuracy warning (Simulation::warning())
@@ -158,7 +165,9 @@ class SimulationHost {
   void Log(const std::string& line) const;
 
   const HostOptions options_;
+  const int solver_threads_;
   FrameHub hub_;
+  FramePublisher publisher_;
 
   // Simulation thread only.
   std::unique_ptr<Simulation> sim_;
@@ -167,7 +176,10 @@ class SimulationHost {
   std::string alarm_;
   FrameSnapshot snapshot_;  // reused buffers
   std::deque<std::chrono::steady_clock::time_point> recent_frames_;
-  PassStatus publish_;  // gathering and encoding frames for subscribers, per frame
+  PassStatus gather_;  // gathering frames for subscribers, per frame
+  // OpenMP threads of the simulation thread, as it reads them; the configured count until it
+  // starts.
+  int running_threads_ = solver_threads_;
   uint64_t scene_version_ = 0;
 
   std::mutex mu_;

@@ -1,0 +1,67 @@
+// Publishing frames off the simulation thread.
+//
+// Encoding a frame and starting its writes takes a few milliseconds per frame (bench/README.md,
+// server_bench); done on the simulation thread, every step waits for it. The simulation thread
+// only gathers the particles into a FrameSnapshot and offers it here, which swaps buffers; this
+// class's own thread encodes and hands the frame to the hub. With a core left to it (dysa-server
+// --threads below the core count), streaming then costs the solver the gather alone.
+//
+// A frame offered while the previous one is still being published replaces the one waiting
+// (subscribers get the newest frame; the hub's encoders take any sequence of frames). A forced
+// frame, one a control asked for (step, step back, reset, a late joiner while paused), is waited
+// for: the control's reply then follows its frame, as when publishing was synchronous.
+#pragma once
+
+#include <condition_variable>
+#include <cstdint>
+#include <mutex>
+#include <thread>
+
+#include "dysa/service/frame_hub.h"
+
+namespace dysa::service {
+
+struct PublishTiming {
+  double last_ms = 0;  // the latest frame's encoding and hand-over to the subscribers
+  double mean_ms = 0;
+  uint64_t calls = 0;  // frames published
+};
+
+class FramePublisher {
+ public:
+  // `threads`: OpenMP threads of the publishing thread (the encoder's chunks run in parallel).
+  FramePublisher(FrameHub& hub, int threads);
+  ~FramePublisher();  // Stop()
+  FramePublisher(const FramePublisher&) = delete;
+  FramePublisher& operator=(const FramePublisher&) = delete;
+
+  // Takes `snapshot` (swapping it with a spare buffer, so `snapshot` comes back holding an older
+  // frame's arrays to be overwritten). `force` and `discontinuity` as in FrameHub::Publish; a
+  // replaced frame's flags carry over to the one replacing it. Returns once a forced frame is
+  // published, at once otherwise.
+  void Offer(FrameSnapshot& snapshot, bool force, bool discontinuity);
+  // Publishes nothing more; a frame still waiting is dropped. Idempotent.
+  void Stop();
+
+  PublishTiming timing() const;
+  void ResetTiming();
+
+ private:
+  void Loop(int threads);
+
+  FrameHub& hub_;
+  mutable std::mutex mu_;
+  std::condition_variable offered_;
+  std::condition_variable published_;
+  FrameSnapshot waiting_;  // the frame to publish next, while `has_waiting_`
+  bool has_waiting_ = false;
+  bool force_ = false;
+  bool discontinuity_ = false;
+  uint64_t offered_count_ = 0;    // frames offered, the latest one's number
+  uint64_t published_count_ = 0;  // the number of the latest frame published (or replaced)
+  bool stop_ = false;
+  PublishTiming timing_;
+  std::thread thread_;
+};
+
+}  // namespace dysa::service

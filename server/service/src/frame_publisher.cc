@@ -1,0 +1,81 @@
+#include "dysa/service/frame_publisher.h"
+
+#include <omp.h>
+
+#include <chrono>
+#include <utility>
+
+namespace dysa::service {
+
+FramePublisher::FramePublisher(FrameHub& hub, int threads) : hub_(hub) {
+  thread_ = std::thread([this, threads] { Loop(threads); });
+}
+
+FramePublisher::~FramePublisher() { Stop(); }
+
+void FramePublisher::Stop() {
+  {
+    std::lock_guard lock(mu_);
+    stop_ = true;
+  }
+  offered_.notify_one();
+  published_.notify_all();
+  if (thread_.joinable()) thread_.join();
+}
+
+void FramePublisher::Offer(FrameSnapshot& snapshot, bool force, bool discontinuity) {
+  std::unique_lock lock(mu_);
+  if (stop_) return;
+  std::swap(waiting_, snapshot);
+  if (!has_waiting_) force_ = discontinuity_ = false;
+  has_waiting_ = true;
+  force_ |= force;
+  discontinuity_ |= discontinuity;
+  const uint64_t number = ++offered_count_;
+  offered_.notify_one();
+  if (force) published_.wait(lock, [&] { return stop_ || published_count_ >= number; });
+}
+
+PublishTiming FramePublisher::timing() const {
+  std::lock_guard lock(mu_);
+  return timing_;
+}
+
+void FramePublisher::ResetTiming() {
+  std::lock_guard lock(mu_);
+  timing_ = {};
+}
+
+void FramePublisher::Loop(int threads) {
+  // The OpenMP thread count is per native thread: this one's is set here.
+  omp_set_num_threads(threads);
+  FrameSnapshot frame;
+  while (true) {
+    bool force = false, discontinuity = false;
+    uint64_t number = 0;
+    {
+      std::unique_lock lock(mu_);
+      offered_.wait(lock, [&] { return stop_ || has_waiting_; });
+      if (stop_) return;
+      std::swap(frame, waiting_);
+      has_waiting_ = false;
+      force = force_;
+      discontinuity = discontinuity_;
+      number = offered_count_;
+    }
+    const auto start = std::chrono::steady_clock::now();
+    hub_.Publish(frame, force, discontinuity);
+    const double ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    {
+      std::lock_guard lock(mu_);
+      timing_.last_ms = ms;
+      timing_.mean_ms = (timing_.mean_ms * double(timing_.calls) + ms) / double(timing_.calls + 1);
+      ++timing_.calls;
+      published_count_ = number;
+    }
+    published_.notify_all();
+  }
+}
+
+}  // namespace dysa::service
