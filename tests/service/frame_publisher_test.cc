@@ -1,6 +1,7 @@
 // Tests of dysa/service/frame_publisher.h: frames are published on the publisher's thread, a
-// forced frame is published before Offer returns, and a frame offered while the previous one is
-// still being published replaces the one waiting (the newest is published, flags carried over).
+// forced frame is published before Offer returns, a frame offered while the previous one is
+// still being published replaces the one waiting (the newest is published, flags carried over),
+// and without threads every frame is published inline.
 #include "dysa/service/frame_publisher.h"
 
 #include <gtest/gtest.h>
@@ -131,6 +132,21 @@ TEST(FramePublisherTest, StopDropsTheWaitingFrameAndReleasesAForcedOffer) {
   stopper.join();
   forced.join();
   EXPECT_EQ(hub.frames_encoded(), 1u);  // frame 2 was never published
+  hub.Unsubscribe(subscription);
+}
+
+TEST(FramePublisherTest, WithoutThreadsEveryFrameIsPublishedInlineOnTheCallersThread) {
+  FrameHub hub(4);
+  GateListener listener;
+  auto subscription = hub.Subscribe(Positions(), &listener);
+  FramePublisher publisher(hub, 0);
+  for (uint64_t f = 1; f <= 3; ++f) {
+    FrameSnapshot frame = Snapshot(f);
+    publisher.Offer(frame, /*force=*/false, false);
+    EXPECT_EQ(hub.frames_encoded(), f);  // published before Offer returned
+  }
+  EXPECT_EQ(listener.thread, std::this_thread::get_id());
+  EXPECT_EQ(publisher.timing().calls, 3u);
   hub.Unsubscribe(subscription);
 }
 

@@ -7,8 +7,17 @@
 
 namespace dysa::service {
 
+namespace {
+
+double MillisecondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+      .count();
+}
+
+}  // namespace
+
 FramePublisher::FramePublisher(FrameHub& hub, int threads) : hub_(hub) {
-  thread_ = std::thread([this, threads] { Loop(threads); });
+  if (threads > 0) thread_ = std::thread([this, threads] { Loop(threads); });
 }
 
 FramePublisher::~FramePublisher() { Stop(); }
@@ -26,12 +35,21 @@ void FramePublisher::Stop() {
 void FramePublisher::Offer(FrameSnapshot& snapshot, bool force, bool discontinuity) {
   std::unique_lock lock(mu_);
   if (stop_) return;
+  const uint64_t number = ++offered_count_;
+  if (!thread_.joinable()) {  // inline
+    lock.unlock();
+    const auto start = std::chrono::steady_clock::now();
+    hub_.Publish(snapshot, force, discontinuity);
+    const double ms = MillisecondsSince(start);
+    lock.lock();
+    Record(ms, number);
+    return;
+  }
   std::swap(waiting_, snapshot);
   if (!has_waiting_) force_ = discontinuity_ = false;
   has_waiting_ = true;
   force_ |= force;
   discontinuity_ |= discontinuity;
-  const uint64_t number = ++offered_count_;
   offered_.notify_one();
   if (force) published_.wait(lock, [&] { return stop_ || published_count_ >= number; });
 }
@@ -65,17 +83,20 @@ void FramePublisher::Loop(int threads) {
     }
     const auto start = std::chrono::steady_clock::now();
     hub_.Publish(frame, force, discontinuity);
-    const double ms =
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    const double ms = MillisecondsSince(start);
     {
       std::lock_guard lock(mu_);
-      timing_.last_ms = ms;
-      timing_.mean_ms = (timing_.mean_ms * double(timing_.calls) + ms) / double(timing_.calls + 1);
-      ++timing_.calls;
-      published_count_ = number;
+      Record(ms, number);
     }
     published_.notify_all();
   }
+}
+
+void FramePublisher::Record(double ms, uint64_t number) {
+  timing_.last_ms = ms;
+  timing_.mean_ms = (timing_.mean_ms * double(timing_.calls) + ms) / double(timing_.calls + 1);
+  ++timing_.calls;
+  published_count_ = number;
 }
 
 }  // namespace dysa::service

@@ -41,7 +41,8 @@ SimulationHost::SimulationHost(Scene scene, HostOptions options)
       solver_threads_(options_.solver_threads > 0 ? options_.solver_threads
                                                   : omp_get_max_threads()),
       hub_(options_.max_subscribers),
-      publisher_(hub_, std::max(1, omp_get_num_procs() - solver_threads_)),
+      // A publishing thread with the cores the solver leaves; inline when it leaves none.
+      publisher_(hub_, std::max(0, omp_get_num_procs() - solver_threads_)),
       history_(options_.history) {
   if (const std::string over = CheckParticleLimit(scene, scene.params); !over.empty()) {
     throw ConfigError("max_particles", over);

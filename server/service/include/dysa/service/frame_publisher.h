@@ -6,6 +6,11 @@
 // class's own thread encodes and hands the frame to the hub. With a core left to it (dysa-server
 // --threads below the core count), streaming then costs the solver the gather alone.
 //
+// That needs a core: when the solver has every core, a publishing thread only takes its cycles
+// from the solver's threads, and each step's barriers then wait for the one it preempted. The
+// publisher is then inline: Offer publishes on the caller's thread, whose OpenMP team encodes
+// while the solver waits anyway.
+//
 // A frame offered while the previous one is still being published replaces the one waiting
 // (subscribers get the newest frame; the hub's encoders take any sequence of frames). A forced
 // frame, one a control asked for (step, step back, reset, a late joiner while paused), is waited
@@ -29,7 +34,8 @@ struct PublishTiming {
 
 class FramePublisher {
  public:
-  // `threads`: OpenMP threads of the publishing thread (the encoder's chunks run in parallel).
+  // `threads`: OpenMP threads of the publishing thread (the encoder's chunks run in parallel);
+  // 0: no thread, publish inline on the caller's.
   FramePublisher(FrameHub& hub, int threads);
   ~FramePublisher();  // Stop()
   FramePublisher(const FramePublisher&) = delete;
@@ -48,6 +54,7 @@ class FramePublisher {
 
  private:
   void Loop(int threads);
+  void Record(double ms, uint64_t number);  // with mu_ held
 
   FrameHub& hub_;
   mutable std::mutex mu_;

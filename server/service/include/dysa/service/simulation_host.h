@@ -35,7 +35,7 @@ struct HostOptions {
   bool start_paused = false;
   // OpenMP threads the solver steps with; 0: the creating thread's OpenMP default (every core
   // unless OMP_NUM_THREADS says otherwise). Frames are encoded on a thread of their own with the
-  // cores left over, at least one.
+  // cores left over, or on the simulation thread when none are (FramePublisher).
   int solver_threads = 0;
   // One line per significant event (scene loaded, reset, alarm, ...); may be empty.
   std::function<void(const std::string&)> log;
