@@ -168,12 +168,22 @@ dysa::Scene LargeBlock(int n) {
 
 // Part 1: the live simulation as fast as it runs, from the same state each time, with 0, 1, 4
 // and 16 subscribers: simulated frames per second and frames delivered to each subscriber.
-void Live(const std::vector<int>& counts, double seconds, int warmup_frames, std::ofstream& csv) {
+// The mean time per frame of the host's stage `name` (gather_frames, publish_frames), 0 if none.
+double StageMs(const dysa::service::HostStatus& status, const std::string& name) {
+  for (const auto& pass : status.passes) {
+    if (pass.name == name) return pass.mean_ms;
+  }
+  return 0;
+}
+
+void Live(const std::vector<int>& counts, double seconds, int warmup_frames, int solver_threads,
+          std::ofstream& csv) {
   const dysa::Scene scene = dysa::LoadScene("seed_test_scene");
   for (int n : counts) {
     HostOptions options;
     options.frame_rate = 0;
     options.start_paused = true;
+    options.solver_threads = solver_threads;
     SimulationHost host(scene, options);
     Server server(host, Loopback());
     auto stub = dysa::v1::Simulation::NewStub(
@@ -204,16 +214,18 @@ void Live(const std::vector<int>& counts, double seconds, int warmup_frames, std
     }
     const auto status = host.Status();
     const double sim_fps = (status.frame - frame0) / Seconds(Clock::now() - start);
-    const double publish_ms =
-        status.passes.back().name == "publish_frames" ? status.passes.back().mean_ms : 0.0;
+    const double gather_ms = StageMs(status, "gather_frames");
+    const double publish_ms = StageMs(status, "publish_frames");
     std::printf(
-        "live      thesis  %8d particles  %2d subscribers: simulation %6.2f frames/s, "
-        "delivered %6.2f (min %6.2f) frames/s, %8.0f B/frame, latency %6.1f ms, publish %.2f ms\n",
-        int(status.particles), n, sim_fps, d.fps_mean, n ? d.fps_min : 0.0, d.bytes_per_frame,
-        d.latency_ms, publish_ms);
+        "live      thesis  %8d particles  %2d subscribers, %u solver threads: simulation %6.2f "
+        "frames/s, delivered %6.2f (min %6.2f) frames/s, %8.0f B/frame, latency %6.1f ms, gather "
+        "%.2f ms, publish %.2f ms\n",
+        int(status.particles), n, status.solver_threads, sim_fps, d.fps_mean, n ? d.fps_min : 0.0,
+        d.bytes_per_frame, d.latency_ms, gather_ms, publish_ms);
     csv << "live,seed_test_scene," << host.Status().particles << "," << n << "," << sim_fps << ","
         << d.fps_mean << "," << (n ? d.fps_min : 0.0) << "," << d.bytes_per_frame << ","
-        << d.latency_ms << "," << publish_ms << "\n";
+        << d.latency_ms << "," << publish_ms << "," << gather_ms << "," << status.solver_threads
+        << "\n";
     csv.flush();
     clients.clear();
     server.Shutdown();
@@ -272,7 +284,7 @@ void Pipeline(const dysa::Scene& scene, double warmup_time, int recorded,
         d.fps_min, d.bytes_per_frame, d.latency_ms);
     csv << part << "," << scene.name << "," << frames[0].positions.size() / 3 << "," << n << ","
         << publish_fps << "," << d.fps_mean << "," << d.fps_min << "," << d.bytes_per_frame << ","
-        << d.latency_ms << ",\n";
+        << d.latency_ms << ",,,\n";
     csv.flush();
     server.Shutdown();
   }
@@ -331,6 +343,7 @@ int main(int argc, char** argv) {
   int large = 100;
   std::string counts_text = "1,4,16";
   std::string out_dir = "bench/results";
+  int solver_threads = 0;
   app.add_option("--part", part, "live, pipeline, stalled or all")
       ->check(CLI::IsMember({"live", "pipeline", "stalled", "all"}))
       ->capture_default_str();
@@ -340,6 +353,11 @@ int main(int argc, char** argv) {
   app.add_option("--large", large, "Particles per axis of the large block")->capture_default_str();
   app.add_option("--subscribers", counts_text, "Subscriber counts")->capture_default_str();
   app.add_option("--out", out_dir, "Output directory")->capture_default_str();
+  app.add_option("--solver-threads", solver_threads,
+                 "OpenMP threads of the live part's solver (0: all cores; the publishing thread "
+                 "gets the cores left, at least one)")
+      ->check(CLI::Range(0, 1024))
+      ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
 
   std::filesystem::create_directories(out_dir);
@@ -350,13 +368,13 @@ int main(int argc, char** argv) {
                       part == "pipeline" ? std::ios::app : std::ios::trunc);
     if (part != "pipeline") {
       csv << "part,scene,particles,subscribers,simulated_or_encoded_fps,delivered_fps_mean,"
-             "delivered_fps_min,bytes_per_frame,latency_ms,publish_ms\n";
+             "delivered_fps_min,bytes_per_frame,latency_ms,publish_ms,gather_ms,solver_threads\n";
     }
     if (part != "pipeline") {
       std::vector<int> with_zero{0};
       with_zero.insert(with_zero.end(), counts.begin(), counts.end());
       with_zero.push_back(0);  // again at the end: drift of the machine shows here
-      Live(with_zero, seconds, 30, csv);
+      Live(with_zero, seconds, 30, solver_threads, csv);
     }
     if (part != "live") {
       Pipeline(dysa::LoadScene("seed_test_scene"), 1.0, 60, counts, Mode::kDecode, seconds, csv);
