@@ -59,6 +59,7 @@ ServerStatus FromProto(const pb::Status& s) {
   out.alarm = s.alarm();
   out.warning = s.warning();
   out.history_frames = s.history_frames();
+  out.solver_threads = s.solver_threads();
   out.history_bytes = s.history_bytes();
   out.frames_encoded = s.frames_encoded();
   out.state_hash = s.state_hash();

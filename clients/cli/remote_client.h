@@ -71,8 +71,9 @@ struct ServerStatus {
   uint64_t history_frames = 0;
   uint64_t history_bytes = 0;
   uint64_t frames_encoded = 0;
-  uint64_t state_hash = 0;     // while paused: equal hashes mean bit-identical states; 0 running
-  uint64_t scene_version = 0;  // changes whenever GetScene() would answer differently
+  uint64_t state_hash = 0;      // while paused: equal hashes mean bit-identical states; 0 running
+  uint64_t scene_version = 0;   // changes whenever GetScene() would answer differently
+  uint32_t solver_threads = 0;  // OpenMP threads the solver steps with
 };
 
 struct ControlResult {

@@ -112,7 +112,8 @@ Json ToJson(const ServerStatus& s) {
           {"history_bytes", s.history_bytes},
           {"frames_encoded", s.frames_encoded},
           {"state_hash", s.state_hash},
-          {"scene_version", s.scene_version}};
+          {"scene_version", s.scene_version},
+          {"solver_threads", s.solver_threads}};
 }
 
 Json ToJson(const ControlResult& r) {
@@ -310,7 +311,8 @@ void PrintStatus(Client& client, bool json, std::ostream& out) {
   const ServerStatus s = client.GetStatus();
   if (json) return PrintJson(ToJson(s), out);
   std::vector<std::vector<std::string>> rows = {
-      {"scene", s.scene + " (solver " + s.solver + ")"},
+      {"scene",
+       s.scene + " (solver " + s.solver + ", " + std::to_string(s.solver_threads) + " threads)"},
       {"state", s.state},
       {"frame", std::to_string(s.frame)},
       {"step", std::to_string(s.step)},

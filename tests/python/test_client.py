@@ -234,6 +234,7 @@ class ClientTest(unittest.TestCase):
         self.assertEqual(status.solver, "seed")
         self.assertEqual(status.particles, _PARTICLES)
         self.assertEqual(status.alarm, "")
+        self.assertEqual(status.solver_threads, 2)  # dysa-server --threads 2
         self.assertGreater(status.time, 0.0)
         names = [p.name for p in status.passes]
         self.assertIn("density", names)

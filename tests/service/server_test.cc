@@ -101,7 +101,9 @@ std::vector<codec::Frame> ReadFrames(grpc::ClientReader<v1::FrameMessage>& reade
 }
 
 TEST(ServerTest, EveryControlRpcAppliesAndReports) {
-  Fixture fx(Paused());
+  HostOptions options = Paused();
+  options.solver_threads = 1;
+  Fixture fx(options);
   Simulation::Stub& stub = fx.stub();
   v1::Status status = GetStatus(stub);
   EXPECT_EQ(status.state(), v1::RUN_STATE_PAUSED);
@@ -115,6 +117,7 @@ TEST(ServerTest, EveryControlRpcAppliesAndReports) {
   ASSERT_TRUE(stub.Step(Context().get(), step, &reply).ok());
   EXPECT_EQ(reply.status().frame(), 4u);
   EXPECT_EQ(reply.frames_moved(), 4u);
+  EXPECT_EQ(reply.status().solver_threads(), 1u);
   // seed_basic has no obstacles: external_forces, neighbour_grid, density, pressure_force,
   // viscosity, integrate.
   ASSERT_EQ(reply.status().passes_size(), 6);

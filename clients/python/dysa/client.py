@@ -131,6 +131,7 @@ class Status:
     history_bytes: int  # bytes of memory the history holds
     frames_encoded: int  # frames encoded for subscribers since the server started
     scene_version: int = 0  # changes whenever get_scene() would answer differently
+    solver_threads: int = 0  # OpenMP threads the solver steps with (dysa-server --threads)
 
     @property
     def paused(self) -> bool:
@@ -233,7 +234,7 @@ def _status(m: Any) -> Status:
         passes=tuple(PassTiming(p.name, p.last_ms, p.mean_ms, p.calls) for p in m.passes),
         subscribers=m.subscribers, alarm=m.alarm, warning=m.warning, history_frames=m.history_frames,
         history_bytes=m.history_bytes, frames_encoded=m.frames_encoded,
-        scene_version=m.scene_version)
+        scene_version=m.scene_version, solver_threads=m.solver_threads)
 
 
 def _control(m: Any) -> ControlResult:

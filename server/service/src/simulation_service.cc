@@ -58,6 +58,7 @@ void ToProto(const HostStatus& s, v1::Status& out) {
   out.set_frames_encoded(s.frames_encoded);
   out.set_state_hash(s.state_hash);
   out.set_scene_version(s.scene_version);
+  out.set_solver_threads(s.solver_threads);
 }
 
 void ToProto(const Vec3d& v, v1::Vec3& out) {
