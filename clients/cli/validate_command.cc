@@ -56,6 +56,13 @@ std::string RunText(const ValidationRun& run, double seconds) {
   return s.str();
 }
 
+std::string BottomLayerText(const HydrostaticResult& h) {
+  std::ostringstream s;
+  s << "    bottom layer at " << std::fixed << std::setprecision(3) << h.bottom_layer_height
+    << " d above the floor (0.5 d: held by the wall's pressure)\n";
+  return s.str();
+}
+
 }  // namespace
 
 int RunValidate(const ValidateOptions& options, std::ostream& out) {
@@ -75,7 +82,8 @@ int RunValidate(const ValidateOptions& options, std::ostream& out) {
   auto start = Clock::now();
   const HydrostaticResult h = RunHydrostaticTank(tank);
   const std::string tank_run =
-      RunText(h.run, std::chrono::duration<double>(Clock::now() - start).count());
+      RunText(h.run, std::chrono::duration<double>(Clock::now() - start).count()) +
+      BottomLayerText(h);
 
   ValidationOptions dam = base;
   if (quick) dam.spacing = kQuickDamSpacing;
@@ -93,7 +101,8 @@ int RunValidate(const ValidateOptions& options, std::ostream& out) {
     start = Clock::now();
     incompressible = RunHydrostaticTank(tank_dfsph);
     incompressible_run =
-        RunText(incompressible->run, std::chrono::duration<double>(Clock::now() - start).count());
+        RunText(incompressible->run, std::chrono::duration<double>(Clock::now() - start).count()) +
+        BottomLayerText(*incompressible);
   }
 
   out << "\n";

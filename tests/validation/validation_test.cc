@@ -65,6 +65,9 @@ TEST(HydrostaticTankTest, PressureFollowsRhoGDepthAndTheTankIsAtRest) {
   EXPECT_LT(r.density_error_max, 0.006);
   // At rest: 0.009 m/s against sqrt(g H) = 0.95 m/s of a sloshing tank.
   EXPECT_LT(r.max_speed, 0.03);
+  // Held by the wall's pressure at the rest lattice's d / 2 (0.498 d), not sunk into the
+  // contact force's range (0.4 d).
+  EXPECT_NEAR(r.bottom_layer_height, 0.5, 0.01);
 }
 
 // dfsph on the tank: incompressible to its tolerance. At the quick spacing (2,880 particles):

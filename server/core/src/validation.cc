@@ -115,6 +115,13 @@ HydrostaticResult RunHydrostaticTank(const ValidationOptions& options) {
     result.max_speed = std::max(result.max_speed, double(p.velocity[i].norm()));
   }
   result.density_error_mean = p.size() ? compression / double(p.size()) : 0;
+  double bottom = 0;
+  int in_bottom = 0;
+  for (const Vec3& x : p.position) {
+    const double height = (double(x.y()) - floor) / d;
+    if (height < 1) bottom += height, ++in_bottom;
+  }
+  result.bottom_layer_height = in_bottom ? bottom / in_bottom : 0;
   result.capped_solves = sim.state().solver_stats.capped_solves;
   return result;
 }

@@ -43,6 +43,10 @@ struct HydrostaticResult {
   double density_error_mean = 0;
   double density_error_max = 0;
   double max_speed = 0;  // m/s at the end: the tank should be at rest
+  // Mean height of the bottom layer (the fluid particles less than d above the floor) over d,
+  // at the end: 0.5 when the wall's pressure holds the fluid on the rest lattice, lower when it
+  // sank into the wall contact force's range (0.4 d).
+  double bottom_layer_height = 0;
   // An iterative solver's (dfsph) solves that stopped at max_iterations, over the run.
   uint64_t capped_solves = 0;
   struct Sample {
