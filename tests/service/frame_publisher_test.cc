@@ -32,6 +32,11 @@ class GateListener : public FrameListener {
     released.wait(lock, [&] { return !hold; });
   }
   void OnHubClosed() override {}
+  // Until the listener has been called `calls` times.
+  void WaitForCalls(int calls) {
+    std::unique_lock lock(mu);
+    entered.wait(lock, [&] { return ready >= calls; });
+  }
   void Release() {
     {
       std::lock_guard lock(mu);
@@ -77,62 +82,56 @@ TEST(FramePublisherTest, AForcedFrameIsPublishedOnThePublishersThreadBeforeOffer
   hub.Unsubscribe(subscription);
 }
 
-TEST(FramePublisherTest, AFrameOfferedWhilePublishingReplacesTheOneWaiting) {
-  FrameHub hub(4);
-  GateListener listener;
-  listener.hold = true;
-  auto subscription = hub.Subscribe(Positions(), &listener);
-  FramePublisher publisher(hub, 1);
-  FrameSnapshot frame = Snapshot(1);
-  publisher.Offer(frame, false, false);  // returns at once: not forced
-  {
-    std::unique_lock lock(listener.mu);
-    listener.entered.wait(lock, [&] { return listener.ready == 1; });
+// A publisher with one thread, in the middle of publishing frame 1: the subscriber's listener
+// holds it inside FrameHub::Publish until released.
+class HeldPublishTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    listener_.hold = true;
+    subscription_ = hub_.Subscribe(Positions(), &listener_);
+    FrameSnapshot frame = Snapshot(1);
+    publisher_.Offer(frame, false, false);  // returns at once: not forced
+    listener_.WaitForCalls(1);
   }
-  // Frame 1 is being published (held in the listener). Frames 2, 3, 4 arrive meanwhile: only
-  // the newest waits, and it keeps frame 3's discontinuity.
+  void TearDown() override { hub_.Unsubscribe(subscription_); }
+
+  FrameHub hub_{4};
+  GateListener listener_;
+  std::shared_ptr<Subscription> subscription_;
+  FramePublisher publisher_{hub_, 1};
+};
+
+TEST_F(HeldPublishTest, AFrameOfferedWhilePublishingReplacesTheOneWaiting) {
+  // Frames 2, 3, 4 arrive while frame 1 is being published: only the newest waits, and it keeps
+  // frame 3's discontinuity.
   for (uint64_t f = 2; f <= 4; ++f) {
-    frame = Snapshot(f);
-    publisher.Offer(frame, false, /*discontinuity=*/f == 3);
+    FrameSnapshot frame = Snapshot(f);
+    publisher_.Offer(frame, false, /*discontinuity=*/f == 3);
   }
-  listener.Release();
-  ASSERT_TRUE(WaitFor([&] { return publisher.timing().calls == 2; }, 30));
-  EXPECT_EQ(hub.frames_encoded(), 2u);
-  uint32_t skipped = 0;
-  const auto taken = subscription->Take(&skipped);
+  listener_.Release();
+  ASSERT_TRUE(WaitFor([&] { return publisher_.timing().calls == 2; }, 30));
+  EXPECT_EQ(hub_.frames_encoded(), 2u);
+  const auto taken = subscription_->Take(nullptr);
   ASSERT_TRUE(taken);
   EXPECT_EQ(taken->frame, 4u);
   EXPECT_TRUE(taken->keyframe);  // the discontinuity of frame 3 carried over
-  hub.Unsubscribe(subscription);
 }
 
-TEST(FramePublisherTest, StopDropsTheWaitingFrameAndReleasesAForcedOffer) {
-  FrameHub hub(4);
-  GateListener listener;
-  listener.hold = true;
-  auto subscription = hub.Subscribe(Positions(), &listener);
-  auto publisher = std::make_unique<FramePublisher>(hub, 1);
-  FrameSnapshot frame = Snapshot(1);
-  publisher->Offer(frame, false, false);
-  {
-    std::unique_lock lock(listener.mu);
-    listener.entered.wait(lock, [&] { return listener.ready == 1; });
-  }
+TEST_F(HeldPublishTest, StopDropsTheWaitingFrameAndReleasesAForcedOffer) {
   std::atomic<bool> returned{false};
   std::thread forced([&] {
-    FrameSnapshot f2 = Snapshot(2);
-    publisher->Offer(f2, /*force=*/true, false);
+    FrameSnapshot frame = Snapshot(2);
+    publisher_.Offer(frame, /*force=*/true, false);
     returned = true;
   });
   std::this_thread::sleep_for(std::chrono::milliseconds(50));
   EXPECT_FALSE(returned);  // a forced offer waits while frame 1 is still being published
-  std::thread stopper([&] { publisher->Stop(); });
+  std::thread stopper([&] { publisher_.Stop(); });
   ASSERT_TRUE(WaitFor([&] { return returned.load(); }, 30));  // Stop released the forced offer
-  listener.Release();
+  listener_.Release();
   stopper.join();
   forced.join();
-  EXPECT_EQ(hub.frames_encoded(), 1u);  // frame 2 was never published
-  hub.Unsubscribe(subscription);
+  EXPECT_EQ(hub_.frames_encoded(), 1u);  // frame 2 was never published
 }
 
 TEST(FramePublisherTest, WithoutThreadsEveryFrameIsPublishedInlineOnTheCallersThread) {
