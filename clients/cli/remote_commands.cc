@@ -311,8 +311,8 @@ void PrintStatus(Client& client, bool json, std::ostream& out) {
   const ServerStatus s = client.GetStatus();
   if (json) return PrintJson(ToJson(s), out);
   std::vector<std::vector<std::string>> rows = {
-      {"scene",
-       s.scene + " (solver " + s.solver + ", " + std::to_string(s.solver_threads) + " threads)"},
+      {"scene", s.scene + " (solver " + s.solver + ", " + std::to_string(s.solver_threads) +
+                    (s.solver_threads == 1 ? " thread)" : " threads)")},
       {"state", s.state},
       {"frame", std::to_string(s.frame)},
       {"step", std::to_string(s.step)},

@@ -176,7 +176,8 @@ int main(int argc, char** argv) {
       (server_options.token.empty()
            ? ""
            : (protect_watch ? ", token for every call" : ", token for controls")) +
-      ", " + std::to_string(host->Status().solver_threads) + " solver threads");
+      ", " + std::to_string(host->Status().solver_threads) +
+      (host->Status().solver_threads == 1 ? " solver thread" : " solver threads"));
 
   int signal_number = 0;
   sigwait(&signals, &signal_number);
