@@ -42,7 +42,8 @@ void FramePublisher::Offer(FrameSnapshot& snapshot, bool force, bool discontinui
     hub_.Publish(snapshot, force, discontinuity);
     const double ms = MillisecondsSince(start);
     lock.lock();
-    Record(ms, number);
+    timing_.Add(ms);
+    published_count_ = number;
     return;
   }
   std::swap(waiting_, snapshot);
@@ -54,7 +55,7 @@ void FramePublisher::Offer(FrameSnapshot& snapshot, bool force, bool discontinui
   if (force) published_.wait(lock, [&] { return stop_ || published_count_ >= number; });
 }
 
-PublishTiming FramePublisher::timing() const {
+StageTiming FramePublisher::timing() const {
   std::lock_guard lock(mu_);
   return timing_;
 }
@@ -86,17 +87,11 @@ void FramePublisher::Loop(int threads) {
     const double ms = MillisecondsSince(start);
     {
       std::lock_guard lock(mu_);
-      Record(ms, number);
+      timing_.Add(ms);
+      published_count_ = number;
     }
     published_.notify_all();
   }
-}
-
-void FramePublisher::Record(double ms, uint64_t number) {
-  timing_.last_ms = ms;
-  timing_.mean_ms = (timing_.mean_ms * double(timing_.calls) + ms) / double(timing_.calls + 1);
-  ++timing_.calls;
-  published_count_ = number;
 }
 
 }  // namespace dysa::service

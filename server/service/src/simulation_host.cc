@@ -298,7 +298,7 @@ void SimulationHost::StartScene() {
   alarm_.clear();
   history_.Start(*sim_);
   recent_frames_.clear();
-  gather_ = PassStatus{"gather_frames"};
+  gather_ = {};
   publisher_.ResetTiming();
   const Scene& scene = sim_->scene();
   Log("scene '" + scene.name + "': " + std::to_string(sim_->state().particles.size()) +
@@ -352,9 +352,7 @@ void SimulationHost::Publish(bool force, bool discontinuity) {
   if (fields == 0) return;  // no one watches: nothing gathered, nothing encoded
   const auto start = Clock::now();
   GatherSnapshot(*sim_, fields, snapshot_);
-  gather_.last_ms = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
-  gather_.mean_ms = (gather_.mean_ms * gather_.calls + gather_.last_ms) / (gather_.calls + 1);
-  ++gather_.calls;
+  gather_.Add(std::chrono::duration<double, std::milli>(Clock::now() - start).count());
   publisher_.Offer(snapshot_, force, discontinuity);
 }
 
@@ -379,10 +377,11 @@ void SimulationHost::RefreshStatus() {
                                   prof.calls ? prof.total_ms / double(prof.calls) : 0.0,
                                   prof.calls});
   }
-  if (gather_.calls > 0) s.passes.push_back(gather_);
-  if (const PublishTiming t = publisher_.timing(); t.calls > 0) {
-    s.passes.push_back(PassStatus{"publish_frames", t.last_ms, t.mean_ms, t.calls});
-  }
+  const auto add_stage = [&](const char* name, const StageTiming& t) {
+    if (t.calls > 0) s.passes.push_back(PassStatus{name, t.last_ms, t.mean_ms, t.calls});
+  };
+  add_stage("gather_frames", gather_);
+  add_stage("publish_frames", publisher_.timing());
   s.solver_threads = uint32_t(running_threads_);
   s.alarm = alarm_;
   s.warning = sim_->warning();

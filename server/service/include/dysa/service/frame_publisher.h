@@ -26,10 +26,16 @@
 
 namespace dysa::service {
 
-struct PublishTiming {
-  double last_ms = 0;  // the latest frame's encoding and hand-over to the subscribers
+// The time a per-frame stage took (gathering a frame, publishing it), as GetStatus shows it.
+struct StageTiming {
+  double last_ms = 0;
   double mean_ms = 0;
-  uint64_t calls = 0;  // frames published
+  uint64_t calls = 0;  // frames
+  void Add(double ms) {
+    last_ms = ms;
+    mean_ms = (mean_ms * double(calls) + ms) / double(calls + 1);
+    ++calls;
+  }
 };
 
 class FramePublisher {
@@ -49,12 +55,12 @@ class FramePublisher {
   // Publishes nothing more; a frame still waiting is dropped. Idempotent.
   void Stop();
 
-  PublishTiming timing() const;
+  // The latest frame's encoding and hand-over to the subscribers, and their mean.
+  StageTiming timing() const;
   void ResetTiming();
 
  private:
   void Loop(int threads);
-  void Record(double ms, uint64_t number);  // with mu_ held
 
   FrameHub& hub_;
   mutable std::mutex mu_;
@@ -67,7 +73,7 @@ class FramePublisher {
   uint64_t offered_count_ = 0;    // frames offered, the latest one's number
   uint64_t published_count_ = 0;  // the number of the latest frame published (or replaced)
   bool stop_ = false;
-  PublishTiming timing_;
+  StageTiming timing_;
   std::thread thread_;
 };
 

@@ -176,7 +176,7 @@ class SimulationHost {
   std::string alarm_;
   FrameSnapshot snapshot_;  // reused buffers
   std::deque<std::chrono::steady_clock::time_point> recent_frames_;
-  PassStatus gather_;  // gathering frames for subscribers, per frame
+  StageTiming gather_;  // gathering frames for subscribers
   // OpenMP threads of the simulation thread, as it reads them; the configured count until it
   // starts.
   int running_threads_ = solver_threads_;
