@@ -72,7 +72,7 @@ TEST(HydrostaticTankTest, PressureFollowsRhoGDepthAndTheTankIsAtRest) {
 
 // dfsph on the tank: incompressible to its tolerance. At the quick spacing (2,880 particles):
 // mean density deviation 0.01%; pressure error max 4.5%, mean 2.3% (`dysa validate --quick`).
-// The pressure is the impulse of both solves; the density solve's alone reads 14.5% low.
+// The pressure is the impulse of both solves; the density solve's alone reads far too low.
 TEST(HydrostaticTankTest, DfsphKeepsTheDensityWithinATenthOfAPercent) {
   ValidationOptions options;
   options.spacing = kQuickTankSpacing;

@@ -217,8 +217,7 @@ void DensitySolve(const Model& model, const BoundaryParticles& boundary, State& 
   stats.density_iterations = iteration;
   // The step's pressure (the probes read it): both solves' velocity changes taken as one
   // acceleration over the step, p_i = rho_i sum kappa_i dt_solve / dt. The divergence solve's
-  // part is not small: at rest it holds part of the weight (without it the tank's pressure
-  // read 14.5% low at d = 0.05 m). Times the gradient moment (kernels.h): the pressure whose exact
+  // part is not small: at rest it holds part of the weight. Times the gradient moment (kernels.h): the pressure whose exact
   // gradient the discrete forces are, as wcsph divides its forces by it; scaling the forces and
   // alpha instead would give the same iterates.
   const Real scale = Real(model.gradient_moment) / dt;
