@@ -217,9 +217,9 @@ void DensitySolve(const Model& model, const BoundaryParticles& boundary, State& 
   stats.density_iterations = iteration;
   // The step's pressure (the probes read it): both solves' velocity changes taken as one
   // acceleration over the step, p_i = rho_i sum kappa_i dt_solve / dt. The divergence solve's
-  // part is not small: at rest it holds part of the weight. Times the gradient moment (kernels.h): the pressure whose exact
-  // gradient the discrete forces are, as wcsph divides its forces by it; scaling the forces and
-  // alpha instead would give the same iterates.
+  // part is not small: at rest it holds part of the weight. Times the gradient moment (kernels.h):
+  // the pressure whose exact gradient the discrete forces are, as wcsph divides its forces by it;
+  // scaling the forces and alpha instead would give the same iterates.
   const Real scale = Real(model.gradient_moment) / dt;
 #pragma omp parallel for schedule(static)
   for (int64_t i = 0; i < n; ++i) p.pressure[i] = scale * w.kappa_sum[i] * p.density[i];
