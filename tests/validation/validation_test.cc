@@ -49,7 +49,8 @@ TEST(HydrostaticTankTest, PressureFollowsRhoGDepthAndTheTankIsAtRest) {
   EXPECT_EQ(r.run.particles, 40u * 18 * 4);
   EXPECT_DOUBLE_EQ(r.run.time, 2.0);
   ASSERT_GE(r.profile.size(), 10u);
-  EXPECT_EQ(r.samples, 51);  // every 0.01 s over the last 0.5 s
+  // After every step of the last 0.5 s: at least 0.5 s / max_time_step (0.005 s) of them.
+  EXPECT_GE(r.samples, 100);
   // Quick: max 0.25%, mean 0.08% of rho0 g H. Without the gradient moment (kernels.h) the
   // pressure is 2% low at the floor (1.8% max); a wall that let the column sink misses these too.
   EXPECT_LT(r.pressure_error_max, 0.01);
@@ -70,20 +71,28 @@ TEST(HydrostaticTankTest, PressureFollowsRhoGDepthAndTheTankIsAtRest) {
   EXPECT_NEAR(r.bottom_layer_height, 0.5, 0.01);
 }
 
-// dfsph on the tank: incompressible to its tolerance. At the quick spacing (2,880 particles):
-// mean density deviation 0.01%; pressure error max 4.5%, mean 2.3% (`dysa validate --quick`).
-// The pressure is the impulse of both solves; the density solve's alone reads far too low.
+// dfsph on the tank: incompressible to its tolerance. At the quick spacing (2,880 particles,
+// `dysa validate --quick`): mean density deviation 0.01%; the pressure grows at rho0 g (slope
+// within 1%) but sits about one layer's head low, error max 8.0%, mean 6.4%. The pressure is
+// the impulse of both solves; the density solve's alone reads far too low.
 TEST(HydrostaticTankTest, DfsphKeepsTheDensityWithinATenthOfAPercent) {
   ValidationOptions options;
   options.spacing = kQuickTankSpacing;
   options.solver = "dfsph";
   const HydrostaticResult r = RunHydrostaticTank(options);
   EXPECT_EQ(r.run.solver, "dfsph");
+  EXPECT_GE(r.samples, 100);
   EXPECT_LT(r.density_error_mean, 0.001);
   EXPECT_LT(r.density_error_max, 0.003);
   EXPECT_EQ(r.capped_solves, 0u);
-  EXPECT_LT(r.pressure_error_max, 0.08);
-  EXPECT_LT(r.pressure_error_mean, 0.04);
+  EXPECT_LT(r.pressure_error_max, 0.10);
+  EXPECT_LT(r.pressure_error_mean, 0.08);
+  // The gradient: within 3% of rho0 g. Read every other step (one phase of the step-to-step
+  // swing) it came out 17% too steep.
+  const auto& top = r.profile.back();
+  const auto& bottom = r.profile.front();
+  const double slope = (bottom.pressure - top.pressure) / (top.y - bottom.y);
+  EXPECT_NEAR(slope, 1000 * 1.0, 30);
   EXPECT_LT(r.max_speed, 0.15);
 }
 

@@ -79,17 +79,21 @@ HydrostaticResult RunHydrostaticTank(const ValidationOptions& options) {
     probe.point = Vec3d(center.x(), floor + y, center.z());
     probes.push_back(probe);
   }
-  // The pressure at each point, averaged over the samples of the last averaging window.
+  // The pressure at each point after every step of the averaging window, weighted by the
+  // step's length. Every step, not samples at an interval: dfsph's pressure alternates from
+  // one step to the next, and samples every other step would read one phase of it.
+  const double window_start = std::max(0.0, end - kHydrostaticAveragingTime);
+  while (sim.state().time < window_start) sim.Step(window_start);
   std::vector<double> sums(probes.size(), 0.0);
+  double window = 0;
   int samples = 0;
-  const double first_sample = std::max(0.0, end - kHydrostaticAveragingTime);
-  for (int k = 0;; ++k) {
-    const double t = std::min(end, first_sample + k * kHydrostaticSampleInterval);
-    while (sim.state().time < t) sim.Step(t);
+  while (sim.state().time < end) {
+    sim.Step(end);
+    const double dt = sim.last_dt();
     const std::vector<double> p = EvaluateProbes(probes, sim.model(), sim.state());
-    for (size_t i = 0; i < p.size(); ++i) sums[i] += p[i];
+    for (size_t i = 0; i < p.size(); ++i) sums[i] += p[i] * dt;
+    window += dt;
     ++samples;
-    if (t >= end) break;
   }
   result.run = RunInfo(sim);
   result.samples = samples;
@@ -97,7 +101,7 @@ HydrostaticResult RunHydrostaticTank(const ValidationOptions& options) {
   double sum = 0;
   for (size_t i = 0; i < probes.size(); ++i) {
     const double y = probes[i].point.y() - floor;
-    const double p = sums[i] / samples;
+    const double p = window > 0 ? sums[i] / window : 0;
     const double reference = rho0 * g * (H - y);
     const double error = std::abs(p - reference) / (rho0 * g * H);
     result.profile.push_back({y, p, reference});

@@ -29,10 +29,12 @@ Scene SlabAtSpacing(Scene scene, double spacing, int layers = 4);
 // under gravity g ramped in over 1 s, run to its end_time. Pressure is sampled along the
 // vertical line through the tank's centre (x = 1, mid-slab) every spacing from y = d up to
 // H - top_layers * d (the free surface's kernel deficit leaves the top layers under-pressured
-// by construction), averaged over the run's last kHydrostaticAveragingTime, and compared with
-// rho0 g (H - y). The average takes out wcsph's acoustic ringing (period 2 H / c0 = 0.09 s)
-// and dfsph's step-to-step noise: its pressure is the impulse of two iterative solves, each
-// stopped at a tolerance, and the divergence solve corrects compression only.
+// by construction), averaged after every step over the run's last kHydrostaticAveragingTime
+// (weighted by the step's length), and compared with rho0 g (H - y). The average takes out
+// wcsph's acoustic ringing (period 2 H / c0 = 0.09 s) and dfsph's step-to-step noise: its
+// pressure is the impulse of two iterative solves, each stopped at a tolerance, and it swings
+// by half its value from one step to the next, so samples at a fixed interval (every other
+// step) would read one phase of it.
 struct HydrostaticResult {
   ValidationRun run;
   double depth = 0;                // m, H (the fluid block's height)
@@ -53,11 +55,10 @@ struct HydrostaticResult {
     double y, pressure, reference;  // m, Pa, Pa
   };
   std::vector<Sample> profile;  // the averaged pressure
-  int samples = 0;              // pressure samples averaged
+  int samples = 0;              // pressure samples averaged: one after every step of the window
 };
 inline constexpr int kHydrostaticTopLayers = 3;
-inline constexpr double kHydrostaticAveragingTime = 0.5;    // s
-inline constexpr double kHydrostaticSampleInterval = 0.01;  // s
+inline constexpr double kHydrostaticAveragingTime = 0.5;  // s
 
 // How to run a case: the scene's own resolution and solver unless given; `sets` are
 // NAME=VALUE parameter overrides applied last (as `dysa run --set`).
