@@ -65,6 +65,9 @@ const std::array kParamTable = {
                "dfsph: mean (D rho / Dt) dt / rho0 the divergence solve stops at"),
     DYSA_PARAM(max_iterations, "", 1, 10000, kLive,
                "dfsph: iteration cap of each solve (reaching it is counted in the solver stats)"),
+    DYSA_PARAM(warm_start, "", 0.0, 1.0, kLive,
+               "dfsph: fraction of the previous step's pressure impulse each solve starts from "
+               "(0 turns the warm start off)"),
     DYSA_PARAM(gravity_ramp_time, "s", 0.0, 100.0, kLive,
                "wcsph: gravity grows smoothly from 0 to its value over this time (0: at once)"),
 };

@@ -71,6 +71,7 @@ void Simulation::Reset() {
   alarm_.clear();
   state_.warning.clear();
   SpawnParticles(scene_, model_.params, state_.particles);
+  solver_->InitState(state_);
   state_.time = 0;
   state_.step = 0;
   state_.frame = 0;
@@ -78,13 +79,14 @@ void Simulation::Reset() {
 
 size_t Checkpoint::bytes() const {
   return sizeof(Checkpoint) + id.capacity() * sizeof(uint32_t) +
-         (position.capacity() + velocity.capacity()) * sizeof(Vec3);
+         (position.capacity() + velocity.capacity()) * sizeof(Vec3) +
+         (density_stiffness.capacity() + divergence_stiffness.capacity()) * sizeof(Real);
 }
 
 Checkpoint Simulation::SaveCheckpoint() const {
   const ParticleArrays& p = state_.particles;
-  return Checkpoint{model_.params, state_.time, state_.step, state_.frame,
-                    p.id,          p.position,  p.velocity};
+  return Checkpoint{model_.params, state_.time, state_.step,         state_.frame,          p.id,
+                    p.position,    p.velocity,  p.density_stiffness, p.divergence_stiffness};
 }
 
 void Simulation::RestoreCheckpoint(const Checkpoint& checkpoint) {
@@ -97,6 +99,8 @@ void Simulation::RestoreCheckpoint(const Checkpoint& checkpoint) {
   std::copy(checkpoint.id.begin(), checkpoint.id.end(), p.id.begin());
   std::copy(checkpoint.position.begin(), checkpoint.position.end(), p.position.begin());
   std::copy(checkpoint.velocity.begin(), checkpoint.velocity.end(), p.velocity.begin());
+  p.density_stiffness = checkpoint.density_stiffness;
+  p.divergence_stiffness = checkpoint.divergence_stiffness;
   state_.time = checkpoint.time;
   state_.step = checkpoint.step;
   state_.frame = checkpoint.frame;

@@ -48,6 +48,9 @@ struct Params {
   double density_tolerance = 1e-4;     // mean (rho - rho0) / rho0 after the density solve
   double divergence_tolerance = 1e-3;  // mean (D rho / Dt) dt / rho0 after the divergence solve
   int max_iterations = 100;            // per solve
+  // Each solve first applies this fraction of what it applied in the previous step (warm
+  // start, Bender & Koschier 2017 Sec. 4.4; 0: off).
+  double warm_start = 0.5;
 };
 
 struct ParamDecl {

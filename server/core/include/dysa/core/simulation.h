@@ -25,8 +25,9 @@ struct PassProfile {
 
 // Everything a simulation needs to carry on from a given moment, bit for bit: the parameters
 // and the particles' ids, positions and velocities in storage order (the order decides the next
-// neighbour sort, so restoring it reproduces the following steps exactly). Every other per-
-// particle array is recomputed by the step before it is read.
+// neighbour sort, so restoring it reproduces the following steps exactly), and the warm start of
+// a solver that has one (dfsph; empty otherwise). Every other per-particle array is recomputed
+// by the step before it is read.
 struct Checkpoint {
   Params params;
   double time = 0;
@@ -35,6 +36,8 @@ struct Checkpoint {
   std::vector<uint32_t> id;
   std::vector<Vec3> position;
   std::vector<Vec3> velocity;
+  std::vector<Real> density_stiffness;
+  std::vector<Real> divergence_stiffness;
 
   size_t bytes() const;
 };

@@ -26,6 +26,9 @@ class Solver {
   // The passes of one step for this model: only those it needs (no viscosity pass when the
   // viscosity is 0, no obstacle pass without obstacles, ...). Rebuilt whenever parameters change.
   virtual std::vector<Pass> BuildPasses(const Model& model) const = 0;
+  // Sizes what the solver carries from one step to the next besides positions and velocities
+  // (ParticleArrays::density_stiffness, ...), after the particles were spawned.
+  virtual void InitState(State&) const {}
 };
 
 struct SolverInfo {

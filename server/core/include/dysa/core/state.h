@@ -21,6 +21,12 @@ struct ParticleArrays {
   std::vector<Real> near_density;   // kg/m^3 (seed model, Clavet et al. 2005)
   std::vector<Real> pressure;       // Pa
   std::vector<Real> near_pressure;  // Pa
+  // dfsph's warm start (Bender & Koschier 2017, Sec. 4.4): what each of its solves applied in the
+  // previous step, as the time-step free kappa dt^2 (density solve, kg/m^3) and kappa dt
+  // (divergence solve, kg/m^3). Empty for the other solvers. Not sized by Resize(): the solver
+  // sizes it (Solver::InitState), and a checkpoint saves it since the next step reads it.
+  std::vector<Real> density_stiffness;
+  std::vector<Real> divergence_stiffness;
 
   size_t size() const { return id.size(); }
   void Resize(size_t n);

@@ -86,10 +86,15 @@ Real DensityRate(const Model& model, const BoundaryParticles& boundary, const St
   return rate;
 }
 
+// The largest density error, as a fraction of rho0, that one iteration of the density solve
+// corrects (a converged running fluid has errors of 1e-4).
+constexpr double kMaxCorrection = 0.05;
+
 // v_i -= dt [sum_j m (kappa_i / rho_i + kappa_j / rho_j) grad W_ij
 //            + sum_b Psi_b (kappa_i / rho_i) grad W_ib], from the kappa of every particle;
-// kappa_sum_i += kappa_i dt.
-void ApplyKappa(const Model& model, const BoundaryParticles& boundary, State& state, Real dt) {
+// kappa_sum_i += kappa_i dt and applied_i += kappa_i (the solve's total, for its warm start).
+void ApplyKappa(const Model& model, const BoundaryParticles& boundary, State& state, Real dt,
+                Real* applied) {
   ParticleArrays& p = state.particles;
   const Work w = Arrays(state);
   const Real support = Real(model.kernel_support);
@@ -114,7 +119,45 @@ void ApplyKappa(const Model& model, const BoundaryParticles& boundary, State& st
     });
     p.velocity[i] -= dt * (mass * fluid + (rho0 * ki) * wall);
     w.kappa_sum[i] += w.kappa[i] * dt;
+    applied[i] += w.kappa[i];
   }
+}
+
+// A solve's warm start: kappa_i = warm_start carried_i / dt^2 (density) or / dt (the previous
+// step's total, carried free of the step size), applied at once; carried then accumulates this
+// step's total in kappa units, which FinishWarmStart turns back into carried form. Only particles
+// that are being compressed now start warm (as in SPlisHSPlasH), and by at most the one-iteration
+// bound kMaxCorrection: a particle that has already moved apart would otherwise be pushed again
+// by its previous pressure (tests/stress: particles started on top of each other blew apart).
+void StartWarmStart(const Model& model, const BoundaryParticles& boundary, State& state, Real dt,
+                    bool density_solve, Real* carried) {
+  const ParticleArrays& p = state.particles;
+  const Work w = Arrays(state);
+  const int64_t n = int64_t(p.size());
+  const Real rho0 = Real(model.params.rest_density);
+  const Real scale = Real(model.params.warm_start) / (density_solve ? dt * dt : dt);
+  const Real bound = Real(kMaxCorrection) * rho0 / (dt * dt);
+  if (scale == 0) {  // off: nothing to apply, only the accumulator to clear
+    std::fill(carried, carried + n, Real(0));
+    return;
+  }
+  bool any = false;
+#pragma omp parallel for schedule(static) reduction(|| : any)
+  for (int64_t i = 0; i < n; ++i) {
+    const Real rate = DensityRate(model, boundary, state, i);
+    const bool compressing = density_solve ? p.density[i] + dt * rate > rho0 : rate > 0;
+    w.kappa[i] = compressing ? std::min(scale * carried[i], bound * w.alpha[i]) : Real(0);
+    carried[i] = 0;
+    any = any || w.kappa[i] > 0;
+  }
+  if (any) ApplyKappa(model, boundary, state, dt, carried);
+}
+
+void FinishWarmStart(const State& state, Real dt, bool density_solve, Real* carried) {
+  const int64_t n = int64_t(state.particles.size());
+  const Real scale = density_solve ? dt * dt : dt;
+#pragma omp parallel for schedule(static)
+  for (int64_t i = 0; i < n; ++i) carried[i] *= scale;
 }
 
 // The serial mean of error[0, n), so the stopping test (and the iteration count) does not
@@ -130,10 +173,6 @@ double MaxSpeed(const ParticleArrays& p) {
   for (const Vec3& v : p.velocity) v2 = std::max(v2, v.squaredNorm());
   return std::sqrt(double(v2));
 }
-
-// The largest density error, as a fraction of rho0, that one iteration of the density solve
-// corrects (a converged running fluid has errors of 1e-4).
-constexpr double kMaxCorrection = 0.05;
 
 // The diagnostic of a solve that stopped at its iteration cap: the error it could not bring
 // under the tolerance is then carried into the step, instead of passing as converged.
@@ -160,6 +199,8 @@ void DivergenceSolve(const Model& model, const BoundaryParticles& boundary, Stat
                model.params.max_time_step);
   const Real inv_dt = Real(1 / dt);
   std::fill(w.kappa_sum, w.kappa_sum + n, Real(0));
+  Real* carried = p.divergence_stiffness.data();
+  StartWarmStart(model, boundary, state, Real(dt), false, carried);
   State::SolverStats& stats = state.solver_stats;
   int iteration = 0;
   for (;; ++iteration) {
@@ -177,8 +218,9 @@ void DivergenceSolve(const Model& model, const BoundaryParticles& boundary, Stat
                                  model.params.divergence_tolerance, state.step + 1);
       break;
     }
-    ApplyKappa(model, boundary, state, Real(dt));
+    ApplyKappa(model, boundary, state, Real(dt), carried);
   }
+  FinishWarmStart(state, Real(dt), false, carried);
   stats.divergence_iterations = iteration;
 }
 
@@ -189,6 +231,8 @@ void DensitySolve(const Model& model, const BoundaryParticles& boundary, State& 
   const Real rho0 = Real(model.params.rest_density);
   const Real dt = Real(state.dt);
   const Real inv_dt2 = 1 / (dt * dt);
+  Real* carried = p.density_stiffness.data();
+  StartWarmStart(model, boundary, state, dt, true, carried);
   State::SolverStats& stats = state.solver_stats;
   int iteration = 0;
   for (;; ++iteration) {
@@ -212,8 +256,9 @@ void DensitySolve(const Model& model, const BoundaryParticles& boundary, State& 
                                  model.params.density_tolerance, state.step + 1);
       break;
     }
-    ApplyKappa(model, boundary, state, dt);
+    ApplyKappa(model, boundary, state, dt, carried);
   }
+  FinishWarmStart(state, dt, true, carried);
   stats.density_iterations = iteration;
   // The step's pressure (the probes read it): both solves' velocity changes taken as one
   // acceleration over the step, p_i = rho_i sum kappa_i dt_solve / dt. The divergence solve's
@@ -269,13 +314,32 @@ void IntegratePositions(const Model& model, State& state) {
   }
 }
 
+// The neighbour sort, which also carries the warm start along with the particles.
+void SortIntoGrid(const Model& model, State& state) {
+  wcsph::SortIntoGrid(model, state);
+  ParticleArrays& p = state.particles;
+  if (p.density_stiffness.size() != p.size() || p.divergence_stiffness.size() != p.size()) {
+    p.density_stiffness.assign(p.size(), Real(0));  // a state the solver did not initialise
+    p.divergence_stiffness.assign(p.size(), Real(0));
+  }
+  const auto order = state.grid.order();
+  PermuteInPlace(order, p.density_stiffness, state.real_scratch);
+  PermuteInPlace(order, p.divergence_stiffness, state.real_scratch);
+}
+
 }  // namespace
+
+void BenderKoschierSolver::InitState(State& state) const {
+  const size_t n = state.particles.size();
+  state.particles.density_stiffness.assign(n, Real(0));
+  state.particles.divergence_stiffness.assign(n, Real(0));
+}
 
 std::vector<Pass> BenderKoschierSolver::BuildPasses(const Model& model) const {
   const auto boundary = std::make_shared<const BoundaryParticles>(
       model, model.params.particle_spacing, model.kernel_support);
   std::vector<Pass> passes;
-  passes.push_back({"neighbour_grid", wcsph::SortIntoGrid});
+  passes.push_back({"neighbour_grid", SortIntoGrid});
   passes.push_back(
       {"density", [boundary](const Model& m, State& s) { DensityAndFactor(m, *boundary, s); }});
   passes.push_back({"divergence_solve",

@@ -23,11 +23,16 @@
 // The pressure reported (p_i, which the probes read) is both solves' velocity change over the
 // step taken as one acceleration, p_i = mu rho_i sum kappa_i dt_solve / dt, with mu the
 // gradient moment of kernels.h as in wcsph.
-// The divergence solve's velocity change does not depend on dt (kappa ~ 1 / dt times dt); its
-// stopping test uses the CFL step of the current velocities, so no state carries over between
-// steps and a checkpoint (positions, velocities) reproduces the following steps bit for bit.
-// Errors are summed serially in particle order, so the iteration counts do not depend on the
-// thread count.
+// Warm start (2017, Sec. 4.4): each solve first applies the fraction warm_start (0.5, below 1
+// because a solve only adds pressure, kappa >= 0, and could not take an overshoot back) of what
+// it applied in the previous step, then iterates on the error left. The solves' totals are carried
+// per particle as kappa dt^2 and kappa dt (ParticleArrays::density_stiffness,
+// divergence_stiffness), which do not depend on the step size, and permuted with the particles; a
+// checkpoint holds them. Without it every step rebuilds the hydrostatic pressure from zero in a few
+// Jacobi iterations, which leaves a deep column's pressure short (tests/validation). The divergence
+// solve's stopping test uses the CFL step of the current velocities (a function of the state), so a
+// checkpoint reproduces the following steps bit for bit. Errors are summed serially in particle
+// order, so the iteration counts do not depend on the thread count.
 #pragma once
 
 #include <memory>
@@ -40,6 +45,7 @@ namespace dysa::dfsph {
 class BenderKoschierSolver final : public Solver {
  public:
   std::vector<Pass> BuildPasses(const Model& model) const override;
+  void InitState(State& state) const override;
 };
 
 std::unique_ptr<Solver> CreateBenderKoschierSolver();
