@@ -56,10 +56,16 @@ std::string RunText(const ValidationRun& run, double seconds) {
   return s.str();
 }
 
-std::string BottomLayerText(const HydrostaticResult& h) {
+std::string TankDiagnosticsText(const HydrostaticResult& h) {
+  // rho0 g, from the reference line rho0 g (H - y) at the first and last sample.
+  const auto& first = h.profile.front();
+  const auto& last = h.profile.back();
+  const double rho_g = (first.reference - last.reference) / (last.y - first.y);
   std::ostringstream s;
   s << "    bottom layer at " << std::fixed << std::setprecision(3) << h.bottom_layer_height
-    << " d above the floor (0.5 d: held by the wall's pressure)\n";
+    << " d above the floor (0.5 d: held by the wall's pressure)\n"
+    << "    pressure gradient " << std::setprecision(1) << h.pressure_gradient << " Pa/m ("
+    << std::setprecision(3) << h.pressure_gradient / rho_g << " rho0 g)\n";
   return s.str();
 }
 
@@ -83,7 +89,7 @@ int RunValidate(const ValidateOptions& options, std::ostream& out) {
   const HydrostaticResult h = RunHydrostaticTank(tank);
   const std::string tank_run =
       RunText(h.run, std::chrono::duration<double>(Clock::now() - start).count()) +
-      BottomLayerText(h);
+      TankDiagnosticsText(h);
 
   ValidationOptions dam = base;
   if (quick) dam.spacing = kQuickDamSpacing;
@@ -102,7 +108,7 @@ int RunValidate(const ValidateOptions& options, std::ostream& out) {
     incompressible = RunHydrostaticTank(tank_dfsph);
     incompressible_run =
         RunText(incompressible->run, std::chrono::duration<double>(Clock::now() - start).count()) +
-        BottomLayerText(*incompressible);
+        TankDiagnosticsText(*incompressible);
   }
 
   out << "\n";
@@ -118,7 +124,9 @@ int RunValidate(const ValidateOptions& options, std::ostream& out) {
     table.Add("hydrostatic (dfsph)",
               {"density deviation mean", incompressible->density_error_mean, 0.001});
     table.Add("hydrostatic (dfsph)", {"pressure error max / rho0 g H",
-                                      incompressible->pressure_error_max, quick ? 0.08 : 0.01});
+                                      incompressible->pressure_error_max, quick ? 0.1 : 0.01});
+    table.Add("hydrostatic (dfsph)", {"pressure error mean / rho0 g H",
+                                      incompressible->pressure_error_mean, quick ? 0.08 : 0.01});
     table.Add("hydrostatic (dfsph)",
               {"solves stopped at the cap", double(incompressible->capped_solves), 0, false});
   }

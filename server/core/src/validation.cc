@@ -109,6 +109,14 @@ HydrostaticResult RunHydrostaticTank(const ValidationOptions& options) {
     sum += error;
   }
   if (!result.profile.empty()) result.pressure_error_mean = sum / double(result.profile.size());
+  if (result.profile.size() >= 2) {
+    double sy = 0, sp = 0, syy = 0, syp = 0;
+    for (const HydrostaticResult::Sample& s : result.profile) {
+      sy += s.y, sp += s.pressure, syy += s.y * s.y, syp += s.y * s.pressure;
+    }
+    const double m = double(result.profile.size());
+    result.pressure_gradient = -(m * syp - sy * sp) / (m * syy - sy * sy);
+  }
 
   const ParticleArrays& p = sim.state().particles;
   double compression = 0;

@@ -40,6 +40,9 @@ struct HydrostaticResult {
   double depth = 0;                // m, H (the fluid block's height)
   double pressure_error_max = 0;   // max |p - rho0 g (H - y)| / (rho0 g H) over the samples
   double pressure_error_mean = 0;  // mean of the same
+  // Pa/m, -dp/dy of the least-squares line through the samples: rho0 g for the right gradient,
+  // whatever the offset.
+  double pressure_gradient = 0;
   // Compression: max(0, rho_i / rho0 - 1) over every fluid particle (a free surface's kernel
   // deficit is not an error of the solver), mean and max.
   double density_error_mean = 0;
