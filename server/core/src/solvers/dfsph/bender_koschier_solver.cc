@@ -144,11 +144,15 @@ void StartWarmStart(const Model& model, const BoundaryParticles& boundary, State
   bool any = false;
 #pragma omp parallel for schedule(static) reduction(|| : any)
   for (int64_t i = 0; i < n; ++i) {
-    const Real rate = DensityRate(model, boundary, state, i);
-    const bool compressing = density_solve ? p.density[i] + dt * rate > rho0 : rate > 0;
-    w.kappa[i] = compressing ? std::min(scale * carried[i], bound * w.alpha[i]) : Real(0);
+    Real kappa = 0;
+    if (carried[i] > 0) {  // the rate only where there is something to start from
+      const Real rate = DensityRate(model, boundary, state, i);
+      const bool compressing = density_solve ? p.density[i] + dt * rate > rho0 : rate > 0;
+      if (compressing) kappa = std::min(scale * carried[i], bound * w.alpha[i]);
+    }
+    w.kappa[i] = kappa;
     carried[i] = 0;
-    any = any || w.kappa[i] > 0;
+    any = any || kappa > 0;
   }
   if (any) ApplyKappa(model, boundary, state, dt, carried);
 }
