@@ -1,12 +1,13 @@
 // Frame history for stepping back: checkpoints every few frames plus deterministic
 // re-simulation, within a memory budget.
 //
-// A checkpoint (Checkpoint, 28 bytes per particle) is kept every `interval` frames and whenever
-// the parameters change without a reset. Going back to frame f restores the newest checkpoint at
-// or before f and re-simulates the frames in between; the solver is deterministic, so the state
-// reached is bit-identical to the one first simulated. The interval is chosen from the budget:
-// 600 frames of the 91,125-particle thesis scene (2.55 MB per checkpoint) fit 256 MiB with a
-// checkpoint every 6 frames, so a step back re-simulates at most 5 frames.
+// A checkpoint (Checkpoint, 28 bytes per particle, 36 with dfsph's warm start) is kept every
+// `interval` frames and whenever the parameters change without a reset. Going back to frame f
+// restores the newest checkpoint at or before f and re-simulates the frames in between; the
+// solver is deterministic, so the state reached is bit-identical to the one first simulated. The
+// interval is chosen from the budget: 600 frames of the 91,125-particle thesis scene (2.55 MB per
+// checkpoint) fit 256 MiB with a checkpoint every 6 frames, so a step back re-simulates at most 5
+// frames.
 #pragma once
 
 #include <cstddef>
