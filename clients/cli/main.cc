@@ -280,6 +280,11 @@ int main(int argc, char** argv) {
   validate_cmd->add_option("--set", validate.sets, "Override a parameter, NAME=VALUE (repeatable)");
   validate_cmd->add_option("--threads", validate.threads, "OpenMP threads (default: all cores)")
       ->check(CLI::Range(1, 1024));
+  validate_cmd
+      ->add_option("--slab-layers", validate.slab_layers,
+                   "Particles across each case's 3D slab (default 4; more keeps the side walls "
+                   "away from more of the fluid)")
+      ->check(CLI::Range(1, 64));
 
 #ifdef DYSA_WITH_REMOTE
   RemoteCommands remote(app);

@@ -77,6 +77,7 @@ int RunValidate(const ValidateOptions& options, std::ostream& out) {
   ValidationOptions base;
   base.solver = options.solver;
   base.sets = options.sets;
+  base.slab_layers = options.slab_layers;
   // Targets: at the scenes' resolution the project's (hydrostatic pressure within 1% of
   // rho0 g H, dam-break front RMS within 5%); --quick, the bounds the CI test asserts.
   const bool quick = options.quick;

@@ -11,6 +11,7 @@ struct ValidateOptions {
   bool quick = false;             // the coarse resolutions of the CI test (tests/validation)
   std::string solver;             // "": the scenes' (wcsph)
   int threads = 0;                // 0: OpenMP's default
+  int slab_layers = 4;            // particles across each case's slab (kSlabLayers)
   std::vector<std::string> sets;  // NAME=VALUE overrides for every case
 };
 

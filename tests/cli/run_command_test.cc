@@ -259,6 +259,9 @@ TEST(DysaBinaryTest, BogusFlagFails) {
   EXPECT_NE(RunDysa(dir.path(), "").exit_code, 0);                          // no subcommand
   EXPECT_NE(RunDysa(dir.path(), "frobnicate").exit_code, 0);                // unknown subcommand
   EXPECT_NE(RunDysa(dir.path(), "run seed_basic --steps 0").exit_code, 0);  // out of range
+  const Result slab = RunDysa(dir.path(), "validate --slab-layers 0");
+  EXPECT_NE(slab.exit_code, 0);
+  EXPECT_THAT(slab.err + slab.out, HasSubstr("--slab-layers"));
 }
 
 TEST(DysaBinaryTest, SmallRunSucceeds) {

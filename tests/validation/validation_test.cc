@@ -90,6 +90,24 @@ TEST(HydrostaticTankTest, DfsphKeepsTheDensityWithinATenthOfAPercent) {
   EXPECT_LT(r.max_speed, 0.15);
 }
 
+// The slab's thickness is an option (dysa validate --slab-layers): the tank at 0.1 m two
+// particles thick has 20 x 9 x 2 particles; a thickness outside [1, 64] names the option.
+TEST(ValidationOptionsTest, SlabLayersSetTheSlabsThickness) {
+  ValidationOptions options;
+  options.spacing = 0.1;
+  options.slab_layers = 2;
+  const HydrostaticResult r = RunHydrostaticTank(options);
+  EXPECT_EQ(r.run.particles, 20u * 9 * 2);
+  options.slab_layers = 0;
+  try {
+    RunHydrostaticTank(options);
+    ADD_FAILURE() << "no ConfigError for slab_layers = 0";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("slab_layers"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("[1, 64]"), std::string::npos) << e.what();
+  }
+}
+
 TEST(DamBreakTest, SurgeFrontFollowsMartinMoyce1952) {
   ValidationOptions options;
   options.spacing = kQuickDamSpacing;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <string>
 
 #include "dysa/core/probes.h"
 #include "dysa/core/simulation.h"
@@ -45,7 +46,14 @@ Scene ValidationScene(const char* name, const ValidationOptions& options) {
     FindSolver(options.solver);  // throws for an unknown name
     scene.solver = options.solver;
   }
-  if (options.spacing) scene = SlabAtSpacing(std::move(scene), *options.spacing);
+  if (options.slab_layers < 1 || options.slab_layers > 64) {
+    throw ConfigError("slab_layers",
+                      "must be in [1, 64] particles, got " + std::to_string(options.slab_layers));
+  }
+  if (options.spacing || options.slab_layers != kSlabLayers) {
+    scene = SlabAtSpacing(std::move(scene), options.spacing.value_or(scene.params.particle_spacing),
+                          options.slab_layers);
+  }
   for (const std::string& assignment : options.sets) SetParamFromString(scene.params, assignment);
   BlockParticleCounts(scene, scene.params);
   return scene;

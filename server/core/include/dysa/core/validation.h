@@ -23,7 +23,8 @@ struct ValidationRun {
 // The scene's fluid slab (domain and blocks between z walls) made `layers` particles of spacing
 // d thick, and particle_spacing set to d. The validation scenes are 3D slabs standing for 2D
 // experiments; a finer spacing keeps the slab as many particles thick.
-Scene SlabAtSpacing(Scene scene, double spacing, int layers = 4);
+inline constexpr int kSlabLayers = 4;
+Scene SlabAtSpacing(Scene scene, double spacing, int layers = kSlabLayers);
 
 // Hydrostatic tank (Adami, Hu, Adams 2012): `hydrostatic_tank`, water of depth H at rest
 // under gravity g ramped in over 1 s, run to its end_time. Pressure is sampled along the
@@ -67,7 +68,9 @@ inline constexpr double kHydrostaticAveragingTime = 0.5;  // s
 // NAME=VALUE parameter overrides applied last (as `dysa run --set`).
 struct ValidationOptions {
   std::optional<double> spacing;  // m, see SlabAtSpacing
-  std::string solver;             // "": the scene's (wcsph)
+  // Particles across the slab, [1, 64]: more keeps the side walls away from more of the fluid.
+  int slab_layers = kSlabLayers;
+  std::string solver;  // "": the scene's (wcsph)
   std::vector<std::string> sets;
 };
 HydrostaticResult RunHydrostaticTank(const ValidationOptions& options = {});
