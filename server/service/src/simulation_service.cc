@@ -256,7 +256,9 @@ class FrameStream final : public grpc::ServerWriteReactor<grpc::ByteBuffer>, pub
   void OnWriteDone(bool ok) override {
     std::lock_guard lock(mu_);
     writing_ = false;
-    if (!ok) {
+    // A write in flight when the call was cancelled can still complete ok: the stream must end
+    // here then, not wait for a frame that may never come (a paused server).
+    if (!ok || cancelled_) {
       FinishLocked({grpc::StatusCode::CANCELLED, "the stream was cancelled"});
     } else if (closing_) {
       FinishLocked({grpc::StatusCode::UNAVAILABLE, "the server is shutting down"});
@@ -266,6 +268,7 @@ class FrameStream final : public grpc::ServerWriteReactor<grpc::ByteBuffer>, pub
   }
   void OnCancel() override {
     std::lock_guard lock(mu_);
+    cancelled_ = true;
     if (!writing_) FinishLocked({grpc::StatusCode::CANCELLED, "the stream was cancelled"});
   }
   void OnDone() override {
@@ -307,6 +310,7 @@ class FrameStream final : public grpc::ServerWriteReactor<grpc::ByteBuffer>, pub
   bool writing_ = false;
   bool finished_ = false;
   bool closing_ = false;
+  bool cancelled_ = false;
   std::shared_ptr<const EncodedFrame> frame_;  // being sent; owns wire_
   const WireFrame* wire_ = nullptr;
   size_t next_message_ = 0;
