@@ -11,6 +11,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <span>
@@ -52,8 +53,9 @@ class NeighborGrid {
     Eigen::Vector3i c;
     for (int a = 0; a < 3; ++a) {
       double f = (double(p[a]) - origin_[a]) * inv_cell_size_;
-      // Clamp before the cast: the cast of a huge or NaN value is undefined.
-      f = std::isnan(f) ? 0.0 : std::fmin(std::fmax(f, 0.0), double(dims_[a] - 1));
+      // Clamp before the cast: the cast of a huge or NaN value is undefined. (std::clamp, not
+      // fmin/fmax: those are library calls here, NaN being handled already.)
+      f = std::isnan(f) ? 0.0 : std::clamp(f, 0.0, double(dims_[a] - 1));
       c[a] = static_cast<int>(f);
     }
     return c;
