@@ -69,6 +69,21 @@ std::string TankDiagnosticsText(const HydrostaticResult& h) {
   return s.str();
 }
 
+// Where the dam break's error lies (DiagnoseFront): the surge's speed, and the error left once
+// the experiment is taken to have released its column a constant time later.
+std::string FrontDiagnosticsText(const DamBreakResult& d) {
+  const FrontDiagnostics& f = d.diagnostics;
+  std::ostringstream s;
+  s << std::fixed << std::setprecision(2) << "    front speed dZ/dT from T = " << kSurgeFrom
+    << std::setprecision(3) << ": " << f.front_speed << " (experiment " << f.front_speed_ref
+    << ")\n"
+    << "    with the experiment's release taken " << std::setprecision(1)
+    << 1000 * f.release_delay * d.time_unit << " ms later (T = " << std::setprecision(3)
+    << f.release_delay << ", the best fit): RMS error " << std::setprecision(1)
+    << 100 * f.delayed_rms_error << "%, max " << 100 * f.delayed_max_error << "%\n";
+  return s.str();
+}
+
 }  // namespace
 
 int RunValidate(const ValidateOptions& options, std::ostream& out) {
@@ -97,7 +112,8 @@ int RunValidate(const ValidateOptions& options, std::ostream& out) {
   start = Clock::now();
   const DamBreakResult d = RunDamBreak(dam);
   const std::string dam_run =
-      RunText(d.run, std::chrono::duration<double>(Clock::now() - start).count());
+      RunText(d.run, std::chrono::duration<double>(Clock::now() - start).count()) +
+      FrontDiagnosticsText(d);
 
   // dfsph on the tank (unless another solver was asked for): incompressible to 0.1%.
   std::optional<HydrostaticResult> incompressible;

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <string>
+#include <utility>
 
 #include "dysa/core/probes.h"
 #include "dysa/core/simulation.h"
@@ -156,15 +157,23 @@ DamBreakResult RunDamBreak(const ValidationOptions& options) {
   const double x_wall = scene.domain.min.x();
   result.column_width = a;
   const double time_unit = std::sqrt(a / (2 * g));  // t = T sqrt(a / (2 g))
+  result.time_unit = time_unit;
 
-  double sum2 = 0;
-  int count = 0;
-  for (const MartinMoyceRow& row : MartinMoyce1952Front()) {
-    const double t = row.T * time_unit;
-    while (sim.state().time < t) sim.Step(t);
+  const auto front_Z = [&] {
     double front = -1e300;
     for (const Vec3& x : sim.state().particles.position) front = std::max(front, double(x.x()));
-    const double Z = (front + 0.5 * d - x_wall) / a;
+    return (front + 0.5 * d - x_wall) / a;
+  };
+  double sum2 = 0;
+  int count = 0;
+  result.trace.push_back({0, front_Z()});
+  for (const MartinMoyceRow& row : MartinMoyce1952Front()) {
+    const double t = row.T * time_unit;
+    while (sim.state().time < t) {
+      sim.Step(t);
+      result.trace.push_back({sim.state().time / time_unit, front_Z()});
+    }
+    const double Z = result.trace.back().Z;
     result.rows.push_back({row.T, Z, row.Z});
     if (row.T > 0) {
       const double e = std::abs(Z - row.Z) / row.Z;
@@ -174,8 +183,68 @@ DamBreakResult RunDamBreak(const ValidationOptions& options) {
     }
   }
   result.rms_error = count ? std::sqrt(sum2 / count) : 0;
+  result.diagnostics = DiagnoseFront(result.trace, MartinMoyce1952Front());
   result.run = RunInfo(sim);
   return result;
+}
+
+namespace {
+
+// Z of the trace at T, linear between samples; the first sample's before it, the last's after.
+double FrontAt(const std::vector<FrontSample>& trace, double T) {
+  if (T <= trace.front().T) return trace.front().Z;
+  if (T >= trace.back().T) return trace.back().Z;
+  const auto hi = std::lower_bound(trace.begin(), trace.end(), T,
+                                   [](const FrontSample& s, double t) { return s.T < t; });
+  const auto lo = hi - 1;
+  const double f = (T - lo->T) / (hi->T - lo->T);
+  return lo->Z + f * (hi->Z - lo->Z);
+}
+
+// Slope of the least-squares line through (T_k, Z_k).
+double Slope(const std::vector<std::pair<double, double>>& points) {
+  double mt = 0, mz = 0;
+  for (const auto& [T, Z] : points) mt += T / points.size(), mz += Z / points.size();
+  double stz = 0, stt = 0;
+  for (const auto& [T, Z] : points) stz += (T - mt) * (Z - mz), stt += (T - mt) * (T - mt);
+  return stt > 0 ? stz / stt : 0;
+}
+
+}  // namespace
+
+FrontDiagnostics DiagnoseFront(const std::vector<FrontSample>& trace,
+                               const std::vector<MartinMoyceRow>& table) {
+  FrontDiagnostics out;
+  if (trace.empty() || table.empty()) return out;
+  double best = 1e300;
+  for (int k = 0; k <= 1000; ++k) {
+    const double delay = 0.001 * k;
+    double sum2 = 0, worst = 0;
+    int count = 0;
+    for (const MartinMoyceRow& row : table) {
+      if (row.T <= 0) continue;
+      const double e = std::abs(FrontAt(trace, row.T - delay) - row.Z) / row.Z;
+      sum2 += e * e;
+      worst = std::max(worst, e);
+      ++count;
+    }
+    const double rms = count ? std::sqrt(sum2 / count) : 0;
+    if (rms < best) {
+      best = rms;
+      out.release_delay = delay;
+      out.delayed_rms_error = rms;
+      out.delayed_max_error = worst;
+    }
+  }
+  std::vector<std::pair<double, double>> simulated, reference;
+  for (const MartinMoyceRow& row : table) {
+    if (row.T < kSurgeFrom - 1e-9) continue;
+    simulated.push_back({row.T, FrontAt(trace, row.T)});
+    reference.push_back({row.T, row.Z});
+  }
+  out.front_speed = Slope(simulated);
+  out.front_speed_ref = Slope(reference);
+  return out;
 }
 
 }  // namespace dysa
