@@ -147,6 +147,18 @@ TEST(FrontDiagnosticsTest, AFrontAheadByAConstantTimeIsFoundAsTheDelay) {
   EXPECT_NEAR(f.front_speed, f.front_speed_ref, 0.1);
 }
 
+TEST(FrontDiagnosticsTest, ErrorWithDelayComparesTheTraceThatMuchEarlier) {
+  // The table 0.3 ahead: exact at a delay of 0.3; at no delay, the row T = 2.96 compares the
+  // front at 3.26 (past the table's end: its last Z) with 3.67, and earlier rows are ahead.
+  const std::vector<FrontSample> trace = TableTrace(0.3);
+  EXPECT_LT(FrontErrorWithDelay(trace, MartinMoyce1952Front(), 0.3).max, 0.005);
+  const FrontError none = FrontErrorWithDelay(trace, MartinMoyce1952Front(), 0);
+  EXPECT_GT(none.rms, 0.05);
+  EXPECT_GE(none.max, none.rms);
+  const double at_1_19 = TableFront(1.49);  // the row T = 1.19 against the front 0.3 later
+  EXPECT_GE(none.max, (at_1_19 - 1.44) / 1.44 - 1e-9);
+}
+
 TEST(FrontDiagnosticsTest, EmptyInputGivesZeros) {
   const FrontDiagnostics f = DiagnoseFront({}, MartinMoyce1952Front());
   EXPECT_EQ(f.release_delay, 0);
@@ -183,6 +195,8 @@ TEST(DamBreakTest, SurgeFrontFollowsMartinMoyce1952) {
   EXPECT_LT(f.release_delay, 0.4);
   EXPECT_LT(f.delayed_rms_error, 0.05);
   EXPECT_LT(f.delayed_rms_error, r.rms_error);
+  EXPECT_GE(f.published_delay_rms_error, f.delayed_rms_error);  // the fit is the minimum
+  EXPECT_LT(f.published_delay_rms_error, r.rms_error);
   EXPECT_NEAR(f.front_speed / f.front_speed_ref, 1.0, 0.1);
 }
 

@@ -212,30 +212,40 @@ double Slope(const std::vector<std::pair<double, double>>& points) {
 
 }  // namespace
 
+FrontError FrontErrorWithDelay(const std::vector<FrontSample>& trace,
+                               const std::vector<MartinMoyceRow>& table, double delay) {
+  FrontError out;
+  if (trace.empty()) return out;
+  double sum2 = 0;
+  int count = 0;
+  for (const MartinMoyceRow& row : table) {
+    if (row.T <= 0) continue;
+    const double e = std::abs(FrontAt(trace, row.T - delay) - row.Z) / row.Z;
+    sum2 += e * e;
+    out.max = std::max(out.max, e);
+    ++count;
+  }
+  out.rms = count ? std::sqrt(sum2 / count) : 0;
+  return out;
+}
+
 FrontDiagnostics DiagnoseFront(const std::vector<FrontSample>& trace,
                                const std::vector<MartinMoyceRow>& table) {
   FrontDiagnostics out;
   if (trace.empty() || table.empty()) return out;
   double best = 1e300;
   for (int k = 0; k <= 1000; ++k) {
-    const double delay = 0.001 * k;
-    double sum2 = 0, worst = 0;
-    int count = 0;
-    for (const MartinMoyceRow& row : table) {
-      if (row.T <= 0) continue;
-      const double e = std::abs(FrontAt(trace, row.T - delay) - row.Z) / row.Z;
-      sum2 += e * e;
-      worst = std::max(worst, e);
-      ++count;
-    }
-    const double rms = count ? std::sqrt(sum2 / count) : 0;
-    if (rms < best) {
-      best = rms;
-      out.release_delay = delay;
-      out.delayed_rms_error = rms;
-      out.delayed_max_error = worst;
+    const FrontError e = FrontErrorWithDelay(trace, table, 0.001 * k);
+    if (e.rms < best) {
+      best = e.rms;
+      out.release_delay = 0.001 * k;
+      out.delayed_rms_error = e.rms;
+      out.delayed_max_error = e.max;
     }
   }
+  const FrontError published = FrontErrorWithDelay(trace, table, kPublishedReleaseDelay);
+  out.published_delay_rms_error = published.rms;
+  out.published_delay_max_error = published.max;
   std::vector<std::pair<double, double>> simulated, reference;
   for (const MartinMoyceRow& row : table) {
     if (row.T < kSurgeFrom - 1e-9) continue;
