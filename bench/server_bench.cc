@@ -168,8 +168,6 @@ dysa::Scene LargeBlock(int n) {
   return scene;
 }
 
-// Part 1: the live simulation as fast as it runs, from the same state each time, with 0, 1, 4
-// and 16 subscribers: simulated frames per second and frames delivered to each subscriber.
 // The mean time per frame of the host's stage `name` (gather_frames, publish_frames), 0 if none.
 double StageMs(const dysa::service::HostStatus& status, const std::string& name) {
   for (const auto& pass : status.passes) {
@@ -178,15 +176,22 @@ double StageMs(const dysa::service::HostStatus& status, const std::string& name)
   return 0;
 }
 
+// The live parts' host: paused at first, then simulating as fast as it can.
+HostOptions AsFastAsItRuns(int solver_threads) {
+  HostOptions options;
+  options.frame_rate = 0;
+  options.start_paused = true;
+  options.solver_threads = solver_threads;
+  return options;
+}
+
+// Part 1: the live simulation as fast as it runs, from the same state each time, with 0, 1, 4
+// and 16 subscribers: simulated frames per second and frames delivered to each subscriber.
 void Live(const std::vector<int>& counts, double seconds, int warmup_frames, int solver_threads,
           std::ofstream& csv) {
   const dysa::Scene scene = dysa::LoadScene("seed_test_scene");
   for (int n : counts) {
-    HostOptions options;
-    options.frame_rate = 0;
-    options.start_paused = true;
-    options.solver_threads = solver_threads;
-    SimulationHost host(scene, options);
+    SimulationHost host(scene, AsFastAsItRuns(solver_threads));
     Server server(host, Loopback());
     auto stub = dysa::v1::Simulation::NewStub(
         grpc::CreateChannel(Address(server), grpc::InsecureChannelCredentials()));
@@ -274,11 +279,7 @@ void Slowdown(int subscribers, int pairs, double seconds, int warmup_frames, int
               const std::filesystem::path& out) {
   using dysa::v1::Simulation;
   const dysa::Scene scene = dysa::LoadScene("seed_test_scene");
-  HostOptions options;
-  options.frame_rate = 0;
-  options.start_paused = true;
-  options.solver_threads = solver_threads;
-  SimulationHost host(scene, options);
+  SimulationHost host(scene, AsFastAsItRuns(solver_threads));
   Server server(host, Loopback());
   auto stub =
       Simulation::NewStub(grpc::CreateChannel(Address(server), grpc::InsecureChannelCredentials()));
