@@ -41,6 +41,15 @@ Scene SlabAtSpacing(Scene scene, double spacing, int layers) {
 
 namespace {
 
+// Slope of the least-squares line through the points (x_k, y_k); 0 for fewer than two x.
+double Slope(const std::vector<std::pair<double, double>>& points) {
+  double mt = 0, mz = 0;
+  for (const auto& [x, y] : points) mt += x / points.size(), mz += y / points.size();
+  double sxy = 0, stt = 0;
+  for (const auto& [x, y] : points) sxy += (x - mt) * (y - mz), stt += (x - mt) * (x - mt);
+  return stt > 0 ? sxy / stt : 0;
+}
+
 Scene ValidationScene(const char* name, const ValidationOptions& options) {
   Scene scene = LoadScene(name);
   if (!options.solver.empty()) {
@@ -118,14 +127,9 @@ HydrostaticResult RunHydrostaticTank(const ValidationOptions& options) {
     sum += error;
   }
   if (!result.profile.empty()) result.pressure_error_mean = sum / double(result.profile.size());
-  if (result.profile.size() >= 2) {
-    double sy = 0, sp = 0, syy = 0, syp = 0;
-    for (const HydrostaticResult::Sample& s : result.profile) {
-      sy += s.y, sp += s.pressure, syy += s.y * s.y, syp += s.y * s.pressure;
-    }
-    const double m = double(result.profile.size());
-    result.pressure_gradient = -(m * syp - sy * sp) / (m * syy - sy * sy);
-  }
+  std::vector<std::pair<double, double>> line;
+  for (const HydrostaticResult::Sample& s : result.profile) line.push_back({s.y, s.pressure});
+  result.pressure_gradient = -Slope(line);
 
   const ParticleArrays& p = sim.state().particles;
   double compression = 0;
@@ -199,15 +203,6 @@ double FrontAt(const std::vector<FrontSample>& trace, double T) {
   const auto lo = hi - 1;
   const double f = (T - lo->T) / (hi->T - lo->T);
   return lo->Z + f * (hi->Z - lo->Z);
-}
-
-// Slope of the least-squares line through (T_k, Z_k).
-double Slope(const std::vector<std::pair<double, double>>& points) {
-  double mt = 0, mz = 0;
-  for (const auto& [T, Z] : points) mt += T / points.size(), mz += Z / points.size();
-  double stz = 0, stt = 0;
-  for (const auto& [T, Z] : points) stz += (T - mt) * (Z - mz), stt += (T - mt) * (T - mt);
-  return stt > 0 ? stz / stt : 0;
 }
 
 }  // namespace
