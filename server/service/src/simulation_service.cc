@@ -223,10 +223,13 @@ grpc::Slice SkippedField(uint32_t skipped) {
 }
 
 // One StreamFrames call: takes the newest decodable frame from its subscription whenever no
-// write is in flight, and sends its messages one after the other.
-class FrameStream final : public grpc::ServerWriteReactor<grpc::ByteBuffer>, public FrameListener {
+// write is in flight, and sends its messages one after the other. A new frame's first write is
+// started on the WriteStarter's thread, the others on gRPC's (OnWriteDone).
+class FrameStream final : public grpc::ServerWriteReactor<grpc::ByteBuffer>,
+                          public FrameListener,
+                          private WriteStarter::Writer {
  public:
-  explicit FrameStream(FrameHub& hub) : hub_(hub) {}
+  FrameStream(FrameHub& hub, WriteStarter& starter) : hub_(hub), starter_(starter) {}
 
   // Subscribes, or finishes the call with the reason it cannot.
   void Begin(const SubscriptionOptions& options) {
@@ -243,10 +246,8 @@ class FrameStream final : public grpc::ServerWriteReactor<grpc::ByteBuffer>, pub
     FinishLocked(status);
   }
 
-  void OnFrameReady() override {
-    std::lock_guard lock(mu_);
-    if (!writing_ && !finished_ && subscription_) WriteNextLocked();
-  }
+  // On the simulation's thread: no lock of ours (a gRPC thread may hold it inside StartWrite).
+  void OnFrameReady() override { starter_.Schedule(this); }
   void OnHubClosed() override {
     std::lock_guard lock(mu_);
     closing_ = true;
@@ -272,11 +273,17 @@ class FrameStream final : public grpc::ServerWriteReactor<grpc::ByteBuffer>, pub
     if (!writing_) FinishLocked({grpc::StatusCode::CANCELLED, "the stream was cancelled"});
   }
   void OnDone() override {
-    if (subscription_) hub_.Unsubscribe(subscription_);  // no callback after this returns
+    if (subscription_) hub_.Unsubscribe(subscription_);  // no OnFrameReady after this returns
+    starter_.Forget(this);                               // nor a StartNextWrite after this
     delete this;
   }
 
  private:
+  void StartNextWrite() override {
+    std::lock_guard lock(mu_);
+    if (!writing_ && !finished_ && subscription_) WriteNextLocked();
+  }
+
   void FinishLocked(const grpc::Status& status) {
     if (finished_) return;
     finished_ = true;
@@ -305,6 +312,7 @@ class FrameStream final : public grpc::ServerWriteReactor<grpc::ByteBuffer>, pub
   }
 
   FrameHub& hub_;
+  WriteStarter& starter_;
   std::shared_ptr<Subscription> subscription_;
   std::mutex mu_;
   bool writing_ = false;
@@ -551,7 +559,7 @@ SimulationService::SimulationService(SimulationHost& host, AccessPolicy access)
 
 grpc::ServerWriteReactor<grpc::ByteBuffer>* SimulationService::StreamFrames(
     grpc::CallbackServerContext* context, const grpc::ByteBuffer* request) {
-  auto* stream = new FrameStream(host_.hub());  // deletes itself in OnDone
+  auto* stream = new FrameStream(host_.hub(), write_starter_);  // deletes itself in OnDone
   if (grpc::Status s = CheckAccess(context, Access::kWatch); !s.ok()) {
     stream->FinishNow(s);
     return stream;

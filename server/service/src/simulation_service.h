@@ -6,6 +6,7 @@
 #include <string>
 
 #include "dysa/service/simulation_host.h"
+#include "dysa/service/write_starter.h"
 #include "dysa/v1/simulation.grpc.pb.h"
 
 namespace dysa::service {
@@ -69,6 +70,7 @@ class SimulationService final
 
   SimulationHost& host_;
   const AccessPolicy access_;
+  WriteStarter write_starter_;  // every stream's first write of a frame
 };
 
 }  // namespace dysa::service
