@@ -9,9 +9,12 @@
 
 #include <cmath>
 #include <cstdio>
+#include <map>
+#include <tuple>
 
 #include "dysa/core/scene.h"
 #include "dysa/core/simulation.h"
+#include "sph_loops.h"
 #include "support/with_threads.h"
 
 namespace dysa {
@@ -62,6 +65,64 @@ TEST(DfsphDeterminismTest, OneAndTwoThreadsGiveBitIdenticalStates) {
 // then needs fewer iterations to hold its weight, to the same tolerance (printed: 1,559
 // without it, 1,042 with warm_start 0.5). The block settles for 0.2 s (gravity ramped in),
 // then 0.2 s are counted.
+// The density pass lists each particle's pairs for the solves: every fluid particle within the
+// kernel's support at a distance > 0 (brute force over the grid's positions, which the step's
+// passes read), once, with its kernel gradient. A pair within rounding of the support's edge
+// may fall either way.
+TEST(DfsphPairListTest, ListsEveryPairWithinTheSupportOnce) {
+  Simulation sim(DamScene());
+  for (int i = 0; i < 30; ++i) sim.Step();
+  const State& state = sim.state();
+  const NeighborPairs& pairs = state.fluid_pairs;
+  const size_t n = state.particles.size();
+  ASSERT_EQ(pairs.begin.size(), n + 1);
+  ASSERT_EQ(pairs.other.size(), pairs.begin[n]);
+  ASSERT_EQ(pairs.grad_w.size(), pairs.begin[n]);
+  const Real support = Real(sim.model().kernel_support);
+  // The gradient's scale: its largest magnitude, at r = 2/3 of the support.
+  const Real scale = GradW(Vec3(support * 2 / 3, 0, 0), support * 2 / 3, support).norm();
+  const auto& xs = state.grid.xs();
+  const auto& ys = state.grid.ys();
+  const auto& zs = state.grid.zs();
+  size_t found = 0;
+  for (size_t i = 0; i < n; ++i) {
+    std::map<uint32_t, Vec3> listed;
+    for (size_t k = pairs.begin[i]; k < pairs.begin[i + 1]; ++k) {
+      EXPECT_TRUE(listed.emplace(pairs.other[k], pairs.grad_w[k]).second) << "pair listed twice";
+    }
+    for (uint32_t j = 0; j < n; ++j) {
+      const Vec3 xij(xs[i] - xs[j], ys[i] - ys[j], zs[i] - zs[j]);
+      const Real r = xij.norm();
+      const bool edge = std::abs(r - support) < 1e-5f * support;
+      const auto it = listed.find(j);
+      if (it == listed.end()) {
+        EXPECT_TRUE(!(r > 0 && r < support) || edge)
+            << "particle " << i << " misses neighbour " << j << " at " << r / support;
+        continue;
+      }
+      ++found;
+      EXPECT_TRUE((r > 0 && r < support) || edge) << i << " lists " << j << " at " << r;
+      EXPECT_LE((it->second - GradW(xij, r, support)).norm(), 1e-5f * scale) << i << ", " << j;
+    }
+  }
+  EXPECT_EQ(found, pairs.other.size());
+  EXPECT_GT(found, 20 * n);  // a 3D block: about 30 neighbours each
+  EXPECT_GT(state.boundary_pairs.other.size(), 0u);
+}
+
+TEST(DfsphPairListTest, TheLayoutDoesNotDependOnTheThreadCount) {
+  auto run = [](int threads) {
+    return WithThreads(threads, [] {
+      Simulation sim(DamScene());
+      for (int i = 0; i < 20; ++i) sim.Step();
+      const State& s = sim.state();
+      return std::make_tuple(s.fluid_pairs.begin, s.fluid_pairs.other, s.boundary_pairs.begin,
+                             s.boundary_pairs.other);
+    });
+  };
+  EXPECT_EQ(run(1), run(3));
+}
+
 TEST(DfsphWarmStartTest, ARestingColumnNeedsFewerIterations) {
   auto iterations = [](double warm_start) {
     Scene scene = ParseScene(R"({

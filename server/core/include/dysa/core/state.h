@@ -32,6 +32,17 @@ struct ParticleArrays {
   void Resize(size_t n);
 };
 
+// The pairs within the kernel's support of each particle, with the pair's kernel gradient,
+// listed by a pass that visits them anyway for the later passes of the same step that sweep
+// them again while the positions stay put (dfsph's pressure solves: a dozen sweeps a step).
+// A sweep of the list reads the ~30 pairs of a particle instead of testing the ~200 particles
+// of its 27 grid cells. Pairs at distance 0 have no gradient and are left out.
+struct NeighborPairs {
+  std::vector<size_t> begin;    // n + 1 offsets: particle i's pairs are [begin[i], begin[i + 1])
+  std::vector<uint32_t> other;  // the other particle's index in its own grid's storage order
+  std::vector<Vec3> grad_w;     // 1/m^4, grad W(x_i - x_other)
+};
+
 struct State {
   ParticleArrays particles;
   NeighborGrid grid;
@@ -62,6 +73,10 @@ struct State {
     uint64_t capped_solves = 0;
   } solver_stats;
   std::vector<Real> solver_scratch;  // per particle, the solvers' work arrays
+  // dfsph's pairs of this step, fluid-fluid and fluid-boundary, listed by its density pass after
+  // the neighbour sort. Rebuilt every step, so a checkpoint need not hold them.
+  NeighborPairs fluid_pairs;
+  NeighborPairs boundary_pairs;
 
   // Set by a pass when its step could not hold the model's accuracy and the pass had to limit
   // it (the seed's velocity limiter, an iteration cap); the run goes on. Cleared at the start of

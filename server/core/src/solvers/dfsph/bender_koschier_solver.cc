@@ -1,10 +1,13 @@
 #include "solvers/dfsph/bender_koschier_solver.h"
 
+#include <omp.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <string>
+#include <vector>
 
 #include "cfl_time_step.h"
 #include "common_passes.h"
@@ -32,6 +35,40 @@ Work Arrays(State& state) {
   return {base, base + n, base + 2 * n, base + 3 * n};
 }
 
+// One thread's pairs, for its block of particles, before they are laid end to end.
+struct PairBlock {
+  std::vector<uint32_t> other;
+  std::vector<Vec3> grad_w;
+  void Add(uint32_t j, const Vec3& g) {
+    other.push_back(j);
+    grad_w.push_back(g);
+  }
+};
+
+// Lays the threads' blocks end to end: `begin[i + 1]` holds the count of the thread's pairs up
+// to and with particle i (its block is [lo, hi)), made global here by adding the blocks before.
+// The layout does not depend on the thread count. Call inside the parallel region, by all.
+void JoinPairBlocks(const PairBlock& block, int64_t lo, int64_t hi, std::vector<size_t>& sizes,
+                    NeighborPairs& pairs) {
+  const int t = omp_get_thread_num();
+  sizes[t] = block.other.size();
+#pragma omp barrier
+  size_t base = 0;
+  for (int u = 0; u < t; ++u) base += sizes[u];
+#pragma omp single
+  {
+    size_t total = 0;
+    for (size_t s : sizes) total += s;
+    pairs.other.resize(total);
+    pairs.grad_w.resize(total);
+    pairs.begin[0] = 0;
+  }  // implicit barrier: the arrays are sized
+  for (int64_t i = lo; i < hi; ++i) pairs.begin[i + 1] += base;
+  std::copy(block.other.begin(), block.other.end(), pairs.other.begin() + base);
+  std::copy(block.grad_w.begin(), block.grad_w.end(), pairs.grad_w.begin() + base);
+}
+
+// rho_i and alpha_i; lists the step's pairs (state.fluid_pairs, state.boundary_pairs).
 void DensityAndFactor(const Model& model, const BoundaryParticles& boundary, State& state) {
   ParticleArrays& p = state.particles;
   const Work w = Arrays(state);
@@ -40,49 +77,73 @@ void DensityAndFactor(const Model& model, const BoundaryParticles& boundary, Sta
   const Real rho0 = Real(model.params.rest_density);
   const Real* volume = boundary.padded_volume();
   const int64_t n = int64_t(p.size());
-#pragma omp parallel for schedule(static)
-  for (int64_t i = 0; i < n; ++i) {
-    const Eigen::Vector3i cell = state.grid.SortedCell(uint32_t(i));
-    const Vec3& x = p.position[i];
-    Real fluid = 0, squares = 0;
-    Vec3 grad = Vec3::Zero();
-    ForEachWithin(state.grid, cell, x, support, [&](uint32_t, const Vec3& xij, Real r) {
-      fluid += CubicSpline<Real>::W(r, support);
-      const Vec3 g = mass * GradW(xij, r, support);
-      grad += g;
-      squares += g.squaredNorm();
-    });
-    Real wall = 0;
-    ForEachWithin(boundary.grid(), cell, x, support, [&](uint32_t b, const Vec3& xib, Real r) {
-      wall += volume[b] * CubicSpline<Real>::W(r, support);
-      grad += (rho0 * volume[b]) * GradW(xib, r, support);
-    });
-    const Real rho = mass * fluid + rho0 * wall;
-    p.density[i] = rho;
-    const Real denominator = grad.squaredNorm() + squares;
-    // A particle without neighbours has no pressure to solve for.
-    w.alpha[i] = denominator > Real(1e-6) * rho * rho / (support * support) ? rho / denominator : 0;
+  NeighborPairs& fluid_pairs = state.fluid_pairs;
+  NeighborPairs& wall_pairs = state.boundary_pairs;
+  fluid_pairs.begin.resize(n + 1);
+  wall_pairs.begin.resize(n + 1);
+  std::vector<size_t> fluid_sizes(omp_get_max_threads()), wall_sizes(omp_get_max_threads());
+#pragma omp parallel
+  {
+    // Kept between steps by the pool's threads, so a step allocates nothing once warm.
+    thread_local PairBlock fluid_block, wall_block;
+    fluid_block.other.clear();
+    fluid_block.grad_w.clear();
+    wall_block.other.clear();
+    wall_block.grad_w.clear();
+    const int t = omp_get_thread_num(), threads = omp_get_num_threads();
+    const int64_t lo = n * t / threads, hi = n * (t + 1) / threads;
+    for (int64_t i = lo; i < hi; ++i) {
+      const Eigen::Vector3i cell = state.grid.SortedCell(uint32_t(i));
+      const Vec3& x = p.position[i];
+      Real fluid = 0, squares = 0;
+      Vec3 grad = Vec3::Zero();
+      ForEachWithin(state.grid, cell, x, support, [&](uint32_t j, const Vec3& xij, Real r) {
+        fluid += CubicSpline<Real>::W(r, support);
+        const Vec3 g = GradW(xij, r, support);
+        if (r > 0) fluid_block.Add(j, g);
+        const Vec3 mg = mass * g;
+        grad += mg;
+        squares += mg.squaredNorm();
+      });
+      Real wall = 0;
+      ForEachWithin(boundary.grid(), cell, x, support, [&](uint32_t b, const Vec3& xib, Real r) {
+        wall += volume[b] * CubicSpline<Real>::W(r, support);
+        const Vec3 g = GradW(xib, r, support);
+        if (r > 0) wall_block.Add(b, g);
+        grad += (rho0 * volume[b]) * g;
+      });
+      fluid_pairs.begin[i + 1] = fluid_block.other.size();
+      wall_pairs.begin[i + 1] = wall_block.other.size();
+      const Real rho = mass * fluid + rho0 * wall;
+      p.density[i] = rho;
+      const Real denominator = grad.squaredNorm() + squares;
+      // A particle without neighbours has no pressure to solve for.
+      w.alpha[i] =
+          denominator > Real(1e-6) * rho * rho / (support * support) ? rho / denominator : 0;
+    }
+    JoinPairBlocks(fluid_block, lo, hi, fluid_sizes, fluid_pairs);
+    JoinPairBlocks(wall_block, lo, hi, wall_sizes, wall_pairs);
   }
 }
 
-// D rho_i / Dt = sum_j m (v_i - v_j) . grad W_ij + sum_b Psi_b v_i . grad W_ib
+// D rho_i / Dt = sum_j m (v_i - v_j) . grad W_ij + sum_b Psi_b v_i . grad W_ib, over the
+// step's pairs (the grid's neighbours at distance > 0, in the grid's order).
 Real DensityRate(const Model& model, const BoundaryParticles& boundary, const State& state,
                  int64_t i) {
   const ParticleArrays& p = state.particles;
-  const Real support = Real(model.kernel_support);
   const Real mass = Real(model.particle_mass);
   const Real rho0 = Real(model.params.rest_density);
   const Real* volume = boundary.padded_volume();
-  const Eigen::Vector3i cell = state.grid.SortedCell(uint32_t(i));
-  const Vec3& x = p.position[i];
+  const NeighborPairs& fluid = state.fluid_pairs;
+  const NeighborPairs& wall = state.boundary_pairs;
   const Vec3& v = p.velocity[i];
   Real rate = 0;
-  ForEachWithin(state.grid, cell, x, support, [&](uint32_t j, const Vec3& xij, Real r) {
-    rate += mass * (v - p.velocity[j]).dot(GradW(xij, r, support));
-  });
-  ForEachWithin(boundary.grid(), cell, x, support, [&](uint32_t b, const Vec3& xib, Real r) {
-    rate += rho0 * volume[b] * v.dot(GradW(xib, r, support));
-  });
+  for (size_t k = fluid.begin[i]; k < fluid.begin[i + 1]; ++k) {
+    rate += mass * (v - p.velocity[fluid.other[k]]).dot(fluid.grad_w[k]);
+  }
+  for (size_t k = wall.begin[i]; k < wall.begin[i + 1]; ++k) {
+    rate += rho0 * volume[wall.other[k]] * v.dot(wall.grad_w[k]);
+  }
   return rate;
 }
 
@@ -97,7 +158,6 @@ void ApplyKappa(const Model& model, const BoundaryParticles& boundary, State& st
                 Real* applied) {
   ParticleArrays& p = state.particles;
   const Work w = Arrays(state);
-  const Real support = Real(model.kernel_support);
   const Real mass = Real(model.particle_mass);
   const Real rho0 = Real(model.params.rest_density);
   const Real* volume = boundary.padded_volume();
@@ -105,18 +165,18 @@ void ApplyKappa(const Model& model, const BoundaryParticles& boundary, State& st
   // kappa_j / rho_j, read by the neighbours; in the error array, free until the next iteration.
 #pragma omp parallel for schedule(static)
   for (int64_t j = 0; j < n; ++j) w.error[j] = w.kappa[j] / p.density[j];
+  const NeighborPairs& fluid_pairs = state.fluid_pairs;
+  const NeighborPairs& wall_pairs = state.boundary_pairs;
 #pragma omp parallel for schedule(static)
   for (int64_t i = 0; i < n; ++i) {
-    const Eigen::Vector3i cell = state.grid.SortedCell(uint32_t(i));
-    const Vec3& x = p.position[i];
     const Real ki = w.error[i];
     Vec3 fluid = Vec3::Zero(), wall = Vec3::Zero();
-    ForEachWithin(state.grid, cell, x, support, [&](uint32_t j, const Vec3& xij, Real r) {
-      fluid += (ki + w.error[j]) * GradW(xij, r, support);
-    });
-    ForEachWithin(boundary.grid(), cell, x, support, [&](uint32_t b, const Vec3& xib, Real r) {
-      wall += volume[b] * GradW(xib, r, support);
-    });
+    for (size_t k = fluid_pairs.begin[i]; k < fluid_pairs.begin[i + 1]; ++k) {
+      fluid += (ki + w.error[fluid_pairs.other[k]]) * fluid_pairs.grad_w[k];
+    }
+    for (size_t k = wall_pairs.begin[i]; k < wall_pairs.begin[i + 1]; ++k) {
+      wall += volume[wall_pairs.other[k]] * wall_pairs.grad_w[k];
+    }
     p.velocity[i] -= dt * (mass * fluid + (rho0 * ki) * wall);
     w.kappa_sum[i] += w.kappa[i] * dt;
     applied[i] += w.kappa[i];
