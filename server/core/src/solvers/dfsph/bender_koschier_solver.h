@@ -20,6 +20,10 @@
 // that stopped at the cap). The step, in the order of the passes:
 //   neighbours, rho, alpha; divergence solve on v; non-pressure accelerations; dt;
 //   v += dt a; density solve; x += dt v.
+// Positions stay put from the density pass to x += dt v, so that pass lists every pair within
+// the support with its grad W (State::fluid_pairs, boundary_pairs), and the solves' sweeps read
+// the lists instead of searching the grid again (the same pairs in the same order: the results
+// are those of a grid search, bit for bit).
 // The pressure reported (p_i, which the probes read) is both solves' velocity change over the
 // step taken as one acceleration, p_i = mu rho_i sum kappa_i dt_solve / dt, with mu the
 // gradient moment of kernels.h as in wcsph.
