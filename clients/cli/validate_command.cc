@@ -2,7 +2,9 @@
 
 #include <omp.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <iomanip>
 #include <optional>
 #include <ostream>
@@ -66,6 +68,15 @@ std::string TankDiagnosticsText(const HydrostaticResult& h) {
     << " d above the floor (0.5 d: held by the wall's pressure)\n"
     << "    pressure gradient " << std::setprecision(1) << h.pressure_gradient << " Pa/m ("
     << std::setprecision(3) << h.pressure_gradient / rho_g << " rho0 g)\n";
+  // Where the largest error lies tells a wall's effect (near the floor) from the surface's.
+  const auto worst = std::max_element(h.profile.begin(), h.profile.end(), [](auto& a, auto& b) {
+    return std::abs(a.pressure - a.reference) < std::abs(b.pressure - b.reference);
+  });
+  const double d = h.profile.size() > 1 ? h.profile[1].y - first.y : first.y;
+  s << "    largest pressure error at y = " << std::setprecision(3) << worst->y << " m ("
+    << std::setprecision(1) << worst->y / d << " d above the floor, " << std::showpos
+    << 100 * (worst->pressure - worst->reference) / (rho_g * h.depth) << std::noshowpos
+    << "% of rho0 g H)\n";
   return s.str();
 }
 

@@ -264,6 +264,20 @@ TEST(DysaBinaryTest, BogusFlagFails) {
   EXPECT_THAT(slab.err + slab.out, HasSubstr("--slab-layers"));
 }
 
+// The quick validation with dfsph (seconds since its solves sweep a pair list): the table and
+// each case's diagnostics, the tank's largest error located by height. dfsph misses the tank's
+// pressure target, so the run exits non-zero and says so.
+TEST(DysaBinaryTest, QuickDfsphValidationPrintsEachCasesDiagnostics) {
+  TempDir dir;
+  const Result r = RunDysa(dir.path(), "validate --quick --solver dfsph");
+  EXPECT_NE(r.exit_code, 0) << r.out;
+  EXPECT_THAT(r.out, HasSubstr("validate: targets MISSED"));
+  EXPECT_THAT(r.out, HasSubstr("pressure gradient "));
+  EXPECT_THAT(r.out, ::testing::ContainsRegex("largest pressure error at y = 0\\.[0-9]+ m "
+                                              "\\([0-9]+\\.[0-9] d above the floor, [-+]"));
+  EXPECT_THAT(r.out, HasSubstr("front speed dZ/dT"));
+}
+
 TEST(DysaBinaryTest, SmallRunSucceeds) {
   TempDir dir;
   const fs::path out_dir = dir.path() / "out";
