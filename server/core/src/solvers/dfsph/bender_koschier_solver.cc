@@ -81,7 +81,13 @@ void DensityAndFactor(const Model& model, const BoundaryParticles& boundary, Sta
   NeighborPairs& wall_pairs = state.boundary_pairs;
   fluid_pairs.begin.resize(n + 1);
   wall_pairs.begin.resize(n + 1);
-  std::vector<size_t> fluid_sizes(omp_get_max_threads()), wall_sizes(omp_get_max_threads());
+  // The blocks' sizes, one per thread, kept by the calling thread like the blocks by theirs.
+  // Referred to by reference in the region: a thread_local named there is each thread's own.
+  thread_local std::vector<size_t> fluid_block_sizes, wall_block_sizes;
+  std::vector<size_t>& fluid_sizes = fluid_block_sizes;
+  std::vector<size_t>& wall_sizes = wall_block_sizes;
+  fluid_sizes.assign(omp_get_max_threads(), 0);
+  wall_sizes.assign(omp_get_max_threads(), 0);
 #pragma omp parallel
   {
     // Kept between steps by the pool's threads, so a step allocates nothing once warm.
