@@ -91,10 +91,10 @@ std::string FrontDiagnosticsText(const DamBreakResult& d) {
     << "    with the experiment's release taken " << std::setprecision(1)
     << 1000 * f.release_delay * d.time_unit << " ms later (T = " << std::setprecision(3)
     << f.release_delay << ", the best fit): RMS error " << std::setprecision(1)
-    << 100 * f.delayed_rms_error << "%, max " << 100 * f.delayed_max_error << "%\n"
+    << 100 * f.delayed.rms << "%, max " << 100 * f.delayed.max << "%\n"
     << "    with Lethe's time correction (T = " << std::setprecision(3) << kPublishedReleaseDelay
-    << ", not fitted here): RMS error " << std::setprecision(1) << 100 * f.published_delay_rms_error
-    << "%, max " << 100 * f.published_delay_max_error << "%\n";
+    << ", not fitted here): RMS error " << std::setprecision(1) << 100 * f.published.rms
+    << "%, max " << 100 * f.published.max << "%\n";
   return s.str();
 }
 

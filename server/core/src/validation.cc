@@ -234,13 +234,10 @@ FrontDiagnostics DiagnoseFront(const std::vector<FrontSample>& trace,
     if (e.rms < best) {
       best = e.rms;
       out.release_delay = 0.001 * k;
-      out.delayed_rms_error = e.rms;
-      out.delayed_max_error = e.max;
+      out.delayed = e;
     }
   }
-  const FrontError published = FrontErrorWithDelay(trace, table, kPublishedReleaseDelay);
-  out.published_delay_rms_error = published.rms;
-  out.published_delay_max_error = published.max;
+  out.published = FrontErrorWithDelay(trace, table, kPublishedReleaseDelay);
   std::vector<std::pair<double, double>> simulated, reference;
   for (const MartinMoyceRow& row : table) {
     if (row.T < kSurgeFrom - 1e-9) continue;

@@ -91,6 +91,11 @@ struct FrontSample {
   double T, Z;
 };
 
+// RMS and max of |Z_sim(T - delay) - Z_ref(T)| / Z_ref(T) over the rows with T > 0.
+struct FrontError {
+  double rms = 0, max = 0;
+};
+
 // Where the error of a simulated front lies, for the report (not a target): a constant lag of
 // the experiment (its column was released over a finite time, the simulation's at once) and
 // the surge's speed.
@@ -99,11 +104,9 @@ struct FrontDiagnostics {
   // table's rows with T > 0 (searched in [0, 1] by 0.001; before T = 0 the column is at rest),
   // and the errors with it.
   double release_delay = 0;
-  double delayed_rms_error = 0;
-  double delayed_max_error = 0;
+  FrontError delayed;
   // The errors with a fixed delay chosen elsewhere: kPublishedReleaseDelay.
-  double published_delay_rms_error = 0;
-  double published_delay_max_error = 0;
+  FrontError published;
   // dZ/dT of the least-squares lines through the simulated and the tabulated front at the
   // table's times from kSurgeFrom on: the surge's speed, whatever its offset.
   double front_speed = 0;
@@ -115,10 +118,6 @@ inline constexpr double kSurgeFrom = 1.19;  // T, the table's row where the surg
 // a delay chosen independently of this project's runs.
 inline constexpr double kPublishedReleaseDelay = 0.175;
 
-// RMS and max of |Z_sim(T - delay) - Z_ref(T)| / Z_ref(T) over the rows with T > 0.
-struct FrontError {
-  double rms = 0, max = 0;
-};
 FrontError FrontErrorWithDelay(const std::vector<FrontSample>& trace,
                                const std::vector<MartinMoyceRow>& table, double delay);
 FrontDiagnostics DiagnoseFront(const std::vector<FrontSample>& trace,
