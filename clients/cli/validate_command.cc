@@ -66,6 +66,8 @@ std::string TankDiagnosticsText(const HydrostaticResult& h) {
   std::ostringstream s;
   s << "    bottom layer at " << std::fixed << std::setprecision(3) << h.bottom_layer_height
     << " d above the floor (0.5 d: held by the wall's pressure)\n"
+    << "    centre of mass sank " << h.settling << " d over the run (compression alone: "
+    << "a few hundredths)\n"
     << "    pressure gradient " << std::setprecision(1) << h.pressure_gradient << " Pa/m ("
     << std::setprecision(3) << h.pressure_gradient / rho_g << " rho0 g)\n";
   // Where the largest error lies tells a wall's effect (near the floor) from the surface's.

@@ -275,6 +275,8 @@ TEST(DysaBinaryTest, QuickDfsphValidationPrintsEachCasesDiagnostics) {
   EXPECT_THAT(r.out, HasSubstr("pressure gradient "));
   EXPECT_THAT(r.out, ::testing::ContainsRegex("largest pressure error at y = 0\\.[0-9]+ m "
                                               "\\([0-9]+\\.[0-9] d above the floor, [-+]"));
+  EXPECT_THAT(r.out,
+              ::testing::ContainsRegex("centre of mass sank -?[0-9]\\.[0-9]{3} d over the run"));
   EXPECT_THAT(r.out, HasSubstr("front speed dZ/dT"));
 }
 

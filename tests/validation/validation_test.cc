@@ -66,6 +66,9 @@ TEST(HydrostaticTankTest, PressureFollowsRhoGDepthAndTheTankIsAtRest) {
   // Held by the wall's pressure at the rest lattice's d / 2 (0.498 d), not sunk into the
   // contact force's range (0.4 d).
   EXPECT_NEAR(r.bottom_layer_height, 0.5, 0.01);
+  // The column keeps its rest lattice: it sinks by its compression only (quick: 0.018 d).
+  EXPECT_GT(r.settling, 0.0);
+  EXPECT_LT(r.settling, 0.05);
 }
 
 // dfsph on the tank: incompressible to its tolerance. At the quick spacing (2,880 particles,
@@ -88,6 +91,10 @@ TEST(HydrostaticTankTest, DfsphKeepsTheDensityWithinATenthOfAPercent) {
   // swing) it came out 17% too steep.
   EXPECT_NEAR(r.pressure_gradient, 1000 * 1.0, 30);
   EXPECT_LT(r.max_speed, 0.15);
+  // Not at its rest lattice: the bottom layer sinks into the wall contact force's range
+  // (0.399 d) and the layers above re-stack, the centre of mass 0.19 d lower at quick spacing
+  // (README: why the pressure misses). A bound against it getting worse, not a target.
+  EXPECT_LT(r.settling, 0.3);
 }
 
 // The slab's thickness is an option (dysa validate --slab-layers): the tank at 0.1 m two

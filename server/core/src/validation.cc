@@ -100,6 +100,12 @@ HydrostaticResult RunHydrostaticTank(const ValidationOptions& options) {
   // The pressure at each point after every step of the averaging window, weighted by the
   // step's length. Every step, not samples at an interval: dfsph's pressure alternates from
   // one step to the next, and samples every other step would read one phase of it.
+  const auto mean_height = [](const ParticleArrays& p) {
+    double sum = 0;
+    for (const Vec3& x : p.position) sum += double(x.y());
+    return p.size() ? sum / double(p.size()) : 0.0;
+  };
+  const double start_height = mean_height(sim.state().particles);
   const double window_start = std::max(0.0, end - kHydrostaticAveragingTime);
   while (sim.state().time < window_start) sim.Step(window_start);
   std::vector<double> sums(probes.size(), 0.0);
@@ -147,6 +153,7 @@ HydrostaticResult RunHydrostaticTank(const ValidationOptions& options) {
     if (height < 1) bottom += height, ++in_bottom;
   }
   result.bottom_layer_height = in_bottom ? bottom / in_bottom : 0;
+  result.settling = (start_height - mean_height(p)) / d;
   result.capped_solves = sim.state().solver_stats.capped_solves;
   return result;
 }
