@@ -27,7 +27,8 @@ struct Setting {
 };
 
 // What is swept per solver besides the spacing: the CFL factor of the adaptive step for both,
-// and DFSPH's density error tolerance (its iterations trade time for incompressibility).
+// and DFSPH's density error tolerance and warm start (its iterations trade time for
+// incompressibility).
 std::vector<Setting> SettingsFor(const std::string& solver, bool quick) {
   std::vector<Setting> out;
   // DFSPH steps with at most kIncompressibleMaxCfl = 0.3 (cfl_time_step.h).
@@ -41,6 +42,8 @@ std::vector<Setting> SettingsFor(const std::string& solver, bool quick) {
   if (solver == "dfsph" && !quick) {
     const std::string s = "density_tolerance=0.001";  // ten times the default 0.0001
     out.push_back({s, {"cfl_factor=0.3", s}});
+    const std::string w = "warm_start=0.5";  // more of the previous step's pressure than 0.2
+    out.push_back({w, {"cfl_factor=0.3", w}});
   }
   return out;
 }

@@ -77,6 +77,17 @@ struct State {
   // the neighbour sort. Rebuilt every step, so a checkpoint need not hold them.
   NeighborPairs fluid_pairs;
   NeighborPairs boundary_pairs;
+  // boundary_pairs seen from the boundary (dfsph's pressure boundary, pressure_boundary.h):
+  // boundary particle b's fluid neighbours i in [begin[b], begin[b + 1]), in fluid order, with
+  // W(x_b - x_i) over sum_i W(x_b - x_i) (Shepard weights); per step, like the pairs.
+  struct BoundaryNeighbors {
+    std::vector<size_t> begin;
+    std::vector<uint32_t> fluid;
+    std::vector<Real> weight;
+    std::vector<Real> hydrostatic;  // Pa, max(0, g . sum_i weight rho_i (x_b - x_i))
+    std::vector<Real> kappa;        // kappa_b / rho, of the solve's current iteration
+  } boundary_neighbors;
+  std::vector<size_t> boundary_fill;  // scratch of the transpose
 
   // Set by a pass when its step could not hold the model's accuracy and the pass had to limit
   // it (the seed's velocity limiter, an iteration cap); the run goes on. Cleared at the start of

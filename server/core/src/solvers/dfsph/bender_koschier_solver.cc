@@ -12,6 +12,7 @@
 #include "cfl_time_step.h"
 #include "common_passes.h"
 #include "dysa/core/kernels.h"
+#include "solvers/dfsph/pressure_boundary.h"
 #include "solvers/wcsph/becker_teschner_solver.h"
 #include "sph_loops.h"
 
@@ -158,7 +159,8 @@ Real DensityRate(const Model& model, const BoundaryParticles& boundary, const St
 constexpr double kMaxCorrection = 0.05;
 
 // v_i -= dt [sum_j m (kappa_i / rho_i + kappa_j / rho_j) grad W_ij
-//            + sum_b Psi_b (kappa_i / rho_i) grad W_ib], from the kappa of every particle;
+//            + sum_b Psi_b (kappa_i / rho_i + kappa_b / rho_b) grad W_ib], from the kappa of
+// every particle, extrapolated to the boundary (pressure_boundary.h);
 // kappa_sum_i += kappa_i dt and applied_i += kappa_i (the solve's total, for its warm start).
 void ApplyKappa(const Model& model, const BoundaryParticles& boundary, State& state, Real dt,
                 Real* applied) {
@@ -171,6 +173,8 @@ void ApplyKappa(const Model& model, const BoundaryParticles& boundary, State& st
   // kappa_j / rho_j, read by the neighbours; in the error array, free until the next iteration.
 #pragma omp parallel for schedule(static)
   for (int64_t j = 0; j < n; ++j) w.error[j] = w.kappa[j] / p.density[j];
+  ExtrapolateKappa(w.error, state);
+  const Real* kappa_b = state.boundary_neighbors.kappa.data();
   const NeighborPairs& fluid_pairs = state.fluid_pairs;
   const NeighborPairs& wall_pairs = state.boundary_pairs;
 #pragma omp parallel for schedule(static)
@@ -181,9 +185,10 @@ void ApplyKappa(const Model& model, const BoundaryParticles& boundary, State& st
       fluid += (ki + w.error[fluid_pairs.other[k]]) * fluid_pairs.grad_w[k];
     }
     for (size_t k = wall_pairs.begin[i]; k < wall_pairs.begin[i + 1]; ++k) {
-      wall += volume[wall_pairs.other[k]] * wall_pairs.grad_w[k];
+      const uint32_t b = wall_pairs.other[k];
+      wall += (volume[b] * (ki + kappa_b[b])) * wall_pairs.grad_w[k];
     }
-    p.velocity[i] -= dt * (mass * fluid + (rho0 * ki) * wall);
+    p.velocity[i] -= dt * (mass * fluid + rho0 * wall);
     w.kappa_sum[i] += w.kappa[i] * dt;
     applied[i] += w.kappa[i];
   }
@@ -340,9 +345,10 @@ void DensitySolve(const Model& model, const BoundaryParticles& boundary, State& 
   for (int64_t i = 0; i < n; ++i) p.pressure[i] = scale * w.kappa_sum[i] * p.density[i];
 }
 
-void SetGravity(const Model& model, State& state) {
+// Gravity, added to the walls' hydrostatic acceleration of the boundary_pressure pass.
+void AddGravity(const Model& model, State& state) {
   const Vec3 g(0, Real(wcsph::GravityAt(model.params, state.time)), 0);
-  state.acceleration.assign(state.particles.size(), g);
+  for (Vec3& a : state.acceleration) a += g;
 }
 
 void PredictVelocities(const Model&, State& state) {
@@ -412,9 +418,12 @@ std::vector<Pass> BenderKoschierSolver::BuildPasses(const Model& model) const {
   passes.push_back({"neighbour_grid", SortIntoGrid});
   passes.push_back(
       {"density", [boundary](const Model& m, State& s) { DensityAndFactor(m, *boundary, s); }});
+  passes.push_back({"boundary_pressure", [boundary](const Model& m, State& s) {
+                      ListBoundaryNeighbors(m, *boundary, s);
+                    }});
   passes.push_back({"divergence_solve",
                     [boundary](const Model& m, State& s) { DivergenceSolve(m, *boundary, s); }});
-  passes.push_back({"external_forces", SetGravity});
+  passes.push_back({"external_forces", AddGravity});
   if (model.params.kinematic_viscosity > 0) passes.push_back({"viscosity", wcsph::AddViscosity});
   // The contact force's strength D = kContactStrength c^2 takes for c ten times the fall speed
   // from the domain's height, sqrt(2 |g| H), as wcsph's c0 >= 10 v_max: D = 2 |g| H.

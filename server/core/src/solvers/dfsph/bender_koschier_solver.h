@@ -3,13 +3,15 @@
 // TVCG 23(3), Algorithm 1.
 //
 // Same discretisation as wcsph (becker_teschner_solver.h): cubic spline of support 2 d, mass
-// rho0 d^3, the Akinci boundary particles of boundary_particles.h, laminar viscosity, the wall
+// rho0 d^3, the Akinci boundary particles of boundary_particles.h with the pressure of the fluid
+// around them (pressure_boundary.h), laminar viscosity, the wall
 // contact force, CFL-adaptive step (without a speed of sound: dt <= lambda d / v_max). Instead of
 // an equation of state two solvers find the pressure (as kappa_i = p_i / rho_i):
 //   factor       alpha_i = rho_i / (|sum_j m grad W_ij + sum_b Psi_b grad W_ib|^2
 //                                   + sum_j |m grad W_ij|^2)                       (eq. 11)
 //   acceleration a_i = -sum_j m (kappa_i / rho_i + kappa_j / rho_j) grad W_ij
-//                      -sum_b Psi_b (kappa_i / rho_i) grad W_ib
+//                      -sum_b Psi_b (kappa_i / rho_i + kappa_b / rho_b) grad W_ib
+//                with kappa_b extrapolated from the fluid (plus a fixed hydrostatic part)
 //   divergence   kappa_i = (1 / dt) max(D rho_i / Dt, 0) alpha_i with
 //                D rho_i / Dt = sum_j m (v_i - v_j) . grad W_ij + sum_b Psi_b v_i . grad W_ib,
 //                iterated until mean (D rho / Dt) dt / rho0 <= divergence_tolerance  (eq. 15)
@@ -18,7 +20,8 @@
 //                density_tolerance                                                 (eq. 17)
 // each at least twice and at most max_iterations times (state.solver_stats counts the solves
 // that stopped at the cap). The step, in the order of the passes:
-//   neighbours, rho, alpha; divergence solve on v; non-pressure accelerations; dt;
+//   neighbours, rho, alpha; the boundary's fluid neighbours; divergence solve on v;
+//   non-pressure accelerations; dt;
 //   v += dt a; density solve; x += dt v.
 // Positions stay put from the density pass to x += dt v, so that pass lists every pair within
 // the support with its grad W (State::fluid_pairs, boundary_pairs), and the solves' sweeps read
@@ -27,13 +30,15 @@
 // The pressure reported (p_i, which the probes read) is both solves' velocity change over the
 // step taken as one acceleration, p_i = mu rho_i sum kappa_i dt_solve / dt, with mu the
 // gradient moment of kernels.h as in wcsph.
-// Warm start (2017, Sec. 4.4): each solve first applies the fraction warm_start (0.5, below 1
+// Warm start (2017, Sec. 4.4): each solve first applies the fraction warm_start (0.2, below 1
 // because a solve only adds pressure, kappa >= 0, and could not take an overshoot back) of what
-// it applied in the previous step, then iterates on the error left. The solves' totals are carried
+// it applied in the previous step, then iterates on the error left; the solve stops nearer
+// where it started, so more is faster and less accurate (with 0.5 the tank at 0.02 m is 3.5%
+// off rho0 g (H - y), with 0.2 0.07%: README, validation). The solves' totals are carried
 // per particle as kappa dt^2 and kappa dt (ParticleArrays::density_stiffness,
 // divergence_stiffness), which do not depend on the step size, and permuted with the particles; a
-// checkpoint holds them. Without it every step rebuilds the hydrostatic pressure from zero in a few
-// Jacobi iterations, which leaves a deep column's pressure short (tests/validation). The divergence
+// checkpoint holds them. Without it (0) every step rebuilds the hydrostatic pressure from zero:
+// twice the iterations for a column at rest (tests/core). The divergence
 // solve's stopping test uses the CFL step of the current velocities (a function of the state), so a
 // checkpoint reproduces the following steps bit for bit. Errors are summed serially in particle
 // order, so the iteration counts do not depend on the thread count.
