@@ -42,7 +42,7 @@ std::vector<Setting> SettingsFor(const std::string& solver, bool quick) {
   if (solver == "dfsph" && !quick) {
     const std::string s = "density_tolerance=0.001";  // ten times the default 0.0001
     out.push_back({s, {"cfl_factor=0.3", s}});
-    const std::string w = "warm_start=0.5";  // more of the previous step's pressure than 0.3
+    const std::string w = "warm_start=0.5";  // more of the previous step's pressure than 0.2
     out.push_back({w, {"cfl_factor=0.3", w}});
   }
   return out;

@@ -73,8 +73,8 @@ TEST(HydrostaticTankTest, PressureFollowsRhoGDepthAndTheTankIsAtRest) {
 
 // dfsph on the tank: incompressible to its tolerance, and resting on the walls' extrapolated
 // pressure (pressure_boundary.h). At the quick spacing (2,880 particles, `dysa validate
-// --quick`): mean density deviation 0.01%, pressure error max 0.39%, mean 0.12%, gradient
-// 0.996 rho0 g. With Akinci's mirrored wall pressure the bottom layer sank to 0.40 d and the
+// --quick`): mean density deviation 0.01%, pressure error max 0.20%, mean 0.11%, gradient
+// 0.998 rho0 g. With Akinci's mirrored wall pressure the bottom layer sank to 0.40 d and the
 // error was 7.9% max, 6.6% mean. The pressure is the impulse of both solves; the density
 // solve's alone reads far too low.
 TEST(HydrostaticTankTest, DfsphHoldsTheDensityAndTheHydrostaticPressure) {

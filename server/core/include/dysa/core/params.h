@@ -52,7 +52,7 @@ struct Params {
   // start, Bender & Koschier 2017 Sec. 4.4; 0: off). More is faster and less accurate: the
   // solve adds pressure only, and stops at its tolerance nearer the warm start (README,
   // validation: the hydrostatic tank with 0, 0.2 and 0.5).
-  double warm_start = 0.3;
+  double warm_start = 0.2;
 };
 
 struct ParamDecl {

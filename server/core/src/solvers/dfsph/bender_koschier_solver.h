@@ -30,12 +30,12 @@
 // The pressure reported (p_i, which the probes read) is both solves' velocity change over the
 // step taken as one acceleration, p_i = mu rho_i sum kappa_i dt_solve / dt, with mu the
 // gradient moment of kernels.h as in wcsph.
-// Warm start (2017, Sec. 4.4): each solve first applies the fraction warm_start (0.3, below 1
+// Warm start (2017, Sec. 4.4): each solve first applies the fraction warm_start (0.2, below 1
 // because a solve only adds pressure, kappa >= 0, and could not take an overshoot back) of what
 // it applied in the previous step, then iterates on the error left; the solve stops nearer
 // where it started, so more is faster and less accurate (with 0.5 the tank at 0.02 m is 3.5%
-// off rho0 g (H - y), with 0.3 0.08%; with 0.2 a deep column's solve reached the iteration cap
-// while gravity ramped in: README, validation). The solves' totals are carried
+// off rho0 g (H - y), with 0.2 0.07%; 0.3 failed the stress test of particles started on top
+// of each other: README, validation). The solves' totals are carried
 // per particle as kappa dt^2 and kappa dt (ParticleArrays::density_stiffness,
 // divergence_stiffness), which do not depend on the step size, and permuted with the particles; a
 // checkpoint holds them. Without it (0) every step rebuilds the hydrostatic pressure from zero:
