@@ -18,6 +18,7 @@ namespace {
 // The quick resolutions of tests/validation/validation_test.cc.
 constexpr double kQuickTankSpacing = 0.05;
 constexpr double kQuickDamSpacing = 0.05715 / 15;
+constexpr double kQuickChannelSpacing = 0.001;  // 10 particles across the 1 cm channel
 
 struct Row {
   std::string measure;
@@ -100,6 +101,25 @@ std::string FrontDiagnosticsText(const DamBreakResult& d) {
   return s.str();
 }
 
+// The channel's error at each of Morris et al.'s times, and its steady centre speed.
+std::string PoiseuilleText(const PoiseuilleResult& c) {
+  std::ostringstream s;
+  s << std::fixed << "    u_max = F L^2 / (8 nu) = " << std::setprecision(3) << 1000 * c.peak_speed
+    << " mm/s; error / u_max at t =";
+  for (const PoiseuilleResult::Profile& p : c.profiles) {
+    s << " " << std::setprecision(4) << p.t << " s: " << std::setprecision(2) << 100 * p.error_max
+      << "%" << (&p == &c.profiles.back() ? "\n" : ",");
+  }
+  const PoiseuilleResult::Profile& last = c.profiles.back();
+  const size_t mid = last.speed.size() / 2;
+  if (!last.speed.empty()) {
+    s << "    centre column at t = " << std::setprecision(4) << last.t
+      << " s: " << std::setprecision(4) << last.speed[mid] / c.peak_speed << " u_max (analytic "
+      << last.reference[mid] / c.peak_speed << ")\n";
+  }
+  return s.str();
+}
+
 }  // namespace
 
 int RunValidate(const ValidateOptions& options, std::ostream& out) {
@@ -144,6 +164,24 @@ int RunValidate(const ValidateOptions& options, std::ostream& out) {
         TankDiagnosticsText(*incompressible);
   }
 
+  // Poiseuille flow: the viscous term and no-slip walls, with the scene's solver and (unless
+  // one solver was asked for) dfsph too.
+  ValidationOptions channel = base;
+  if (quick) channel.spacing = kQuickChannelSpacing;
+  std::vector<std::string> channel_solvers = {options.solver};
+  if (options.solver.empty()) channel_solvers.push_back("dfsph");
+  std::vector<PoiseuilleResult> channels;
+  std::string channel_runs;
+  for (const std::string& solver : channel_solvers) {
+    channel.solver = solver;
+    start = Clock::now();
+    channels.push_back(RunPoiseuille(channel));
+    channel_runs +=
+        "poiseuille_flow:" +
+        RunText(channels.back().run, std::chrono::duration<double>(Clock::now() - start).count()) +
+        PoiseuilleText(channels.back());
+  }
+
   out << "\n";
   Table table(out);
   table.Add("hydrostatic_tank", {"pressure error max / rho0 g H", h.pressure_error_max, 0.01});
@@ -163,8 +201,13 @@ int RunValidate(const ValidateOptions& options, std::ostream& out) {
     table.Add("hydrostatic (dfsph)",
               {"solves stopped at the cap", double(incompressible->capped_solves), 0, false});
   }
+  for (const PoiseuilleResult& c : channels) {
+    table.Add("poiseuille (" + c.run.solver + ")",
+              {"velocity error max / u_max", c.error_max, quick ? 0.015 : 0.01});
+  }
   out << "\nhydrostatic_tank:" << tank_run << "dam_break_martin_moyce:" << dam_run;
   if (incompressible) out << "hydrostatic_tank (dfsph):" << incompressible_run;
+  out << channel_runs;
   out << "\ndam break front (T = t sqrt(2 g / a), Z = x / a):\n    T      Z  Z_ref\n";
   for (const DamBreakResult::Row& row : d.rows) {
     out << std::fixed << std::setprecision(2) << std::setw(5) << row.T << std::setprecision(3)

@@ -223,5 +223,85 @@ TEST(WcsphBoundaryTest, NoParticleLeavesTheDomainOrEntersAnObstacle) {
   RecordProperty("closest_to_wall_in_spacings", std::to_string(closest / d));
 }
 
+// A block filling a domain periodic in x and z, between walls in y (or periodic in y too),
+// moving along x at 2 m/s.
+Scene PeriodicChannel(bool walls = true) {
+  return ParseScene(std::string(R"({
+    "domain": {"min": [0, 0, 0], "max": [0.2, 0.12, 0.12], "periodic": [true, )") +
+                    (walls ? "false" : "true") + R"(, true]},
+    "fluid_blocks": [{"center": [0.1, 0.06, 0.06], "size": [0.2, 0.12, 0.12],
+                      "velocity": [2, 0, 0]}],
+    "solver": "wcsph",
+    "params": {"gravity": 0, "particle_spacing": 0.02, "speed_of_sound": 25,
+               "kinematic_viscosity": 1e-4}
+  })");
+}
+
+// Periodic on every axis: particles leave through x = max and come back through x = min, and
+// nothing else happens: the flow stays uniform (momentum and speed kept to float rounding, no
+// particle outside), and the run is bit-identical with 1 and 2 threads.
+TEST(WcsphPeriodicTest, ParticlesWrapAroundAndTheFlowStaysUniform) {
+  auto run = [](int threads) {
+    return WithThreads(threads, [] {
+      Simulation sim(PeriodicChannel(/*walls=*/false));
+      EXPECT_EQ(sim.state().particles.size(), 10u * 6 * 6);
+      // 0.15 s at 2 m/s: every particle crosses x = max once or more (0.3 m, 1.5 periods).
+      while (sim.state().time < 0.15) sim.Step(0.15);
+      const ParticleArrays& p = sim.state().particles;
+      Vec3d momentum = Vec3d::Zero();
+      double spread = 0;
+      for (size_t i = 0; i < p.size(); ++i) {
+        momentum += p.velocity[i].cast<double>();
+        spread = std::max(spread, (p.velocity[i].cast<double>() - Vec3d(2, 0, 0)).norm());
+        EXPECT_TRUE(sim.model().domain.Contains(p.position[i].cast<double>()));
+      }
+      momentum /= double(p.size());
+      EXPECT_NEAR(momentum.x(), 2, 1e-5);
+      EXPECT_NEAR(momentum.y(), 0, 1e-5);
+      EXPECT_LT(spread, 1e-4);  // no seam slows or deflects it
+      return StateHash(sim.state());
+    });
+  };
+  EXPECT_EQ(run(1), run(2));
+}
+
+// Walls are free-slip unless the scene marks their axis no-slip: then a pass holds the fluid
+// at the wall, and only with a viscosity to carry it.
+TEST(WcsphPassListTest, NoSlipWallsAddTheWallViscosityPass) {
+  EXPECT_THAT(Simulation(DamScene()).PassNames(), Not(Contains("wall_viscosity")));
+  Scene gripping = DamScene();
+  gripping.no_slip = {false, true, false};
+  const std::vector<std::string> names = Simulation(gripping).PassNames();
+  const auto viscosity = std::find(names.begin(), names.end(), "viscosity");
+  ASSERT_NE(viscosity, names.end());
+  EXPECT_EQ(*(viscosity + 1), "wall_viscosity");
+  SetParam(gripping.params, "kinematic_viscosity", 0);
+  EXPECT_THAT(Simulation(gripping).PassNames(), Not(Contains("wall_viscosity")));
+}
+
+// The uniform flow of the periodic channel along no-slip walls slows down (the walls take its
+// momentum) and is slowest at the walls; along free-slip walls it keeps its speed (above).
+TEST(WcsphNoSlipTest, NoSlipWallsSlowTheFlowNextToThem) {
+  Scene scene = PeriodicChannel();
+  scene.no_slip = {false, true, false};
+  SetParam(scene.params, "kinematic_viscosity", 1e-3);
+  Simulation sim(scene);
+  while (sim.state().time < 0.15) sim.Step(0.15);
+  const ParticleArrays& p = sim.state().particles;
+  double wall = 0, centre = 0;
+  int at_wall = 0, in_centre = 0;
+  for (size_t i = 0; i < p.size(); ++i) {
+    const double y = p.position[i].y();
+    if (y < 0.02 || y > 0.08) wall += p.velocity[i].x(), ++at_wall;
+    if (y > 0.04 && y < 0.06) centre += p.velocity[i].x(), ++in_centre;
+  }
+  ASSERT_GT(at_wall, 0);
+  ASSERT_GT(in_centre, 0);
+  wall /= at_wall;
+  centre /= in_centre;
+  EXPECT_LT(centre, 2.0 - 1e-3);
+  EXPECT_LT(wall, centre - 0.05);
+}
+
 }  // namespace
 }  // namespace dysa

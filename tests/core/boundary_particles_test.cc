@@ -20,7 +20,7 @@ constexpr double kD = 0.02;
 
 TEST(SampleDomainWallsTest, TwoLayersOutsideTheDomainOnEverySide) {
   std::vector<Vec3> points, fluid_side;
-  SampleDomainWalls(kDomain, kD, 2, points, &fluid_side);
+  SampleDomainWalls(kDomain, {}, kD, 2, points, &fluid_side);
   // The lattice of the grown box (24 x 14 x 9) less the domain's (20 x 10 x 5).
   EXPECT_EQ(points.size(), 24u * 14 * 9 - 20 * 10 * 5);
   for (const Vec3& p : points) {
@@ -30,6 +30,21 @@ TEST(SampleDomainWallsTest, TwoLayersOutsideTheDomainOnEverySide) {
                     .Contains(x));
   }
   for (const Vec3& p : fluid_side) EXPECT_TRUE(kDomain.Contains(p.cast<double>()));
+}
+
+TEST(SampleDomainWallsTest, NoWallsAcrossAPeriodicAxis) {
+  std::vector<Vec3> points, fluid_side;
+  SampleDomainWalls(kDomain, {true, false, true}, kD, 2, points, &fluid_side);
+  // Only the floor and the ceiling: the x-z lattice (20 x 5) two layers deep on each.
+  EXPECT_EQ(points.size(), 20u * 5 * 2 * 2);
+  for (const Vec3& p : points) {
+    const Vec3d x = p.cast<double>();
+    EXPECT_TRUE(x.y() < kDomain.min.y() || x.y() > kDomain.max.y());
+    EXPECT_TRUE(x.x() > kDomain.min.x() && x.x() < kDomain.max.x());
+    EXPECT_TRUE(x.z() > kDomain.min.z() && x.z() < kDomain.max.z());
+  }
+  // The fluid side: the two layers next to the floor and the ceiling.
+  EXPECT_EQ(fluid_side.size(), 20u * 5 * 2 * 2);
 }
 
 TEST(SampleObstaclesTest, SpheresAndBoxesAreSampledInside) {
@@ -96,6 +111,30 @@ TEST(BoundaryParticlesTest, AFluidLatticeAtRestHasTheRestDensityAtEveryWall) {
   EXPECT_NEAR(*hi, 1000, 0.1);
   // At rest nothing is compressed (to 1e-4), so no pressure pushes the lattice apart.
   for (Real p : state.particles.pressure) EXPECT_LT(p, 1e-4 * 1000 * 50 * 50);
+}
+
+// Periodic in x and z, walls in y: the lattice filling the domain continues across the seams,
+// so at rest every particle has the rest density, at the seams as in the middle and at the
+// walls, and the walls are sampled only where they are.
+TEST(BoundaryParticlesTest, APeriodicDomainFilledAtRestHasTheRestDensityEverywhere) {
+  // 6 layers in z: a period needs at least 3 kernel supports (2 d each).
+  Scene scene = ParseScene(R"({
+    "domain": {"min": [0, 0, 0], "max": [0.4, 0.2, 0.12], "periodic": [true, false, true]},
+    "fluid_blocks": [{"center": [0.2, 0.1, 0.06], "size": [0.4, 0.2, 0.12]}],
+    "solver": "wcsph",
+    "params": {"particle_spacing": 0.02, "gravity": 0}
+  })");
+  Simulation sim(scene);
+  const BoundaryParticles boundary(sim.model(), kD, 2 * kD);
+  EXPECT_EQ(boundary.size(), 20u * 6 * 2 * 2);
+  State& state = const_cast<State&>(sim.state());
+  wcsph::SortIntoGrid(sim.model(), state);
+  wcsph::ComputeDensityAndPressure(sim.model(), boundary, state);
+  const auto& density = state.particles.density;
+  ASSERT_EQ(density.size(), 20u * 10 * 6);
+  const auto [lo, hi] = std::minmax_element(density.begin(), density.end());
+  EXPECT_NEAR(*lo, 1000, 0.1);
+  EXPECT_NEAR(*hi, 1000, 0.1);
 }
 
 }  // namespace

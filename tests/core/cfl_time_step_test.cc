@@ -9,18 +9,21 @@
 namespace dysa {
 namespace {
 
-Params Physical() {
-  Params p;
+// The model of a wcsph scene with these parameters (its viscosity moment among them).
+Model Physical(double nu = 1e-6, double max_time_step = 1) {
+  Scene scene;
+  scene.solver = "wcsph";
+  Params& p = scene.params;
   p.particle_spacing = 0.01;
   p.speed_of_sound = 20;
   p.cfl_factor = 0.25;
-  p.kinematic_viscosity = 1e-6;
-  p.max_time_step = 1;
-  return p;
+  p.kinematic_viscosity = nu;
+  p.max_time_step = max_time_step;
+  return MakeModel(scene, p);
 }
 
 TEST(CflLimitsTest, SoundLimitGrowsSlowerWithSpeed) {
-  const Params p = Physical();
+  const Model p = Physical();
   const TimeStepLimits still = CflLimits(p, 0, 0);
   EXPECT_DOUBLE_EQ(still.sound, 0.25 * 0.01 / 20);
   EXPECT_EQ(still.force, TimeStepLimits::kNone);  // no acceleration: no force limit
@@ -29,17 +32,15 @@ TEST(CflLimitsTest, SoundLimitGrowsSlowerWithSpeed) {
 }
 
 TEST(CflLimitsTest, ViscousForceAndMaxLimitsBindWhenSmallest) {
-  Params p = Physical();
-  p.kinematic_viscosity = 1;  // 0.125 h^2 / nu = 1.25e-5 s < sound 1.25e-4 s
-  EXPECT_DOUBLE_EQ(CflLimits(p, 0, 0).Min(), 0.125 * 0.01 * 0.01 / 1);
-  p = Physical();
+  // 0.125 lambda h^2 / nu = 8.85e-6 s < sound 1.25e-4 s, lambda = 0.708 (the viscosity moment)
+  const Model viscous = Physical(1);
+  EXPECT_NEAR(viscous.viscosity_moment, 0.708, 0.001);
+  EXPECT_DOUBLE_EQ(CflLimits(viscous, 0, 0).Min(),
+                   0.125 * viscous.viscosity_moment * 0.01 * 0.01 / 1);
   const double a = 1e5;  // 0.25 sqrt(h / a) = 7.9e-5 s
-  EXPECT_DOUBLE_EQ(CflLimits(p, 0, a).Min(), 0.25 * std::sqrt(0.01 / a));
-  p.max_time_step = 1e-6;
-  EXPECT_DOUBLE_EQ(CflLimits(p, 0, a).Min(), 1e-6);
-  p = Physical();
-  p.kinematic_viscosity = 0;
-  EXPECT_EQ(CflLimits(p, 0, 0).viscous, TimeStepLimits::kNone);
+  EXPECT_DOUBLE_EQ(CflLimits(Physical(), 0, a).Min(), 0.25 * std::sqrt(0.01 / a));
+  EXPECT_DOUBLE_EQ(CflLimits(Physical(1e-6, 1e-6), 0, a).Min(), 1e-6);
+  EXPECT_EQ(CflLimits(Physical(0), 0, 0).viscous, TimeStepLimits::kNone);
 }
 
 TEST(ChooseTimeStepTest, TakesTheRestOrSplitsItEvenly) {

@@ -59,13 +59,31 @@ bool ForEachCandidateRunIfAny(const G& grid, uint32_t k, Real radius, Visit&& vi
 }
 
 // Neighbours of every point within h (squared distance < h^2 in Real, the solver's test), as
-// sorted lists of indices into `points`, by brute force.
-Neighbours BruteForce(const std::vector<Vec3>& points, Real h) {
+// sorted lists of indices into `points`, by brute force. Along the axes of `period` that are
+// not 0 the points repeat with that period: j is i's neighbour when any image of i, moved by a
+// whole period (-L, 0 or +L, computed as the grid does: x_i + shift - x_j), is within h.
+Neighbours BruteForce(const std::vector<Vec3>& points, Real h, const Vec3& period = Vec3::Zero()) {
   Neighbours out(points.size());
   const Real h2 = h * h;
+  std::vector<Vec3> shifts;
+  for (int sz = -1; sz <= 1; ++sz) {
+    for (int sy = -1; sy <= 1; ++sy) {
+      for (int sx = -1; sx <= 1; ++sx) {
+        const Vec3 s(sx * period.x(), sy * period.y(), sz * period.z());
+        const bool repeated = (sx == 0 || period.x() > 0) && (sy == 0 || period.y() > 0) &&
+                              (sz == 0 || period.z() > 0);
+        if (repeated) shifts.push_back(s);
+      }
+    }
+  }
   for (size_t i = 0; i < points.size(); ++i) {
     for (size_t j = 0; j < points.size(); ++j) {
-      if ((points[j] - points[i]).squaredNorm() < h2) out[i].push_back(uint32_t(j));
+      for (const Vec3& s : shifts) {
+        if ((points[j] - (points[i] + s)).squaredNorm() < h2) {
+          out[i].push_back(uint32_t(j));
+          break;
+        }
+      }
     }
   }
   return out;
@@ -82,10 +100,10 @@ struct GridNeighbours {
   bool has_candidates;
 };
 
-GridNeighbours ThroughGrid(NeighborGrid& grid, const Aabb& domain, Real h,
-                           std::vector<Vec3> points) {
+GridNeighbours ThroughGrid(NeighborGrid& grid, const Aabb& domain, Real h, std::vector<Vec3> points,
+                           const Periodicity& periodic = {}) {
   const size_t n = points.size();
-  grid.Configure(domain, h);
+  grid.Configure(domain, h, periodic);
   EXPECT_GE(grid.cell_size(), h);
   grid.Sort(points);
   const std::vector<uint32_t> order(grid.order().begin(), grid.order().end());
@@ -114,11 +132,13 @@ GridNeighbours ThroughGrid(NeighborGrid& grid, const Aabb& domain, Real h,
   const Real h2 = h * h;
   for (size_t k = 0; k < n; ++k) {
     auto collect = [&](Neighbours& into) {
-      return [&, k](uint32_t begin, uint32_t end) {
+      return [&, k](uint32_t begin, uint32_t end, const Vec3& shift = Vec3::Zero()) {
         EXPECT_LT(begin, end);
         EXPECT_LE(end, n);
         for (uint32_t j = begin; j < end; ++j) {
-          if ((points[j] - points[k]).squaredNorm() < h2) into[order[k]].push_back(order[j]);
+          if ((points[j] - (points[k] + shift)).squaredNorm() < h2) {
+            into[order[k]].push_back(order[j]);
+          }
         }
       };
     };
@@ -160,10 +180,15 @@ size_t CompareNeighbours(const std::vector<Vec3>& points, const Neighbours& want
 
 // Compares both grid queries with brute force for every point; returns the number of
 // neighbour pairs, so a test can check it exercised something.
-size_t ExpectSameNeighbours(const Aabb& domain, Real h, const std::vector<Vec3>& points) {
+size_t ExpectSameNeighbours(const Aabb& domain, Real h, const std::vector<Vec3>& points,
+                            const Periodicity& periodic = {}) {
   NeighborGrid grid;
-  const Neighbours want = BruteForce(points, h);
-  const GridNeighbours got = ThroughGrid(grid, domain, h, points);
+  Vec3 period = Vec3::Zero();
+  for (int a = 0; a < 3; ++a) {
+    if (periodic[a]) period[a] = Real(domain.max[a] - domain.min[a]);
+  }
+  const Neighbours want = BruteForce(points, h, period);
+  const GridNeighbours got = ThroughGrid(grid, domain, h, points, periodic);
   EXPECT_EQ(CompareNeighbours(points, want, got.block, "ForEachNeighborRun"), 0u);
   if (got.has_candidates) {
     EXPECT_EQ(CompareNeighbours(points, want, got.candidates, "ForEachCandidateRun"), 0u);
@@ -445,6 +470,56 @@ TEST(PermuteInPlaceTest, GathersByOrder) {
   const std::vector<uint32_t> order = {4, 2, 0, 1, 3};
   PermuteInPlace<int>(order, data, scratch);
   EXPECT_EQ(data, (std::vector<int>{14, 12, 10, 11, 13}));
+}
+
+// Periodic axes: neighbours across the seams (the nearest image), found once each, for points
+// spread over the domain, bunched at both faces of every periodic axis, on the faces themselves
+// and in the corners where two seams meet. x and y wrap, z has walls.
+TEST(NeighborGridTest, PeriodicAxesFindNeighboursAcrossTheSeams) {
+  const Aabb domain = Box(Vec3d(-0.2, 0.1, 0), Vec3d(0.8, 0.73, 0.35));
+  const Periodicity periodic = {true, true, false};
+  for (Real h : {Real(0.1), Real(0.13), Real(0.2)}) {
+    std::mt19937 rng(11);
+    std::uniform_real_distribution<double> ux(-0.2, 0.8), uy(0.1, 0.73), uz(0, 0.35);
+    std::uniform_real_distribution<double> edge(0, 1.5 * h);
+    std::vector<Vec3> points;
+    for (int i = 0; i < 1500; ++i) points.push_back(Vec3d(ux(rng), uy(rng), uz(rng)).cast<Real>());
+    for (int i = 0; i < 300; ++i) {
+      Vec3d p(ux(rng), uy(rng), uz(rng));
+      const int a = i % 2;  // x or y
+      p[a] = (i / 2) % 2 ? domain.min[a] + edge(rng) : domain.max[a] - edge(rng);
+      if (i % 5 == 0) p[1 - a] = (i / 5) % 2 ? domain.min[1 - a] : domain.max[1 - a];
+      points.push_back(p.cast<Real>());
+    }
+    points.push_back(domain.min.cast<Real>());
+    points.push_back(Vec3d(domain.max.x(), domain.max.y(), 0.1).cast<Real>());
+    NeighborGrid grid;
+    grid.Configure(domain, h, periodic);
+    for (int a = 0; a < 2; ++a) {
+      // The period is tiled by whole cells of at least h.
+      EXPECT_GE(grid.cell_sizes()[a], h);
+      EXPECT_NEAR(grid.dims()[a] * grid.cell_sizes()[a], domain.Size()[a], 1e-12);
+    }
+    const size_t pairs = ExpectSameNeighbours(domain, h, points, periodic);
+    // Compared with the same points without wrapping: the seams add neighbours.
+    const size_t unwrapped = ExpectSameNeighbours(domain, h, points);
+    EXPECT_GT(pairs, unwrapped + 100) << "h = " << h;
+  }
+}
+
+// The shortest period the grid takes, 3 cells: each cell of the 3x3x3 block is then a different
+// one, so no neighbour is visited twice (a repeated index would fail the comparison).
+TEST(NeighborGridTest, PeriodOfThreeCells) {
+  const Aabb domain = Box(Vec3d(0, 0, 0), Vec3d(1, 1, 0.31));
+  std::mt19937 rng(12);
+  std::uniform_real_distribution<double> u(0, 1), uz(0, 0.31);
+  std::vector<Vec3> points;
+  for (int i = 0; i < 1200; ++i) points.push_back(Vec3d(u(rng), u(rng), uz(rng)).cast<Real>());
+  NeighborGrid grid;
+  grid.Configure(domain, 0.1f, {false, false, true});
+  EXPECT_EQ(grid.dims().z(), 3);
+  EXPECT_GT(ExpectSameNeighbours(domain, 0.1f, points, {false, false, true}), points.size());
+  EXPECT_THROW(grid.Configure(domain, 0.11f, {false, false, true}), std::invalid_argument);
 }
 
 }  // namespace

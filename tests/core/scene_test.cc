@@ -419,5 +419,43 @@ TEST(LoadSceneTest, ErrorsInAFileNameTheFieldAndTheFile) {
   }
 }
 
+// domain.periodic and domain.no_slip: one flag per axis; a periodic axis has no walls to grip,
+// must hold 3 kernel supports (the seed's smoothing_radius, a physical solver's 2 d) and keeps
+// obstacles a support away from its faces.
+TEST(ParseSceneTest, PeriodicAndNoSlipAxes) {
+  const Scene s = ParseScene(R"({
+    "domain": {"min": [0, 0, 0], "max": [1, 1, 1], "periodic": [true, false, true],
+               "no_slip": [false, true, false]}
+  })");
+  EXPECT_EQ(s.periodic, (Periodicity{true, false, true}));
+  EXPECT_EQ(s.no_slip, (std::array<bool, 3>{false, true, false}));
+  EXPECT_EQ(ParseScene("{}").periodic, (Periodicity{false, false, false}));
+  ExpectConfigError(R"({"domain": {"min": [0, 0, 0], "max": [1, 1, 1], "periodic": true}})",
+                    "domain.periodic");
+  ExpectConfigError(R"({"domain": {"min": [0, 0, 0], "max": [1, 1, 1], "periodic": [1, 0, 0]}})",
+                    "domain.periodic[0]");
+  EXPECT_THAT(ExpectConfigError(R"({"domain": {"min": [0, 0, 0], "max": [1, 1, 1],
+                                   "periodic": [false, true, false],
+                                   "no_slip": [false, true, false]}})",
+                                "domain.no_slip[1]")
+                  .what(),
+              HasSubstr("periodic"));
+  // 0.5 m periodic in x: the seed's smoothing radius 0.2 would need 0.6 m.
+  EXPECT_THAT(ExpectConfigError(R"({"domain": {"min": [0, 0, 0], "max": [0.5, 1, 1],
+                                   "periodic": [true, false, false]},
+                                   "fluid_blocks": [{"size": 0.2, "center": [0.25, 0.5, 0.5]}]})",
+                                "smoothing_radius")
+                  .what(),
+              HasSubstr("at most 0.166667 m"));
+  ExpectConfigError(R"({"domain": {"min": [0, 0, 0], "max": [1, 1, 1],
+                       "periodic": [true, false, false]},
+                       "obstacles": [{"type": "sphere", "center": [0.9, 0.5, 0.5], "radius": 0.05}]})",
+                    "obstacles (sphere 0)");
+  EXPECT_NO_THROW(ParseScene(R"({"domain": {"min": [0, 0, 0], "max": [1, 1, 1],
+                               "periodic": [true, false, false]},
+                               "obstacles": [{"type": "box", "center": [0.5, 0.5, 0.5],
+                                              "size": 0.2}]})"));
+}
+
 }  // namespace
 }  // namespace dysa

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <numbers>
 
 #include "dysa/core/kernels.h"
@@ -40,10 +41,13 @@ void SampleLattice(const Aabb& box, double spacing, Keep&& keep, std::vector<Vec
 
 }  // namespace
 
-void SampleDomainWalls(const Aabb& domain, double spacing, int layers, std::vector<Vec3>& out,
-                       std::vector<Vec3>* fluid_side) {
+void SampleDomainWalls(const Aabb& domain, const Periodicity& periodic, double spacing, int layers,
+                       std::vector<Vec3>& out, std::vector<Vec3>* fluid_side) {
   const double depth = layers * spacing;
-  const Vec3d grow = Vec3d::Constant(depth);
+  // No wall across a periodic axis: the lattice is not grown there, and a point's distance to
+  // the walls counts the other axes only.
+  Vec3d grow;
+  for (int a = 0; a < 3; ++a) grow[a] = periodic[a] ? 0.0 : depth;
   const Aabb outer{domain.min - grow, domain.max + grow};
   SampleLattice(
       outer, spacing, [&](const Vec3d& p) { return !domain.Contains(p); }, out);
@@ -51,7 +55,12 @@ void SampleDomainWalls(const Aabb& domain, double spacing, int layers, std::vect
   SampleLattice(
       domain, spacing,
       [&](const Vec3d& p) {
-        return std::min((p - domain.min).minCoeff(), (domain.max - p).minCoeff()) < depth;
+        double nearest = std::numeric_limits<double>::infinity();
+        for (int a = 0; a < 3; ++a) {
+          if (!periodic[a])
+            nearest = std::min({nearest, p[a] - domain.min[a], domain.max[a] - p[a]});
+        }
+        return nearest < depth;
       },
       *fluid_side);
 }
@@ -109,7 +118,16 @@ void SampleSphere(const SphereObstacle& sphere, double spacing, int layers, std:
 BoundaryParticles::BoundaryParticles(const Model& model, double spacing, double support) {
   std::vector<Vec3> points;
   std::vector<Vec3> fluid_side;
-  SampleDomainWalls(model.domain, spacing, kLayers, points, &fluid_side);
+  SampleDomainWalls(model.domain, model.periodic, spacing, kLayers, points, &fluid_side);
+  // A wall sample is no-slip when it lies beyond the domain across a no-slip axis (an edge's or
+  // corner's samples lie beyond two or three walls: no-slip if any of them is).
+  std::vector<uint8_t> no_slip(points.size(), 0);
+  for (size_t k = 0; k < points.size(); ++k) {
+    for (int a = 0; a < 3; ++a) {
+      const double x = points[k][a];
+      if (model.no_slip[a] && (x < model.domain.min[a] || x > model.domain.max[a])) no_slip[k] = 1;
+    }
+  }
   // Obstacles are filled: a particle that gets past the outer layers (a thin splash has too
   // little density for any pressure) is still pushed out, instead of being trapped in a
   // hollow shell.
@@ -122,15 +140,18 @@ BoundaryParticles::BoundaryParticles(const Model& model, double spacing, double 
 
   // The same cells as the fluid's grid: points outside the domain fall into its border cells,
   // which the grid's neighbour query covers exactly (neighbor_grid.h).
-  grid_.Configure(model.domain, Real(support));
+  grid_.Configure(model.domain, Real(support), model.periodic);
   grid_.Sort(points);
   const size_t n = points.size();
+  no_slip.resize(n, 0);  // the obstacles' samples are free-slip
+  no_slip_.resize(n);
+  for (size_t k = 0; k < n; ++k) no_slip_[k] = no_slip[grid_.order()[k]];
   volume_.resize(n);
   const Real* xs = grid_.xs().data();
   const Real* ys = grid_.ys().data();
   const Real* zs = grid_.zs().data();
   NeighborGrid fluid_grid;
-  fluid_grid.Configure(model.domain, Real(support));
+  fluid_grid.Configure(model.domain, Real(support), model.periodic);
   fluid_grid.Sort(fluid_side);
   const Real* fxs = fluid_grid.xs().data();
   const Real* fys = fluid_grid.ys().data();
@@ -139,9 +160,10 @@ BoundaryParticles::BoundaryParticles(const Model& model, double spacing, double 
   auto kernel_sum = [&](const NeighborGrid& grid, const Real* px, const Real* py, const Real* pz,
                         const Eigen::Vector3i& cell, const Vec3& x) {
     double sum = 0;
-    grid.ForEachNeighborRun(cell, [&](uint32_t begin, uint32_t end) {
+    grid.ForEachNeighborRun(cell, [&](uint32_t begin, uint32_t end, const Vec3& shift) {
+      const Vec3 q = x + shift;
       for (uint32_t k = begin; k < end; ++k) {
-        const Real dx = px[k] - x.x(), dy = py[k] - x.y(), dz = pz[k] - x.z();
+        const Real dx = px[k] - q.x(), dy = py[k] - q.y(), dz = pz[k] - q.z();
         sum += double(CubicSpline<Real>::W(std::sqrt(dx * dx + dy * dy + dz * dz), h));
       }
     });

@@ -13,7 +13,9 @@
 // sum_b Psi_b W(x_i - x_b) to its density and feels the pressure of the boundary.
 #pragma once
 
+#include <algorithm>
 #include <cstddef>
+#include <cstdint>
 #include <span>
 #include <vector>
 
@@ -31,7 +33,8 @@ class BoundaryParticles {
   static constexpr int kSolid = 1 << 20;
 
   // Samples the domain walls and the obstacles of `model` at spacing `spacing`, sorts the
-  // samples on a grid laid like the fluid's (NeighborGrid::Configure(model.domain, support)),
+  // samples on a grid laid like the fluid's (NeighborGrid::Configure(model.domain, support,
+  // model.periodic)),
   // so a fluid particle's cell indexes both, and computes the volumes with the cubic spline of
   // support `support`.
   BoundaryParticles(const Model& model, double spacing, double support);
@@ -42,20 +45,27 @@ class BoundaryParticles {
   const NeighborGrid& grid() const { return grid_; }
   std::span<const Real> volume() const { return {volume_.data(), volume_.size()}; }
   const Real* padded_volume() const { return padded_volume_.data(); }
+  // Whether each boundary particle (grid order) is a sample of a no-slip wall (Model::no_slip).
+  std::span<const uint8_t> no_slip() const { return {no_slip_.data(), no_slip_.size()}; }
+  bool HasNoSlip() const {
+    return std::find(no_slip_.begin(), no_slip_.end(), 1) != no_slip_.end();
+  }
 
  private:
   NeighborGrid grid_;
   std::vector<Real> volume_;
   std::vector<Real> padded_volume_;
+  std::vector<uint8_t> no_slip_;
 };
 
 // The samplers, appending to `out` the boundary particles and, when `fluid_side` is given, to it
 // the fluid's lattice continued `layers` deep on the other side of the surface (for the
 // volumes; see the constructor). Lattices adjust their step per axis (the extent over
 // round(extent / spacing)) so that both ends of every edge are sampled alike.
-// Walls: the lattice over the domain grown by `layers` spacings, less the points inside it.
-void SampleDomainWalls(const Aabb& domain, double spacing, int layers, std::vector<Vec3>& out,
-                       std::vector<Vec3>* fluid_side = nullptr);
+// Walls: the lattice over the domain grown by `layers` spacings across its non-periodic axes,
+// less the points inside it (a periodic axis has no walls).
+void SampleDomainWalls(const Aabb& domain, const Periodicity& periodic, double spacing, int layers,
+                       std::vector<Vec3>& out, std::vector<Vec3>* fluid_side = nullptr);
 // Box obstacle: the lattice of the box, less the points deeper than `layers` spacings.
 void SampleBox(const Aabb& box, double spacing, int layers, std::vector<Vec3>& out,
                std::vector<Vec3>* fluid_side = nullptr);

@@ -9,14 +9,17 @@ namespace dysa {
 
 double TimeStepLimits::Min() const { return std::min({sound, viscous, force, max}); }
 
-TimeStepLimits CflLimits(const Params& params, double v_max, double a_max, bool acoustic) {
+TimeStepLimits CflLimits(const Model& model, double v_max, double a_max, bool acoustic) {
+  const Params& params = model.params;
   const double h = params.particle_spacing;
   TimeStepLimits limits;
   const double speed = acoustic ? params.speed_of_sound + v_max : v_max;
   const double cfl =
       acoustic ? params.cfl_factor : std::min(params.cfl_factor, kIncompressibleMaxCfl);
   if (speed > 0) limits.sound = cfl * h / speed;
-  if (params.kinematic_viscosity > 0) limits.viscous = 0.125 * h * h / params.kinematic_viscosity;
+  if (params.kinematic_viscosity > 0) {
+    limits.viscous = 0.125 * model.viscosity_moment * h * h / params.kinematic_viscosity;
+  }
   if (a_max > 0) limits.force = 0.25 * std::sqrt(h / a_max);
   limits.max = params.max_time_step;
   return limits;
@@ -44,7 +47,7 @@ void ChooseStep(const Model& model, State& state, bool acoustic) {
     a2_max = std::max(a2_max, state.acceleration[i].squaredNorm());
   }
   const TimeStepLimits limits =
-      CflLimits(model.params, std::sqrt(double(v2_max)), std::sqrt(double(a2_max)), acoustic);
+      CflLimits(model, std::sqrt(double(v2_max)), std::sqrt(double(a2_max)), acoustic);
   state.dt = ChooseTimeStep(limits, state.max_dt);
 }
 

@@ -4,7 +4,11 @@
 // step honours the three limits usual in SPH (Monaghan 1992; Morris, Fox, Zhu 1997; Becker &
 // Teschner 2007, sec. 3.4):
 //   sound / CFL  dt <= lambda h / (c0 + v_max)       lambda = cfl_factor (default 0.25)
-//   viscous      dt <= 0.125 h^2 / nu
+//   viscous      dt <= 0.125 lambda h^2 / nu      lambda the viscosity moment (kernels.h, 0.708)
+//                The viscosity term is divided by lambda to give the fluid its viscosity nu;
+//                its fastest (compressive, grid-scale) mode then decays at 20.6 nu / h^2, which
+//                explicit steps hold for dt < 0.097 h^2 / nu: 0.125 h^2 / nu would not be
+//                stable (Poiseuille flow blew up), 0.0885 h^2 / nu is.
 //   force        dt <= 0.25 sqrt(h / |a|_max)
 // and dt <= max_time_step. The step is chosen each step from the velocities and accelerations
 // of that step, so nothing about it carries over between steps.
@@ -34,7 +38,7 @@ inline constexpr double kIncompressibleMaxCfl = 0.3;
 
 // `acoustic`: the sound limit of a weakly compressible solver; an incompressible one (dfsph)
 // takes lambda h / v_max instead (none when nothing moves).
-TimeStepLimits CflLimits(const Params& params, double v_max, double a_max, bool acoustic = true);
+TimeStepLimits CflLimits(const Model& model, double v_max, double a_max, bool acoustic = true);
 
 // The step for `limits` when at most `until` seconds remain before a point the step must not
 // pass (the end of a frame): the limit itself; all that remains when it fits; half of it when

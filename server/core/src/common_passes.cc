@@ -6,7 +6,7 @@ namespace dysa {
 
 void SortParticlesIntoGrid(const Model& model, State& state) {
   ParticleArrays& p = state.particles;
-  state.grid.Configure(model.domain, Real(model.params.smoothing_radius));
+  state.grid.Configure(model.domain, Real(model.params.smoothing_radius), model.periodic);
   state.grid.Sort(p.predicted);
   const auto order = state.grid.order();
   PermuteInPlace(order, p.position, state.vec3_scratch);

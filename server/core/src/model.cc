@@ -6,8 +6,11 @@
 namespace dysa {
 
 Model MakeModel(const Scene& scene, const Params& params) {
+  CheckPeriodicDomain(scene, params);
   Model model;
   model.params = params;
+  model.periodic = scene.periodic;
+  for (int a = 0; a < 3; ++a) model.no_slip[a] = scene.no_slip[a] && !scene.periodic[a];
   // The walls clamp float positions to float(bound); with the bounds themselves rounded to float
   // a particle resting on a wall is inside the domain in double arithmetic too (probes).
   model.domain.min = scene.domain.min.cast<Real>().cast<double>();
@@ -21,6 +24,7 @@ Model MakeModel(const Scene& scene, const Params& params) {
     model.particle_mass = params.rest_density * d * d * d;
     model.kernel_support = 2 * d;
     model.gradient_moment = CubicSplineLatticeGradientMoment(d, model.kernel_support);
+    model.viscosity_moment = CubicSplineLatticeViscosityMoment(d, model.kernel_support);
   } else {
     model.particle_mass = params.particle_mass;
     model.kernel_support = params.smoothing_radius;

@@ -2,10 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 
 namespace dysa {
 
-void NeighborGrid::Configure(const Aabb& domain, Real min_cell_size) {
+void NeighborGrid::Configure(const Aabb& domain, Real min_cell_size, const Periodicity& periodic) {
   const Vec3d size = domain.Size();
   // 1e-6 relative covers the float rounding of the distance tests and the double rounding of
   // CellOf for any grid under kMaxCells cells per axis.
@@ -16,14 +17,30 @@ void NeighborGrid::Configure(const Aabb& domain, Real min_cell_size) {
   cell = std::max(cell, estimate);
   Eigen::Vector3i dims;
   for (;;) {
-    for (int a = 0; a < 3; ++a) dims[a] = std::max(1, int(std::ceil(size[a] / cell)));
+    for (int a = 0; a < 3; ++a) {
+      // A periodic axis is tiled exactly: its cells are stretched to L / floor(L / cell).
+      dims[a] =
+          std::max(1, int(periodic[a] ? std::floor(size[a] / cell) : std::ceil(size[a] / cell)));
+    }
     if (int64_t{dims.x()} * dims.y() * dims.z() <= kMaxCells) break;
     cell *= 1.01;
   }
+  for (int a = 0; a < 3; ++a) {
+    // A period of exactly 3 min_cell_size loses its third cell to the margin above; with 3
+    // cells each one neighbours the others across the seam, so rounding cannot split a pair.
+    if (periodic[a] && dims[a] < 3 && size[a] >= 3 * double(min_cell_size) * (1 - 1e-6)) {
+      dims[a] = 3;
+    }
+    if (periodic[a] && dims[a] < 3) {
+      throw std::invalid_argument("NeighborGrid: a periodic axis needs at least 3 cells");
+    }
+    cell_[a] = periodic[a] ? size[a] / dims[a] : cell;
+    inv_cell_[a] = 1.0 / cell_[a];
+    period_[a] = periodic[a] ? Real(size[a]) : Real(0);
+  }
   origin_ = domain.min;
-  cell_size_ = Real(cell);
-  inv_cell_size_ = 1.0 / cell;
   dims_ = dims;
+  periodic_ = periodic;
 }
 
 void NeighborGrid::Sort(std::span<const Vec3> points) {

@@ -35,9 +35,8 @@ double Height(const ParticleArrays& p, const Model& model, const ProbeSpec& prob
   const double radius = probe.radius > 0 ? probe.radius : model.kernel_support;
   double top = model.domain.min.y();
   for (const Vec3& x : p.position) {
-    const double dx = x.x() - probe.point.x();
-    const double dz = x.z() - probe.point.z();
-    if (dx * dx + dz * dz <= radius * radius) top = std::max(top, double(x.y()));
+    const Vec3d d = model.MinimumImage(Vec3d(x.cast<double>() - probe.point));
+    if (d.x() * d.x() + d.z() * d.z() <= radius * radius) top = std::max(top, double(x.y()));
   }
   return top - model.domain.min.y();
 }
@@ -49,7 +48,7 @@ double PressureAt(const ParticleArrays& p, const Model& model, const Vec3d& poin
   double weighted = 0;
   double weights = 0;
   for (size_t i = 0; i < p.size(); ++i) {
-    const double r = (p.position[i].cast<double>() - point).norm();
+    const double r = model.MinimumImage(Vec3d(p.position[i].cast<double>() - point)).norm();
     const double w = Poly6<double>::W(r, h);
     weighted += w * p.pressure[i];
     weights += w;

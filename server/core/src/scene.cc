@@ -145,13 +145,41 @@ void ForEachElement(ObjectReader& reader, std::string_view key, F&& parse) {
   }
 }
 
-Aabb ParseBox(const json& j, const std::string& path) {
+// An optional array of 3 booleans, one per axis.
+void ParseAxisFlags(ObjectReader& r, std::string_view key, std::array<bool, 3>& flags) {
+  const json* j = r.Get(key);
+  if (j == nullptr) return;
+  const std::string p = r.PathOf(key);
+  if (!j->is_array() || j->size() != 3) {
+    throw ConfigError(p, "expected an array of 3 booleans (x, y, z)");
+  }
+  for (int a = 0; a < 3; ++a) {
+    if (!(*j)[a].is_boolean()) {
+      throw ConfigError(p + "[" + std::to_string(a) + "]",
+                        "expected true or false, got " + TypeName((*j)[a]));
+    }
+    flags[a] = (*j)[a].get<bool>();
+  }
+}
+
+// A box; the domain's also reads which axes wrap around and which walls hold the fluid.
+Aabb ParseBox(const json& j, const std::string& path, Scene* domain_of = nullptr) {
   ObjectReader r(j, path);
   Aabb box;
   for (const char* key : {"min", "max"}) {
     const std::optional<Vec3d> corner = r.Vector(key, -kMaxCoord, kMaxCoord, "m");
     if (!corner) throw ConfigError(r.PathOf(key), "is required");
     (key[1] == 'i' ? box.min : box.max) = *corner;
+  }
+  if (domain_of != nullptr) {
+    ParseAxisFlags(r, "periodic", domain_of->periodic);
+    ParseAxisFlags(r, "no_slip", domain_of->no_slip);
+    for (int a = 0; a < 3; ++a) {
+      if (domain_of->periodic[a] && domain_of->no_slip[a]) {
+        throw ConfigError(r.PathOf("no_slip") + "[" + std::to_string(a) + "]",
+                          "a periodic axis has no walls to be no-slip");
+      }
+    }
   }
   r.RejectUnknown();
   for (int a = 0; a < 3; ++a) {
@@ -278,7 +306,9 @@ Scene ParseScene(std::string_view json_text) {
   Scene scene;
   scene.name = r.String("name").value_or("");
   scene.description = r.String("description").value_or("");
-  if (const json* domain = r.Get("domain")) scene.domain = ParseBox(*domain, "domain");
+  if (const json* domain = r.Get("domain")) {
+    scene.domain = ParseBox(*domain, "domain", &scene);
+  }
   ForEachElement(r, "fluid_blocks", [&](const json& j, const std::string& path) {
     scene.fluid_blocks.push_back(ParseFluidBlock(j, path));
   });
@@ -326,7 +356,42 @@ Scene ParseScene(std::string_view json_text) {
   r.RejectUnknown();
   if (scene.fluid_blocks.empty()) scene.fluid_blocks.emplace_back();  // the thesis's spawn cube
   BlockParticleCounts(scene, scene.params);  // rejects counts that would exhaust memory
+  CheckPeriodicDomain(scene, scene.params);
   return scene;
+}
+
+void CheckPeriodicDomain(const Scene& scene, const Params& params) {
+  const bool physical = IsPhysicalSolver(scene.solver);
+  // The neighbour search's reach: the physical solvers' kernel support 2 d, the seed's h.
+  const double support = physical ? 2 * params.particle_spacing : params.smoothing_radius;
+  const char* param = physical ? "particle_spacing" : "smoothing_radius";
+  const char* axes = "xyz";
+  for (int a = 0; a < 3; ++a) {
+    if (!scene.periodic[a]) continue;
+    const double length = scene.domain.max[a] - scene.domain.min[a];
+    if (length < 3 * support * (1 - 1e-9)) {  // a hair under: 3 * 0.04 is 0.12000000000000001
+      throw ConfigError(param, "the domain is periodic in " + std::string(1, axes[a]) +
+                                   " with a length of " + Num(length) +
+                                   " m, which must be at least 3 kernel supports; at most " +
+                                   Num(length / (physical ? 6 : 3)) + " m here");
+    }
+    auto check = [&](double lo, double hi, const std::string& path) {
+      if (lo < scene.domain.min[a] + support || hi > scene.domain.max[a] - support) {
+        throw ConfigError(path, "must lie at least one kernel support (" + Num(support) +
+                                    " m) inside the periodic domain's faces along " +
+                                    std::string(1, axes[a]) + "; obstacles do not wrap around");
+      }
+    };
+    for (size_t i = 0; i < scene.spheres.size(); ++i) {
+      const SphereObstacle& s = scene.spheres[i];
+      check(s.center[a] - s.radius, s.center[a] + s.radius,
+            "obstacles (sphere " + std::to_string(i) + ")");
+    }
+    for (size_t i = 0; i < scene.boxes.size(); ++i) {
+      const Aabb& b = scene.boxes[i].box;
+      check(b.min[a], b.max[a], "obstacles (box " + std::to_string(i) + ")");
+    }
+  }
 }
 
 std::vector<Eigen::Vector3i> BlockParticleCounts(const Scene& scene, const Params& params) {

@@ -10,7 +10,8 @@
 namespace dysa {
 
 // Calls visit(j, x_ij, r) for every point j of `grid` within `support` of `x` (cell `cell` of
-// the grid's layout), in the grid's fixed order; x_ij = x - x_j, r = |x_ij|.
+// the grid's layout), in the grid's fixed order; x_ij = x - x_j, r = |x_ij|, to the image of j
+// nearest to x across a periodic axis.
 template <class Visit>
 inline void ForEachWithin(const NeighborGrid& grid, const Eigen::Vector3i& cell, const Vec3& x,
                           Real support, Visit&& visit) {
@@ -18,9 +19,10 @@ inline void ForEachWithin(const NeighborGrid& grid, const Eigen::Vector3i& cell,
   const Real* ys = grid.ys().data();
   const Real* zs = grid.zs().data();
   const Real support2 = support * support;
-  grid.ForEachNeighborRun(cell, [&](uint32_t begin, uint32_t end) {
+  grid.ForEachNeighborRun(cell, [&](uint32_t begin, uint32_t end, const Vec3& shift) {
+    const Vec3 q = x + shift;
     for (uint32_t j = begin; j < end; ++j) {
-      const Vec3 xij(x.x() - xs[j], x.y() - ys[j], x.z() - zs[j]);
+      const Vec3 xij(q.x() - xs[j], q.y() - ys[j], q.z() - zs[j]);
       const Real r2 = xij.squaredNorm();
       if (r2 < support2) visit(j, xij, std::sqrt(r2));
     }

@@ -11,7 +11,9 @@ namespace dysa {
 
 struct Model {
   Params params;
-  Aabb domain;  // m; the walls of the box the fluid is kept in
+  Aabb domain;                    // m; the walls of the box the fluid is kept in
+  Periodicity periodic{};         // axes that wrap around instead (no walls there)
+  std::array<bool, 3> no_slip{};  // axes whose walls hold the fluid at rest (else free-slip)
   std::vector<SphereObstacle> spheres;
   std::vector<BoxObstacle> boxes;
   double dt = 0;  // s, the step: time_scale / (frame_rate * iterations_per_frame)
@@ -27,14 +29,32 @@ struct Model {
   // CubicSplineLatticeGradientMoment (kernels.h); the pressure gradients are divided by it so
   // that hydrostatic equilibrium holds with p = rho g (H - y). 1 for the seed model.
   double gradient_moment = 1;
+  // Likewise its viscosity moment, CubicSplineLatticeViscosityMoment: the laminar viscosity
+  // terms are divided by it, so that kinematic_viscosity is the fluid's viscosity. 1 for seed.
+  double viscosity_moment = 1;
 
   // Simulated seconds per displayed frame (the same for both kinds of solver).
   double FrameTime() const { return params.time_scale / params.frame_rate; }
 
   bool HasObstacles() const { return !spheres.empty() || !boxes.empty(); }
+  bool HasNoSlipWalls() const { return no_slip[0] || no_slip[1] || no_slip[2]; }
+
+  // The separation d = x_a - x_b of two points taken to the nearest image across the periodic
+  // axes (each such component in [-L/2, L/2]); unchanged along the others.
+  template <class V>
+  V MinimumImage(V d) const {
+    for (int a = 0; a < 3; ++a) {
+      if (!periodic[a]) continue;
+      const auto length = typename V::Scalar(domain.max[a] - domain.min[a]);
+      if (d[a] > length / 2) d[a] -= length;
+      if (d[a] < -length / 2) d[a] += length;
+    }
+    return d;
+  }
 };
 
-// Takes the solver from scene.solver (an unknown name counts as not physical).
+// Takes the solver from scene.solver (an unknown name counts as not physical). Throws
+// ConfigError where a periodic axis is too short for the parameters (CheckPeriodicDomain).
 Model MakeModel(const Scene& scene, const Params& params);
 
 }  // namespace dysa

@@ -62,6 +62,12 @@ struct Scene {
   std::string name;
   std::string description;
   Aabb domain{Vec3d(-5, -3, -5), Vec3d(5, 3, 5)};
+  // Axes along which the domain wraps around instead of having walls (domain.periodic).
+  Periodicity periodic{};
+  // Axes whose two walls hold the fluid at rest (domain.no_slip; physical solvers with a
+  // kinematic viscosity): the fluid's velocity falls to 0 at the wall. The other walls, and
+  // obstacles, are free-slip.
+  std::array<bool, 3> no_slip{};
   std::vector<FluidBlock> fluid_blocks;
   std::vector<SphereObstacle> spheres;
   std::vector<BoxObstacle> boxes;
@@ -90,5 +96,11 @@ std::vector<std::string> BuiltinSceneNames();
 // The number of particles each block spawns with the given parameters, checked against
 // kMaxParticles (throws ConfigError naming the block).
 std::vector<Eigen::Vector3i> BlockParticleCounts(const Scene& scene, const Params& params);
+
+// Checks what a periodic axis needs with these parameters: a length of at least 3 kernel
+// supports (the neighbour grid's 3 cells; a shorter period would make a particle its own
+// neighbour), and obstacles at least one support inside both of its faces (obstacles do not
+// wrap). Throws ConfigError naming the field and the bound.
+void CheckPeriodicDomain(const Scene& scene, const Params& params);
 
 }  // namespace dysa

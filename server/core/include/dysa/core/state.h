@@ -55,6 +55,9 @@ struct State {
   std::vector<Vec3> acceleration;
   // Pa, per boundary particle of the physical solvers, extrapolated from the fluid each step.
   std::vector<Real> boundary_pressure;
+  // m/s, per boundary particle of a no-slip wall: the fluid's velocity extrapolated to it,
+  // mirrored (so that the velocity falls to 0 at the wall); 0 elsewhere. Per step.
+  std::vector<Vec3> boundary_velocity;
 
   // s, the step being taken: Model::dt for a fixed-step solver, set before the passes; chosen
   // by a physical solver's time_step pass (CFL), at most max_dt. Both are rewritten every step

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <array>
 #include <stdexcept>
 #include <string>
 
@@ -24,6 +25,10 @@ struct Aabb {
     return (p.array() >= min.array()).all() && (p.array() <= max.array()).all();
   }
 };
+
+// Which axes of a domain wrap around (x, y, z): a particle leaving through one face enters
+// through the opposite one, and neighbours are found across the seam.
+using Periodicity = std::array<bool, 3>;
 
 // A scene, parameter or command-line value that is not acceptable. field() names what was
 // wrong (a JSON path such as "fluid_blocks[0].spacing" or a parameter name); what() is a full

@@ -142,4 +142,38 @@ struct DamBreakResult {
 };
 DamBreakResult RunDamBreak(const ValidationOptions& options = {});
 
+// Start-up of Poiseuille flow (Morris, Fox, Zhu 1997, "Modeling low Reynolds number
+// incompressible flows using SPH", J. Comput. Phys. 136, sec. 4.1): `poiseuille_flow`, fluid at
+// rest between no-slip walls at x = 0 and x = L, driven along -y by a body force F (the scene's
+// gravity), periodic in y and z. It checks what the tank and the dam break do not: the viscous
+// term (the tank is at rest; the dam break's Reynolds number, 4e4, leaves it no part) and the
+// no-slip walls. The velocity of each column of particles (x within one spacing) is compared
+// with the analytic series at kPoiseuilleTimes, as a fraction of the final centre speed
+// u_max = F L^2 / (8 nu). Other spacings keep the channel's periodic y 8 and z 6 particles long
+// (6: a period of 3 kernel supports, the least the neighbour grid takes).
+struct PoiseuilleResult {
+  ValidationRun run;
+  double width = 0;       // m, L
+  double force = 0;       // m/s^2, F (along -y)
+  double viscosity = 0;   // m^2/s, nu
+  double peak_speed = 0;  // m/s, u_max = F L^2 / (8 nu), the steady centre speed
+  struct Profile {
+    double t = 0;                   // s
+    std::vector<double> x;          // m, column centres
+    std::vector<double> speed;      // m/s, mean -v_y of the column's particles
+    std::vector<double> reference;  // m/s, MorrisPoiseuilleSpeed
+    double error_max = 0;           // max |speed - reference| / u_max
+  };
+  std::vector<Profile> profiles;  // at kPoiseuilleTimes
+  double error_max = 0;           // over all the profiles
+};
+// Morris et al.'s times (their Fig. 2), the last one steady to 5e-5 (L^2 / nu = 1 s).
+inline constexpr double kPoiseuilleTimes[] = {0.0225, 0.045, 0.1125, 0.225, 1.0};
+inline constexpr int kPoiseuilleLayers[2] = {8, 6};  // the periodic y and z, in spacings
+// The speed -v_y at x and t of the start-up (Morris et al. eq. 21, 200 terms):
+// F x (L - x) / (2 nu) - sum_n 4 F L^2 / (nu pi^3 (2n+1)^3) sin(pi x (2n+1) / L)
+// exp(-(2n+1)^2 pi^2 nu t / L^2).
+double MorrisPoiseuilleSpeed(double x, double t, double force, double viscosity, double width);
+PoiseuilleResult RunPoiseuille(const ValidationOptions& options = {});
+
 }  // namespace dysa

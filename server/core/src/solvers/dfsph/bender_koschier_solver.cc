@@ -270,7 +270,7 @@ void DivergenceSolve(const Model& model, const BoundaryParticles& boundary, Stat
   // The step these velocities will be integrated with, as the time_step pass will choose it
   // (up to the frame's end): a function of the state, so nothing is carried between steps.
   const double dt =
-      std::min(CflLimits(model.params, MaxSpeed(p), std::abs(model.params.gravity), false).Min(),
+      std::min(CflLimits(model, MaxSpeed(p), std::abs(model.params.gravity), false).Min(),
                model.params.max_time_step);
   const Real inv_dt = Real(1 / dt);
   std::fill(w.kappa_sum, w.kappa_sum + n, Real(0));
@@ -379,7 +379,7 @@ void IntegratePositions(const Model& model, State& state) {
       ++limited;
     }
     p.position[i] += p.velocity[i] * dt;
-    CollideWithDomainWalls(model.domain, Real(0), p.position[i], p.velocity[i]);
+    CollideWithDomainWalls(model.domain, model.periodic, Real(0), p.position[i], p.velocity[i]);
   }
   if (limited > 0) {
     state.warning = "dfsph: " + std::to_string(limited) +
@@ -424,7 +424,14 @@ std::vector<Pass> BenderKoschierSolver::BuildPasses(const Model& model) const {
   passes.push_back({"divergence_solve",
                     [boundary](const Model& m, State& s) { DivergenceSolve(m, *boundary, s); }});
   passes.push_back({"external_forces", AddGravity});
-  if (model.params.kinematic_viscosity > 0) passes.push_back({"viscosity", wcsph::AddViscosity});
+  if (model.params.kinematic_viscosity > 0) {
+    passes.push_back({"viscosity", wcsph::AddViscosity});
+    if (boundary->HasNoSlip()) {
+      passes.push_back({"wall_viscosity", [boundary](const Model& m, State& s) {
+                          wcsph::AddWallViscosity(m, *boundary, s);
+                        }});
+    }
+  }
   // The contact force's strength D = kContactStrength c^2 takes for c ten times the fall speed
   // from the domain's height, sqrt(2 |g| H), as wcsph's c0 >= 10 v_max: D = 2 |g| H.
   // DFSPH has no speed of sound and must not depend on the wcsph parameter (with c0 = 1e5 its

@@ -42,11 +42,12 @@ void ListBoundaryNeighbors(const Model& model, const BoundaryParticles& boundary
     const Vec3 xb(bx[b], by[b], bz[b]);
     Real sum = 0, head = 0;
     for (size_t k = bn.begin[b]; k < bn.begin[b + 1]; ++k) {
-      const Vec3& xi = p.position[bn.fluid[k]];
-      const Real w = CubicSpline<Real>::W((xb - xi).norm(), support);
+      // Across a periodic axis the fluid neighbour is the nearest image of x_i.
+      const Vec3 xbi = model.MinimumImage(Vec3(xb - p.position[bn.fluid[k]]));
+      const Real w = CubicSpline<Real>::W(xbi.norm(), support);
       bn.weight[k] = w;
       sum += w;
-      head += w * p.density[bn.fluid[k]] * (xb.y() - xi.y());
+      head += w * p.density[bn.fluid[k]] * xbi.y();
     }
     const Real inv = sum > 0 ? 1 / sum : Real(0);
     for (size_t k = bn.begin[b]; k < bn.begin[b + 1]; ++k) bn.weight[k] *= inv;

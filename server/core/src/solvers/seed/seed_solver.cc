@@ -53,12 +53,20 @@ struct CandidateBlock {
   MaskV in_run;
 };
 
-inline CandidateBlock LoadCandidates(const Real* xs, const Real* ys, const Real* zs, RealV xi,
-                                     RealV yi, RealV zi, uint32_t j, uint32_t end) {
+// The query point of a run: particle i's position moved by the run's periodic shift
+// (NeighborGrid::ForEachNeighborRun; zero without periodic axes, which leaves it bit-identical).
+struct Query {
+  RealV x, y, z;
+  Query(RealV xi, RealV yi, RealV zi, const Vec3& shift)
+      : x(xi + shift.x()), y(yi + shift.y()), z(zi + shift.z()) {}
+};
+
+inline CandidateBlock LoadCandidates(const Real* xs, const Real* ys, const Real* zs, const Query& q,
+                                     uint32_t j, uint32_t end) {
   CandidateBlock c;
-  c.dx = simd::Load(xs + j) - xi;
-  c.dy = simd::Load(ys + j) - yi;
-  c.dz = simd::Load(zs + j) - zi;
+  c.dx = simd::Load(xs + j) - q.x;
+  c.dy = simd::Load(ys + j) - q.y;
+  c.dz = simd::Load(zs + j) - q.z;
   c.r2 = c.dx * c.dx + c.dy * c.dy + c.dz * c.dz;
   c.in_run = simd::InRun(j, end);
   return c;
@@ -97,14 +105,16 @@ void ComputeDensities(const Model& model, State& state) {
                 zi = simd::Broadcast(zs[i]);
     RealV sum2{};  // sum of (h - r)^2
     RealV sum3{};  // sum of (h - r)^3
-    grid.ForEachNeighborRun(grid.SortedCell(uint32_t(i)), [&](uint32_t begin, uint32_t end) {
-      for (uint32_t j = begin; j < end; j += simd::kLanes) {
-        const CandidateBlock c = LoadCandidates(xs, ys, zs, xi, yi, zi, j, end);
-        const RealV q = simd::Select(c.in_run & (c.r2 < h2), h - simd::Sqrt(c.r2), RealV{});
-        sum2 += q * q;
-        if constexpr (kNear) sum3 += q * q * q;
-      }
-    });
+    grid.ForEachNeighborRun(
+        grid.SortedCell(uint32_t(i)), [&](uint32_t begin, uint32_t end, const Vec3& shift) {
+          const Query q_i(xi, yi, zi, shift);
+          for (uint32_t j = begin; j < end; j += simd::kLanes) {
+            const CandidateBlock c = LoadCandidates(xs, ys, zs, q_i, j, end);
+            const RealV q = simd::Select(c.in_run & (c.r2 < h2), h - simd::Sqrt(c.r2), RealV{});
+            sum2 += q * q;
+            if constexpr (kNear) sum3 += q * q * q;
+          }
+        });
     const Real rho = mass * k.spiky2 * simd::Sum(sum2);
     p.density[i] = rho;
     p.pressure[i] = (rho - rho0) * stiffness;
@@ -159,27 +169,29 @@ void ApplyPressureForces(const Model& model, State& state) {
     const RealV pni = simd::Broadcast(kNear ? p.near_pressure[i] : Real(0));
     RealV fx{}, fy{}, fz{};
     MaskV coincident{};  // candidates at distance 0, i itself included
-    grid.ForEachNeighborRun(grid.SortedCell(uint32_t(i)), [&](uint32_t begin, uint32_t end) {
-      for (uint32_t j = begin; j < end; j += simd::kLanes) {
-        const CandidateBlock c = LoadCandidates(xs, ys, zs, xi, yi, zi, j, end);
-        const MaskV inside = c.in_run & (c.r2 < h2) & (c.r2 > RealV{});
-        coincident -= c.in_run & (c.r2 == RealV{});  // a true lane is -1
-        const RealV r = simd::Sqrt(c.r2);
-        const RealV q = simd::Select(inside, h - r, RealV{});
-        const RealV inv_r = simd::Select(inside, Real(1) / r, RealV{});
-        // -dW/dr times the shared pressure over rho_j; the force pushes i away from j.
-        RealV magnitude =
-            grad2 * q * (pi * simd::Load(half_inv_rho + j) + simd::Load(half_p_over_rho + j));
-        if constexpr (kNear) {
-          magnitude += grad3 * q * q *
-                       (pni * simd::Load(half_inv_rho + j) + simd::Load(half_pn_over_rho + j));
-        }
-        const RealV s = simd::Select(inside, magnitude * inv_r, RealV{});
-        fx -= c.dx * s;
-        fy -= c.dy * s;
-        fz -= c.dz * s;
-      }
-    });
+    grid.ForEachNeighborRun(
+        grid.SortedCell(uint32_t(i)), [&](uint32_t begin, uint32_t end, const Vec3& shift) {
+          const Query q_i(xi, yi, zi, shift);
+          for (uint32_t j = begin; j < end; j += simd::kLanes) {
+            const CandidateBlock c = LoadCandidates(xs, ys, zs, q_i, j, end);
+            const MaskV inside = c.in_run & (c.r2 < h2) & (c.r2 > RealV{});
+            coincident -= c.in_run & (c.r2 == RealV{});  // a true lane is -1
+            const RealV r = simd::Sqrt(c.r2);
+            const RealV q = simd::Select(inside, h - r, RealV{});
+            const RealV inv_r = simd::Select(inside, Real(1) / r, RealV{});
+            // -dW/dr times the shared pressure over rho_j; the force pushes i away from j.
+            RealV magnitude =
+                grad2 * q * (pi * simd::Load(half_inv_rho + j) + simd::Load(half_p_over_rho + j));
+            if constexpr (kNear) {
+              magnitude += grad3 * q * q *
+                           (pni * simd::Load(half_inv_rho + j) + simd::Load(half_pn_over_rho + j));
+            }
+            const RealV s = simd::Select(inside, magnitude * inv_r, RealV{});
+            fx -= c.dx * s;
+            fy -= c.dy * s;
+            fz -= c.dz * s;
+          }
+        });
     Vec3 force(simd::Sum(fx), simd::Sum(fy), simd::Sum(fz));
     int32_t zero_distance = 0;
     for (int l = 0; l < simd::kLanes; ++l) zero_distance += coincident[l];
@@ -187,17 +199,22 @@ void ApplyPressureForces(const Model& model, State& state) {
       // Rare: particles exactly on top of each other get a pair-specific direction.
       const Real pi_s = p.pressure[i];
       const Real pni_s = kNear ? p.near_pressure[i] : Real(0);
-      grid.ForEachNeighborRun(grid.SortedCell(uint32_t(i)), [&](uint32_t begin, uint32_t end) {
-        for (uint32_t j = begin; j < end; ++j) {
-          if (j == uint32_t(i) || xs[j] != xs[i] || ys[j] != ys[i] || zs[j] != zs[i]) continue;
-          Real magnitude = k.spiky2_grad * k.h * (pi_s * half_inv_rho[j] + half_p_over_rho[j]);
-          if constexpr (kNear) {
-            magnitude +=
-                k.spiky3_grad * k.h * k.h * (pni_s * half_inv_rho[j] + half_pn_over_rho[j]);
-          }
-          force -= CoincidentDirection(id[i], id[j]) * magnitude;
-        }
-      });
+      grid.ForEachNeighborRun(
+          grid.SortedCell(uint32_t(i)), [&](uint32_t begin, uint32_t end, const Vec3& shift) {
+            for (uint32_t j = begin; j < end; ++j) {
+              // The same test as the vector loop's r2 == 0 (across a periodic seam too).
+              if (j == uint32_t(i) || xs[j] - (xs[i] + shift.x()) != 0 ||
+                  ys[j] - (ys[i] + shift.y()) != 0 || zs[j] - (zs[i] + shift.z()) != 0) {
+                continue;
+              }
+              Real magnitude = k.spiky2_grad * k.h * (pi_s * half_inv_rho[j] + half_p_over_rho[j]);
+              if constexpr (kNear) {
+                magnitude +=
+                    k.spiky3_grad * k.h * k.h * (pni_s * half_inv_rho[j] + half_pn_over_rho[j]);
+              }
+              force -= CoincidentDirection(id[i], id[j]) * magnitude;
+            }
+          });
     }
     p.velocity[i] += force * (mass_dt * 2 * half_inv_rho[i]);
   }
@@ -232,17 +249,19 @@ void ApplyViscosity(const Model& model, State& state) {
     const RealV vxi = simd::Broadcast(vx[i]), vyi = simd::Broadcast(vy[i]),
                 vzi = simd::Broadcast(vz[i]);
     RealV ax{}, ay{}, az{}, wsum{};
-    grid.ForEachNeighborRun(grid.SortedCell(uint32_t(i)), [&](uint32_t begin, uint32_t end) {
-      for (uint32_t j = begin; j < end; j += simd::kLanes) {
-        const CandidateBlock c = LoadCandidates(xs, ys, zs, xi, yi, zi, j, end);
-        const RealV w = simd::Select(c.in_run & (c.r2 < h2), h2 - c.r2, RealV{});
-        const RealV w3 = w * w * w;
-        ax += (simd::Load(vx + j) - vxi) * w3;
-        ay += (simd::Load(vy + j) - vyi) * w3;
-        az += (simd::Load(vz + j) - vzi) * w3;
-        wsum += w3;
-      }
-    });
+    grid.ForEachNeighborRun(
+        grid.SortedCell(uint32_t(i)), [&](uint32_t begin, uint32_t end, const Vec3& shift) {
+          const Query q_i(xi, yi, zi, shift);
+          for (uint32_t j = begin; j < end; j += simd::kLanes) {
+            const CandidateBlock c = LoadCandidates(xs, ys, zs, q_i, j, end);
+            const RealV w = simd::Select(c.in_run & (c.r2 < h2), h2 - c.r2, RealV{});
+            const RealV w3 = w * w * w;
+            ax += (simd::Load(vx + j) - vxi) * w3;
+            ay += (simd::Load(vy + j) - vyi) * w3;
+            az += (simd::Load(vz + j) - vzi) * w3;
+            wsum += w3;
+          }
+        });
     const Real total = simd::Sum(wsum);
     const Real gain = total * scale > 1 ? 1 / total : scale;
     p.velocity[i] += Vec3(simd::Sum(ax), simd::Sum(ay), simd::Sum(az)) * gain;
@@ -269,7 +288,7 @@ void IntegrateAndCollideWithWalls(const Model& model, State& state) {
       ++limited;
     }
     p.position[i] += p.velocity[i] * dt;
-    CollideWithDomainWalls(model.domain, damping, p.position[i], p.velocity[i]);
+    CollideWithDomainWalls(model.domain, model.periodic, damping, p.position[i], p.velocity[i]);
   }
   if (limited > 0) {
     state.warning = "velocity limiter: " + std::to_string(limited) +

@@ -19,7 +19,7 @@ double GravityAt(const Params& params, double time) {
 
 void SortIntoGrid(const Model& model, State& state) {
   ParticleArrays& p = state.particles;
-  state.grid.Configure(model.domain, Real(model.kernel_support));
+  state.grid.Configure(model.domain, Real(model.kernel_support), model.periodic);
   state.grid.Sort(p.position);
   const auto order = state.grid.order();
   PermuteInPlace(order, p.position, state.vec3_scratch);
@@ -139,8 +139,9 @@ void AddViscosity(const Model& model, State& state) {
   const Real support = Real(model.kernel_support);
   const Real h = Real(model.params.particle_spacing);  // smoothing length, support / 2
   const Real eps = Real(0.01) * h * h;
-  // 2 (dim + 2) nu m
-  const Real scale = Real(10 * model.params.kinematic_viscosity * model.particle_mass);
+  // 2 (dim + 2) nu m / lambda, lambda the lattice's viscosity moment (kernels.h)
+  const Real scale =
+      Real(10 * model.params.kinematic_viscosity * model.particle_mass / model.viscosity_moment);
   const int64_t n = int64_t(p.size());
 #pragma omp parallel for schedule(static)
   for (int64_t i = 0; i < n; ++i) {
@@ -153,6 +154,54 @@ void AddViscosity(const Model& model, State& state) {
       const Real vx = (v - p.velocity[j]).dot(xij);
       sum += (vx / (p.density[j] * (r * r + eps))) * GradW(xij, r, support);
     });
+    state.acceleration[i] += scale * sum;
+  }
+}
+
+void AddWallViscosity(const Model& model, const BoundaryParticles& boundary, State& state) {
+  ParticleArrays& p = state.particles;
+  const Real support = Real(model.kernel_support);
+  const Real h = Real(model.params.particle_spacing);
+  const Real eps = Real(0.01) * h * h;
+  // 2 (dim + 2) nu / lambda, as AddViscosity
+  const Real scale = Real(10 * model.params.kinematic_viscosity / model.viscosity_moment);
+  const NeighborGrid& bgrid = boundary.grid();
+  const Real* bx = bgrid.xs().data();
+  const Real* by = bgrid.ys().data();
+  const Real* bz = bgrid.zs().data();
+  const std::span<const uint8_t> no_slip = boundary.no_slip();
+  const Real* volume = boundary.padded_volume();
+  const int64_t nb = int64_t(boundary.size());
+  state.boundary_velocity.resize(size_t(nb));
+  // v_b = -(Shepard mean of the fluid's velocity around b): the wall's velocity (0) at the
+  // surface halfway between b and its fluid neighbours.
+#pragma omp parallel for schedule(static)
+  for (int64_t b = 0; b < nb; ++b) {
+    Vec3 weighted = Vec3::Zero();
+    Real weights = 0;
+    if (no_slip[b]) {
+      const Vec3 x(bx[b], by[b], bz[b]);
+      ForEachWithin(state.grid, bgrid.SortedCell(uint32_t(b)), x, support,
+                    [&](uint32_t f, const Vec3&, Real r) {
+                      const Real w = CubicSpline<Real>::W(r, support);
+                      weighted += w * p.velocity[f];
+                      weights += w;
+                    });
+    }
+    state.boundary_velocity[b] = weights > 0 ? Vec3(-weighted / weights) : Vec3::Zero();
+  }
+  const int64_t n = int64_t(p.size());
+#pragma omp parallel for schedule(static)
+  for (int64_t i = 0; i < n; ++i) {
+    const Eigen::Vector3i cell = state.grid.SortedCell(uint32_t(i));
+    const Vec3& v = p.velocity[i];
+    Vec3 sum = Vec3::Zero();
+    ForEachWithin(boundary.grid(), cell, p.position[i], support,
+                  [&](uint32_t b, const Vec3& xib, Real r) {
+                    if (!no_slip[b] || r <= 0) return;
+                    const Real vx = (v - state.boundary_velocity[b]).dot(xib);
+                    sum += (volume[b] * vx / (r * r + eps)) * GradW(xib, r, support);
+                  });
     state.acceleration[i] += scale * sum;
   }
 }
@@ -189,6 +238,7 @@ void AddWallContactAtSpeed(const Model& model, State& state, double speed) {
     const Vec3& x = p.position[i];
     Vec3 a = Vec3::Zero();
     for (int k = 0; k < 3; ++k) {
+      if (model.periodic[k]) continue;  // no wall across a periodic axis
       a[k] += ContactAcceleration(x[k] - lo[k], r0, strength);
       a[k] -= ContactAcceleration(hi[k] - x[k], r0, strength);
     }
@@ -228,7 +278,7 @@ void Integrate(const Model& model, State& state) {
   for (int64_t i = 0; i < n; ++i) {
     p.velocity[i] += state.acceleration[i] * dt;
     p.position[i] += p.velocity[i] * dt;
-    CollideWithDomainWalls(model.domain, Real(0), p.position[i], p.velocity[i]);
+    CollideWithDomainWalls(model.domain, model.periodic, Real(0), p.position[i], p.velocity[i]);
   }
 }
 
@@ -246,8 +296,14 @@ std::vector<Pass> BeckerTeschnerSolver::BuildPasses(const Model& model) const {
   passes.push_back({"pressure_force", [boundary](const Model& m, State& s) {
                       ComputePressureAcceleration(m, *boundary, s);
                     }});
-  if (model.params.kinematic_viscosity > 0) passes.push_back({"viscosity", AddViscosity});
-
+  if (model.params.kinematic_viscosity > 0) {
+    passes.push_back({"viscosity", AddViscosity});
+    if (boundary->HasNoSlip()) {
+      passes.push_back({"wall_viscosity", [boundary](const Model& m, State& s) {
+                          AddWallViscosity(m, *boundary, s);
+                        }});
+    }
+  }
   passes.push_back({"wall_contact", AddWallContact});
   passes.push_back({"time_step", ChooseTimeStepPass});
   passes.push_back({"integrate", Integrate});

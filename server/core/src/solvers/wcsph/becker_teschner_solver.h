@@ -21,9 +21,17 @@
 //                gradient into the wall, which the tank needs to within 2%.
 //   viscosity    a_i += 2 (dim + 2) nu sum_j (m / rho_j) (v_ij . x_ij) / (|x_ij|^2 + 0.01 h^2)
 //                       grad W_ij: the laminar viscosity of Morris et al. 1997 in the form of
-//                Monaghan 2005 (sec. 5.6), with a physical kinematic viscosity nu (m^2/s). It
-//                acts between fluid particles only, so walls are free-slip. Monaghan's
-//                artificial viscosity alpha corresponds to nu = alpha h c0 / (2 (dim + 2)).
+//                Monaghan 2005 (sec. 5.6), with a physical kinematic viscosity nu (m^2/s),
+//                divided by lambda, the kernel's viscosity moment on the rest lattice (0.708
+//                at support 2 d, kernels.h): without it the fluid's viscosity is 29% low.
+//                Monaghan's artificial viscosity alpha corresponds to nu = alpha h c0 /
+//                (2 (dim + 2)). Walls are free-slip, except across the axes the scene marks
+//                no-slip: there the same term runs over the wall's boundary particles,
+//                a_i += 2 (dim + 2) nu sum_b V_b ((v_i - v_b) . x_ib) / (|x_ib|^2 + 0.01 h^2)
+//                grad W_ib, with v_b = -sum_f v_f W_bf / sum_f W_bf, the fluid's velocity
+//                extrapolated to b and mirrored, so that it falls to 0 at the wall surface
+//                between them (Adami, Hu, Adams 2012, eqs. 22-23, for a wall at rest; Morris,
+//                Fox, Zhu 1997 mirror the velocity the same way).
 //   contact      a_i += D [(r0 / r)^12 - (r0 / r)^4] / r along the normal, for a distance r
 //                < r0 = 0.4 d to a wall or obstacle surface (Monaghan 1994, "Simulating free
 //                surface flows with SPH", J. Comput. Phys. 110, eq. 4.5), D = 0.01 c0^2. The
@@ -72,6 +80,8 @@ void ComputePressureAcceleration(const Model& model, const BoundaryParticles& bo
                                  State& state);
 // Adds the viscous acceleration to state.acceleration.
 void AddViscosity(const Model& model, State& state);
+// Adds the no-slip walls' viscous acceleration (Model::no_slip) to state.acceleration.
+void AddWallViscosity(const Model& model, const BoundaryParticles& boundary, State& state);
 // Adds the contact force of the walls and obstacles (Monaghan 1994) to state.acceleration.
 void AddWallContact(const Model& model, State& state);
 // The same with the strength D = kContactStrength speed^2 of another reference speed (dfsph,
