@@ -8,6 +8,9 @@
 //
 //   build/release/bench/stress_bench [--steps 2000] [--until SECONDS] [--solvers seed,dfsph]
 //                                    [--case REGEX] [--threads 2] [--out bench/results]
+//
+// On a shared machine, run it with OMP_WAIT_POLICY=PASSIVE as the tests are: the scenes are
+// small, and spinning threads wait at every barrier for a core another job holds (bench/README.md).
 #include <omp.h>
 
 #include <CLI/CLI.hpp>
