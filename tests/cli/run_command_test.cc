@@ -106,7 +106,7 @@ TEST(RunOfflineTest, AdaptiveSolverWritesProbeRowsAtExactTimes) {
   std::ostringstream out, progress;
   RunOffline(options, out, progress);
   EXPECT_THAT(out.str(), HasSubstr("solver wcsph, adaptive dt <= 0.001 s"));
-  EXPECT_THAT(out.str(), HasSubstr("wall_contact"));
+  EXPECT_THAT(out.str(), HasSubstr("boundary_pressure"));
   const std::vector<std::string> lines =
       Split(ReadFile(fs::path(options.out_dir) / "probes.csv"), '\n');
   // probe_interval 0.005 s: rows at 0, 0.005, ..., 0.02.

@@ -58,8 +58,8 @@ double PotentialEnergy(const Simulation& sim) {
 TEST(WcsphPassListTest, RunsTheWcsphPipelineWithoutSeedPasses) {
   const Simulation sim(DamScene());
   const std::vector<std::string> expected = {"neighbour_grid", "density",   "boundary_pressure",
-                                             "pressure_force", "viscosity", "wall_contact",
-                                             "time_step",      "integrate"};
+                                             "pressure_force", "viscosity", "time_step",
+                                             "integrate"};
   EXPECT_EQ(sim.PassNames(), expected);
   Scene inviscid = DamScene();
   SetParam(inviscid.params, "kinematic_viscosity", 0);

@@ -39,9 +39,8 @@ Scene DamScene() {
 TEST(DfsphPassListTest, RunsBothSolvesAroundTheStep) {
   const Simulation sim(DamScene());
   const std::vector<std::string> expected = {
-      "neighbour_grid",   "density",       "boundary_pressure", "divergence_solve",
-      "external_forces",  "viscosity",     "wall_contact",      "time_step",
-      "predict_velocity", "density_solve", "integrate"};
+      "neighbour_grid", "density",   "boundary_pressure", "divergence_solve", "external_forces",
+      "viscosity",      "time_step", "predict_velocity",  "density_solve",    "integrate"};
   EXPECT_EQ(sim.PassNames(), expected);
   EXPECT_DOUBLE_EQ(sim.model().particle_mass, 1000 * 0.02 * 0.02 * 0.02);
 }

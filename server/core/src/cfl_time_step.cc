@@ -5,15 +5,22 @@
 #include <cstdint>
 #include <string>
 
+#include "solvers/wcsph/becker_teschner_solver.h"
+
 namespace dysa {
 
 double TimeStepLimits::Min() const { return std::min({sound, viscous, force, max}); }
 
-TimeStepLimits CflLimits(const Model& model, double v_max, double a_max, bool acoustic) {
+TimeStepLimits CflLimits(const Model& model, double v_max, double a_max, bool acoustic,
+                         double density_max) {
   const Params& params = model.params;
   const double h = params.particle_spacing;
   TimeStepLimits limits;
-  const double speed = acoustic ? params.speed_of_sound + v_max : v_max;
+  // c = c0 (rho / rho0)^((gamma - 1) / 2) of the Tait equation, gamma = 7.
+  const double compression = std::max(1.0, density_max / params.rest_density);
+  const double sound = params.speed_of_sound * compression * compression * compression;
+  static_assert(wcsph::kTaitExponent == 7);
+  const double speed = acoustic ? sound + v_max : v_max;
   const double cfl =
       acoustic ? params.cfl_factor : std::min(params.cfl_factor, kIncompressibleMaxCfl);
   if (speed > 0) limits.sound = cfl * h / speed;
@@ -41,13 +48,15 @@ void ChooseStep(const Model& model, State& state, bool acoustic) {
   // Maxima are exact whatever the order they are taken in, so the reduction is deterministic.
   Real v2_max = 0;
   Real a2_max = 0;
-#pragma omp parallel for schedule(static) reduction(max : v2_max, a2_max)
+  Real density_max = 0;
+#pragma omp parallel for schedule(static) reduction(max : v2_max, a2_max, density_max)
   for (int64_t i = 0; i < n; ++i) {
     v2_max = std::max(v2_max, p.velocity[i].squaredNorm());
     a2_max = std::max(a2_max, state.acceleration[i].squaredNorm());
+    density_max = std::max(density_max, p.density[i]);
   }
   const TimeStepLimits limits =
-      CflLimits(model, std::sqrt(double(v2_max)), std::sqrt(double(a2_max)), acoustic);
+      CflLimits(model, std::sqrt(double(v2_max)), std::sqrt(double(a2_max)), acoustic, density_max);
   state.dt = ChooseTimeStep(limits, state.max_dt);
 }
 

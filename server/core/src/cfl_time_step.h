@@ -3,7 +3,11 @@
 // With h the smoothing length (the particle spacing d: the cubic spline's support is 2 h), the
 // step honours the three limits usual in SPH (Monaghan 1992; Morris, Fox, Zhu 1997; Becker &
 // Teschner 2007, sec. 3.4):
-//   sound / CFL  dt <= lambda h / (c0 + v_max)       lambda = cfl_factor (default 0.25)
+//   sound / CFL  dt <= lambda h / (c + v_max)        lambda = cfl_factor (default 0.25)
+//                c the speed of sound of the densest particle, c0 (rho_max / rho0)^3 (the Tait
+//                equation's dp/drho = c0^2 (rho / rho0)^6): a fluid compressed by an impact or
+//                a strong gravity is stiffer than at rest, and a step sized by c0 lets it gain
+//                energy (tests/stress, bench/stress_bench)
 //   viscous      dt <= 0.125 lambda h^2 / nu      lambda the viscosity moment (kernels.h, 0.708)
 //                The viscosity term is divided by lambda to give the fluid its viscosity nu;
 //                its fastest (compressive, grid-scale) mode then decays at 20.6 nu / h^2, which
@@ -36,9 +40,11 @@ struct TimeStepLimits {
 // warning.
 inline constexpr double kIncompressibleMaxCfl = 0.3;
 
-// `acoustic`: the sound limit of a weakly compressible solver; an incompressible one (dfsph)
-// takes lambda h / v_max instead (none when nothing moves).
-TimeStepLimits CflLimits(const Model& model, double v_max, double a_max, bool acoustic = true);
+// `acoustic`: the sound limit of a weakly compressible solver, with the speed of sound at
+// density `density_max` (kg/m^3; at most rest density counts as rest density); an
+// incompressible one (dfsph) takes lambda h / v_max instead (none when nothing moves).
+TimeStepLimits CflLimits(const Model& model, double v_max, double a_max, bool acoustic = true,
+                         double density_max = 0);
 
 // The step for `limits` when at most `until` seconds remain before a point the step must not
 // pass (the end of a frame): the limit itself; all that remains when it fits; half of it when

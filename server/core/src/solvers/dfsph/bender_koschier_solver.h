@@ -4,15 +4,16 @@
 //
 // Same discretisation as wcsph (becker_teschner_solver.h): cubic spline of support 2 d, mass
 // rho0 d^3, the Akinci boundary particles of boundary_particles.h with the pressure of the fluid
-// around them (pressure_boundary.h), laminar viscosity, the wall
-// contact force, CFL-adaptive step (without a speed of sound: dt <= lambda d / v_max). Instead of
-// an equation of state two solvers find the pressure (as kappa_i = p_i / rho_i):
+// around them (pressure_boundary.h), laminar viscosity, the inelastic wall contact,
+// CFL-adaptive step (without a speed of sound: dt <= lambda d / v_max). Instead of an equation
+// of state two solvers find the pressure (as kappa_i = p_i / rho_i):
 //   factor       alpha_i = rho_i / (|sum_j m grad W_ij + sum_b Psi_b grad W_ib|^2
 //                                   + sum_j |m grad W_ij|^2)                       (eq. 11)
 //   acceleration a_i = -sum_j m (kappa_i / rho_i + kappa_j / rho_j) grad W_ij
 //                      -sum_b Psi_b (kappa_i / rho_i + kappa_b / rho_b) grad W_ib
 //                with kappa_b extrapolated from the fluid (plus a fixed hydrostatic part)
-//   divergence   kappa_i = (1 / dt) max(D rho_i / Dt, 0) alpha_i with
+//   divergence   kappa_i = (1 / dt) max(D rho_i / Dt, 0) alpha_i where rho_i >= rho0 (0 below:
+//                a free surface or spray may close in until compressed), with
 //                D rho_i / Dt = sum_j m (v_i - v_j) . grad W_ij + sum_b Psi_b v_i . grad W_ib,
 //                iterated until mean (D rho / Dt) dt / rho0 <= divergence_tolerance  (eq. 15)
 //   density      kappa_i = (max(rho*_i, rho0) - rho0) / dt^2 alpha_i with the predicted

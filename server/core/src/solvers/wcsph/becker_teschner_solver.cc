@@ -208,65 +208,62 @@ void AddWallViscosity(const Model& model, const BoundaryParticles& boundary, Sta
 
 namespace {
 
-// Monaghan's (1994) wall force per unit mass at distance `dist` from a surface, for r0 and D
-// as in AddWallContact; clamped at dist = r0 / 2 so that a particle found deeper (which the
-// force should have prevented) is pushed out hard but finitely.
-inline Real ContactAcceleration(Real dist, Real r0, Real strength) {
-  if (dist >= r0) return 0;
-  const Real r = dist > Real(0.5) * r0 ? dist : Real(0.5) * r0;
-  const Real q = r0 / r;
-  const Real q2 = q * q;
-  const Real q4 = q2 * q2;
-  return strength * (q4 * q4 * q4 - q4) / r;
+// Calls visit(dist, n) for every surface (a wall across a non-periodic axis, a sphere, a box)
+// within `range` of x, with dist the distance to it and n the unit normal from it to x. A
+// point inside an obstacle gets distance 0 and the way out: the sphere's radial direction, the
+// box's nearest face.
+template <class Visit>
+void ForEachSurfaceWithin(const Model& model, const Vec3& x, Real range, Visit&& visit) {
+  for (int k = 0; k < 3; ++k) {
+    if (model.periodic[k]) continue;  // no wall across a periodic axis
+    const Real below = x[k] - Real(model.domain.min[k]);
+    const Real above = Real(model.domain.max[k]) - x[k];
+    if (below < range) visit(below, Vec3(Vec3::Unit(k)));
+    if (above < range) visit(above, Vec3(-Vec3::Unit(k)));
+  }
+  for (const SphereObstacle& s : model.spheres) {
+    const Vec3 d = x - s.center.cast<Real>();
+    const Real norm = d.norm();
+    const Real dist = norm - Real(s.radius);
+    if (norm > 0 && dist < range) visit(std::max(dist, Real(0)), Vec3(d / norm));
+  }
+  for (const BoxObstacle& b : model.boxes) {
+    const Vec3 bl = b.box.min.cast<Real>(), bh = b.box.max.cast<Real>();
+    const Vec3 nearest = x.cwiseMax(bl).cwiseMin(bh);
+    const Vec3 d = x - nearest;
+    const Real dist = d.norm();
+    if (dist > 0) {
+      if (dist < range) visit(dist, Vec3(d / dist));
+      continue;
+    }
+    int axis = 0;
+    Real depth = x[0] - bl[0], sign = -1;
+    for (int k = 0; k < 3; ++k) {
+      if (x[k] - bl[k] < depth) depth = x[k] - bl[k], axis = k, sign = -1;
+      if (bh[k] - x[k] < depth) depth = bh[k] - x[k], axis = k, sign = 1;
+    }
+    visit(Real(0), Vec3(sign * Vec3::Unit(axis)));
+  }
 }
 
 }  // namespace
 
-void AddWallContact(const Model& model, State& state) {
-  AddWallContactAtSpeed(model, state, model.params.speed_of_sound);
-}
-
-void AddWallContactAtSpeed(const Model& model, State& state, double speed) {
-  ParticleArrays& p = state.particles;
+void LimitApproachToSurfaces(const Model& model, Real dt, const Vec3& x, Vec3& v) {
   const Real r0 = Real(kContactRange * model.params.particle_spacing);
-  const Real strength = Real(kContactStrength * speed * speed);
-  const Vec3 lo = model.domain.min.cast<Real>();
-  const Vec3 hi = model.domain.max.cast<Real>();
-  const int64_t n = int64_t(p.size());
-#pragma omp parallel for schedule(static)
-  for (int64_t i = 0; i < n; ++i) {
-    const Vec3& x = p.position[i];
-    Vec3 a = Vec3::Zero();
-    for (int k = 0; k < 3; ++k) {
-      if (model.periodic[k]) continue;  // no wall across a periodic axis
-      a[k] += ContactAcceleration(x[k] - lo[k], r0, strength);
-      a[k] -= ContactAcceleration(hi[k] - x[k], r0, strength);
-    }
-    for (const SphereObstacle& s : model.spheres) {
-      const Vec3 d = x - s.center.cast<Real>();
-      const Real norm = d.norm();
-      if (norm > 0) a += (ContactAcceleration(norm - Real(s.radius), r0, strength) / norm) * d;
-    }
-    for (const BoxObstacle& b : model.boxes) {
-      // Outside: the distance to the box and the direction away from its nearest point;
-      // inside: out through the nearest face.
-      const Vec3 bl = b.box.min.cast<Real>(), bh = b.box.max.cast<Real>();
-      const Vec3 nearest = x.cwiseMax(bl).cwiseMin(bh);
-      const Vec3 d = x - nearest;
-      const Real dist = d.norm();
-      if (dist > 0) {
-        a += (ContactAcceleration(dist, r0, strength) / dist) * d;
-      } else {
-        int axis = 0;
-        Real depth = x[0] - bl[0], sign = -1;
-        for (int k = 0; k < 3; ++k) {
-          if (x[k] - bl[k] < depth) depth = x[k] - bl[k], axis = k, sign = -1;
-          if (bh[k] - x[k] < depth) depth = bh[k] - x[k], axis = k, sign = 1;
-        }
-        a[axis] += sign * ContactAcceleration(0, r0, strength);
-      }
-    }
-    state.acceleration[i] += a;
+  const Real reach = Real(0.5) * r0 + v.norm() * dt;  // the surfaces this step could bring it to
+  // Each surface allows the velocities with v . n >= allowed (<= 0): half-spaces that all hold
+  // v = 0. Cutting v onto one can break another (a sphere's normal tilted towards a wall), so
+  // the cuts are repeated, a few sweeps of alternating projections onto their intersection.
+  for (int sweep = 0; sweep < 4; ++sweep) {
+    bool cut = false;
+    ForEachSurfaceWithin(model, x, reach, [&](Real dist, const Vec3& normal) {
+      // The approach the step may take: down to r0 / 2 from the surface (exact for a wall; a
+      // curve within r0 bends away from the tangent plane, so it is kept at least as far).
+      const Real allowed = -std::max(dist - Real(0.5) * r0, Real(0)) / dt;
+      const Real vn = v.dot(normal);
+      if (vn < allowed) v += (allowed - vn) * normal, cut = true;
+    });
+    if (!cut) break;
   }
 }
 
@@ -277,6 +274,7 @@ void Integrate(const Model& model, State& state) {
 #pragma omp parallel for schedule(static)
   for (int64_t i = 0; i < n; ++i) {
     p.velocity[i] += state.acceleration[i] * dt;
+    LimitApproachToSurfaces(model, dt, p.position[i], p.velocity[i]);
     p.position[i] += p.velocity[i] * dt;
     CollideWithDomainWalls(model.domain, model.periodic, Real(0), p.position[i], p.velocity[i]);
   }
@@ -304,7 +302,6 @@ std::vector<Pass> BeckerTeschnerSolver::BuildPasses(const Model& model) const {
                         }});
     }
   }
-  passes.push_back({"wall_contact", AddWallContact});
   passes.push_back({"time_step", ChooseTimeStepPass});
   passes.push_back({"integrate", Integrate});
   return passes;
