@@ -1,9 +1,11 @@
-// Run time against error: the validation cases (hydrostatic tank, Martin & Moyce dam break) for
-// every physical solver, particle spacing and time-step or tolerance setting. Writes
+// Run time against error: the validation cases (hydrostatic tank, Martin & Moyce dam break,
+// Poiseuille flow) for every physical solver, particle spacing and time-step or tolerance
+// setting. Writes
 // bench/results/accuracy.csv; bench/accuracy/plot_accuracy.py draws error against wall time with
 // the Pareto front (bench/README.md, "Run time against error").
 //
-//   build/release/bench/accuracy_bench [--threads 2] [--case all|hydrostatic|dam_break]
+//   build/release/bench/accuracy_bench [--threads 2]
+//                                      [--case all|hydrostatic|dam_break|poiseuille]
 //                                      [--solvers wcsph,dfsph] [--quick | --fine]
 #include <omp.h>
 
@@ -54,8 +56,10 @@ struct Point {
   size_t particles = 0;
   uint64_t steps = 0;
   double wall_s = 0;
-  double error = 0;        // the case's headline error (fraction)
-  double error_other = 0;  // hydrostatic: max pressure error; dam break: max front error
+  double error = 0;  // the case's headline error (fraction)
+  // hydrostatic: max pressure error; dam break: max front error; Poiseuille: the error at the
+  // last (steady) time
+  double error_other = 0;
   double density_error_mean = 0;
 };
 
@@ -73,8 +77,8 @@ int main(int argc, char** argv) {
   bool quick = false, fine = false;
   std::string out_dir = "bench/results";
   app.add_option("--threads", threads, "OpenMP threads")->check(CLI::Range(1, 1024));
-  app.add_option("--case", which, "all, hydrostatic or dam_break")
-      ->check(CLI::IsMember({"all", "hydrostatic", "dam_break"}));
+  app.add_option("--case", which, "all, hydrostatic, dam_break or poiseuille")
+      ->check(CLI::IsMember({"all", "hydrostatic", "dam_break", "poiseuille"}));
   app.add_option("--solvers", solvers, "Solvers (default: every physical one)")->delimiter(',');
   app.add_flag("--quick", quick, "Two coarse spacings and one setting (a smoke run)");
   app.add_flag("--fine", fine, "Also the validation scenes' own spacings (minutes per run)");
@@ -94,8 +98,11 @@ int main(int argc, char** argv) {
   // fluid shallower than the depth the reference pressure is computed for).
   std::vector<double> tank = {0.1, 0.05, 0.025};
   std::vector<double> dam = {a / 8, a / 10, a / 12};
-  if (quick) tank.pop_back(), dam.pop_back();
+  // The Poiseuille channel is L = 1 cm wide (default L / 20).
+  std::vector<double> channel = {0.001, 0.0005, 0.00025};
+  if (quick) tank.pop_back(), dam.pop_back(), channel.pop_back();
   if (fine) tank.push_back(0.02), dam.push_back(a / 30);  // the scenes' own resolutions
+  const char* kCases[] = {"hydrostatic", "dam_break", "poiseuille"};
   try {
     std::filesystem::create_directories(out_dir);
     std::ofstream csv(std::filesystem::path(out_dir) / "accuracy.csv");
@@ -105,16 +112,17 @@ int main(int argc, char** argv) {
                 "spacing m", "particles", "steps", "wall s", "error", "max error");
     for (const std::string& solver : solvers) {
       for (const Setting& setting : SettingsFor(solver, quick)) {
-        for (int c = 0; c < 2; ++c) {
-          const bool hydrostatic = c == 0;
-          if (which != "all" && which != (hydrostatic ? "hydrostatic" : "dam_break")) continue;
-          for (double spacing : hydrostatic ? tank : dam) {
+        for (const std::string case_name : kCases) {
+          if (which != "all" && which != case_name) continue;
+          const bool hydrostatic = case_name == "hydrostatic";
+          const bool dam_break = case_name == "dam_break";
+          for (double spacing : hydrostatic ? tank : dam_break ? dam : channel) {
             dysa::ValidationOptions options;
             options.solver = solver;
             options.spacing = spacing;
             options.sets = setting.sets;
             Point p;
-            p.case_name = hydrostatic ? "hydrostatic" : "dam_break";
+            p.case_name = case_name;
             p.solver = solver;
             p.setting = setting.label;
             p.spacing = spacing;
@@ -126,11 +134,16 @@ int main(int argc, char** argv) {
               p.error = r.pressure_error_mean;
               p.error_other = r.pressure_error_max;
               p.density_error_mean = r.density_error_mean;
-            } else {
+            } else if (dam_break) {
               const dysa::DamBreakResult r = dysa::RunDamBreak(options);
               run = r.run;
               p.error = r.rms_error;
               p.error_other = r.max_error;
+            } else {
+              const dysa::PoiseuilleResult r = dysa::RunPoiseuille(options);
+              run = r.run;
+              p.error = r.error_max;
+              p.error_other = r.profiles.back().error_max;
             }
             p.wall_s = Seconds(std::chrono::steady_clock::now() - start);
             p.particles = run.particles;

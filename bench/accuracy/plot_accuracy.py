@@ -17,7 +17,8 @@ results = Path(sys.argv[1] if len(sys.argv) > 1 else "bench/results")
 rows = list(csv.DictReader(open(results / "accuracy.csv")))
 cases = list(dict.fromkeys(r["case"] for r in rows))
 titles = {"hydrostatic": "Hydrostatic tank: mean pressure error",
-          "dam_break": "Dam break (Martin & Moyce 1952): RMS front error"}
+          "dam_break": "Dam break (Martin & Moyce 1952): RMS front error",
+          "poiseuille": "Poiseuille flow (Morris 1997): max velocity error / u_max"}
 markers = {"wcsph": "o", "dfsph": "s"}
 
 

@@ -194,6 +194,26 @@ TEST(FrameCodecTest, ValueLeavingItsRangeForcesAKeyframe) {
   ExpectWithinBounds(frame, x, v, rho);
 }
 
+// In a periodic domain a particle leaving through one face comes back through the opposite
+// one: between two frames it jumps the domain's length, far from the delta prediction. The
+// frames still decode within their bounds, delta frames or keyframes alike, and the next frames
+// too (the prediction restarts from the jump).
+TEST(FrameCodecTest, ParticlesWrappingAroundAPeriodicDomainStayWithinBounds) {
+  SyntheticFrames source(500);
+  std::vector<float> x, v, rho;
+  FrameEncoder encoder(StreamConfig{});
+  FrameDecoder decoder;
+  for (int f = 0; f < 6; ++f) {
+    source.Make(f, x, v, rho);
+    if (f >= 3) {
+      for (uint32_t i = 0; i < 500; i += 7) x[3 * i] += x[3 * i] < 0 ? 9.9f : -9.9f;  // wrapped
+    }
+    const Frame frame = DecodeAll(decoder, encoder.Encode(Input(x, v, rho, f, f / 60.0)));
+    SCOPED_TRACE("frame " + std::to_string(f));
+    ExpectWithinBounds(frame, x, v, rho);
+  }
+}
+
 TEST(FrameCodecTest, StrideKeepsEveryNthParticleById) {
   SyntheticFrames source(1000);
   std::vector<float> x, v, rho;

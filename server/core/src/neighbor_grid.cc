@@ -41,6 +41,7 @@ void NeighborGrid::Configure(const Aabb& domain, Real min_cell_size, const Perio
   origin_ = domain.min;
   dims_ = dims;
   periodic_ = periodic;
+  any_periodic_ = periodic[0] || periodic[1] || periodic[2];
 }
 
 void NeighborGrid::Sort(std::span<const Vec3> points) {

@@ -286,7 +286,7 @@ void DivergenceSolve(const Model& model, const BoundaryParticles& boundary, Stat
       // free surface, spray) may still close in on its neighbours until it is compressed, where
       // the density solve takes over (SPlisHSPlasH leaves out particles with too few neighbours
       // for the same reason). Held too, spray pushed apart spray and gained energy: particles
-      // started on top of each other reached 13 times what the start released (stress_bench).
+      // started on top of each other reached 12 times what the start released (stress_bench).
       const Real rate = p.density[i] >= rho0
                             ? std::max(DensityRate(model, boundary, state, i), Real(0))
                             : Real(0);
