@@ -80,6 +80,11 @@ std::string TankDiagnosticsText(const HydrostaticResult& h) {
     << std::setprecision(1) << worst->y / d << " d above the floor, " << std::showpos
     << 100 * (worst->pressure - worst->reference) / (rho_g * h.depth) << std::noshowpos
     << "% of rho0 g H)\n";
+  // The errors' own uncertainty: runs that differ by less than about twice it are not
+  // distinguishable by the window's average.
+  s << "    standard error of the averaged pressure: up to " << std::setprecision(2)
+    << 100 * h.pressure_error_uncertainty << "% of rho0 g H (" << kHydrostaticBatches
+    << " batch means of the " << kHydrostaticAveragingTime << " s window)\n";
   return s.str();
 }
 

@@ -265,8 +265,8 @@ TEST(DysaBinaryTest, BogusFlagFails) {
 }
 
 // The quick validation with dfsph (seconds since its solves sweep a pair list): the table and
-// each case's diagnostics, the tank's largest error located by height. dfsph misses the tank's
-// pressure target, so the run exits non-zero and says so.
+// each case's diagnostics, the tank's largest error located by height and the averaged
+// pressure's standard error. dfsph meets every quick bound, so the run exits 0 and says so.
 TEST(DysaBinaryTest, QuickDfsphValidationPrintsEachCasesDiagnostics) {
   TempDir dir;
   const Result r = RunDysa(dir.path(), "validate --quick --solver dfsph");
@@ -277,6 +277,8 @@ TEST(DysaBinaryTest, QuickDfsphValidationPrintsEachCasesDiagnostics) {
                                               "\\([0-9]+\\.[0-9] d above the floor, [-+]"));
   EXPECT_THAT(r.out,
               ::testing::ContainsRegex("centre of mass sank -?[0-9]\\.[0-9]{3} d over the run"));
+  EXPECT_THAT(r.out, ::testing::ContainsRegex("standard error of the averaged pressure: up to "
+                                              "[0-9]\\.[0-9]{2}% of rho0 g H \\(5 batch"));
   EXPECT_THAT(r.out, HasSubstr("front speed dZ/dT"));
 }
 

@@ -70,6 +70,21 @@ TEST(HydrostaticTankTest, PressureFollowsRhoGDepthAndTheTankIsAtRest) {
   // The column keeps its rest lattice: it sinks by its compression only (quick: 0.018 d).
   EXPECT_GT(r.settling, 0.0);
   EXPECT_LT(r.settling, 0.05);
+  // The average has an uncertainty of its own (acoustic ringing left in the window), small
+  // against the bounds above, so that meeting them means something.
+  EXPECT_GT(r.pressure_error_uncertainty, 0.0);
+  EXPECT_LT(r.pressure_error_uncertainty, 0.002);
+  for (const HydrostaticResult::Sample& s : r.profile) EXPECT_GE(s.standard_error, 0.0);
+}
+
+TEST(BatchMeansTest, StandardErrorOfTheMeanOfTheBatchMeans) {
+  // Means 1, 2, 3, 4: overall 2.5, squares 5, sqrt(5 / (4 * 3)).
+  EXPECT_NEAR(BatchMeansStandardError({1, 2, 3, 4}), std::sqrt(5.0 / 12.0), 1e-15);
+  // Two batches: |m_1 - m_2| / 2.
+  EXPECT_NEAR(BatchMeansStandardError({10, 14}), 2.0, 1e-15);
+  EXPECT_EQ(BatchMeansStandardError({7, 7, 7}), 0.0);  // a steady series
+  EXPECT_EQ(BatchMeansStandardError({3}), 0.0);        // nothing to compare
+  EXPECT_EQ(BatchMeansStandardError({}), 0.0);
 }
 
 // dfsph on the tank: incompressible to its tolerance, and resting on the walls' extrapolated

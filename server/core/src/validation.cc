@@ -77,6 +77,16 @@ ValidationRun RunInfo(const Simulation& sim) {
 
 }  // namespace
 
+double BatchMeansStandardError(const std::vector<double>& batch_means) {
+  const size_t n = batch_means.size();
+  if (n < 2) return 0;
+  double mean = 0;
+  for (double m : batch_means) mean += m / double(n);
+  double squares = 0;
+  for (double m : batch_means) squares += (m - mean) * (m - mean);
+  return std::sqrt(squares / (double(n) * double(n - 1)));
+}
+
 HydrostaticResult RunHydrostaticTank(const ValidationOptions& options) {
   Simulation sim(ValidationScene("hydrostatic_tank", options));
   const Scene& scene = sim.scene();
@@ -110,13 +120,24 @@ HydrostaticResult RunHydrostaticTank(const ValidationOptions& options) {
   const double window_start = std::max(0.0, end - kHydrostaticAveragingTime);
   while (sim.state().time < window_start) sim.Step(window_start);
   std::vector<double> sums(probes.size(), 0.0);
+  // The same sums per part of the window (by the time a step ends in), for the standard error.
+  std::vector<std::vector<double>> batch_sums(kHydrostaticBatches,
+                                              std::vector<double>(probes.size(), 0.0));
+  std::vector<double> batch_time(kHydrostaticBatches, 0.0);
+  const double batch_length = (end - window_start) / kHydrostaticBatches;
   double window = 0;
   int samples = 0;
   while (sim.state().time < end) {
     sim.Step(end);
     const double dt = sim.last_dt();
     const std::vector<double> p = EvaluateProbes(probes, sim.model(), sim.state());
-    for (size_t i = 0; i < p.size(); ++i) sums[i] += p[i] * dt;
+    const int batch = std::clamp(int((sim.state().time - window_start) / batch_length - 1e-9), 0,
+                                 kHydrostaticBatches - 1);
+    for (size_t i = 0; i < p.size(); ++i) {
+      sums[i] += p[i] * dt;
+      batch_sums[batch][i] += p[i] * dt;
+    }
+    batch_time[batch] += dt;
     window += dt;
     ++samples;
   }
@@ -129,8 +150,15 @@ HydrostaticResult RunHydrostaticTank(const ValidationOptions& options) {
     const double p = window > 0 ? sums[i] / window : 0;
     const double reference = rho0 * g * (H - y);
     const double error = std::abs(p - reference) / (rho0 * g * H);
-    result.profile.push_back({y, p, reference});
+    std::vector<double> batch_means;
+    for (int b = 0; b < kHydrostaticBatches; ++b) {
+      if (batch_time[b] > 0) batch_means.push_back(batch_sums[b][i] / batch_time[b]);
+    }
+    const double standard_error = BatchMeansStandardError(batch_means);
+    result.profile.push_back({y, p, reference, standard_error});
     result.pressure_error_max = std::max(result.pressure_error_max, error);
+    result.pressure_error_uncertainty =
+        std::max(result.pressure_error_uncertainty, standard_error / (rho0 * g * H));
     sum += error;
   }
   if (!result.profile.empty()) result.pressure_error_mean = sum / double(result.profile.size());

@@ -59,14 +59,30 @@ struct HydrostaticResult {
   double settling = 0;
   // An iterative solver's (dfsph) solves that stopped at max_iterations, over the run.
   uint64_t capped_solves = 0;
+  // How far the window's mean pressure could move by chance: the largest, over the samples,
+  // standard error of that mean (BatchMeansStandardError over kHydrostaticBatches equal parts
+  // of the window), over rho0 g H. Two runs whose errors differ by less than about twice it
+  // are not distinguishable by this measurement.
+  double pressure_error_uncertainty = 0;
   struct Sample {
     double y, pressure, reference;  // m, Pa, Pa
+    double standard_error;          // Pa, of the window's mean pressure
   };
   std::vector<Sample> profile;  // the averaged pressure
   int samples = 0;              // pressure samples averaged: one after every step of the window
 };
 inline constexpr int kHydrostaticTopLayers = 3;
 inline constexpr double kHydrostaticAveragingTime = 0.5;  // s
+// Parts of the averaging window for the standard error: 0.1 s each, longer than wcsph's
+// acoustic period (0.09 s), so that neighbouring parts are nearly independent.
+inline constexpr int kHydrostaticBatches = 5;
+
+// The standard error of the mean of a correlated series by the method of batch means: the
+// series cut into B consecutive equal parts with means m_b and overall mean m,
+// sqrt(sum_b (m_b - m)^2 / (B (B - 1))). Valid when the parts are longer than the series'
+// correlation time (dfsph's pressure alternates from one step to the next, so its samples are
+// far from independent, and the plain sample formula would be wrong). 0 for fewer than 2 parts.
+double BatchMeansStandardError(const std::vector<double>& batch_means);
 
 // How to run a case: the scene's own resolution and solver unless given; `sets` are
 // NAME=VALUE parameter overrides applied last (as `dysa run --set`).
