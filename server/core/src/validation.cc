@@ -119,13 +119,12 @@ HydrostaticResult RunHydrostaticTank(const ValidationOptions& options) {
   const double start_height = mean_height(sim.state().particles);
   const double window_start = std::max(0.0, end - kHydrostaticAveragingTime);
   while (sim.state().time < window_start) sim.Step(window_start);
-  std::vector<double> sums(probes.size(), 0.0);
-  // The same sums per part of the window (by the time a step ends in), for the standard error.
+  // The time-weighted sums per part of the window (by the time a step ends in): together they
+  // give the window's mean; apart, its standard error.
   std::vector<std::vector<double>> batch_sums(kHydrostaticBatches,
                                               std::vector<double>(probes.size(), 0.0));
   std::vector<double> batch_time(kHydrostaticBatches, 0.0);
   const double batch_length = (end - window_start) / kHydrostaticBatches;
-  double window = 0;
   int samples = 0;
   while (sim.state().time < end) {
     sim.Step(end);
@@ -133,27 +132,27 @@ HydrostaticResult RunHydrostaticTank(const ValidationOptions& options) {
     const std::vector<double> p = EvaluateProbes(probes, sim.model(), sim.state());
     const int batch = std::clamp(int((sim.state().time - window_start) / batch_length - 1e-9), 0,
                                  kHydrostaticBatches - 1);
-    for (size_t i = 0; i < p.size(); ++i) {
-      sums[i] += p[i] * dt;
-      batch_sums[batch][i] += p[i] * dt;
-    }
+    for (size_t i = 0; i < p.size(); ++i) batch_sums[batch][i] += p[i] * dt;
     batch_time[batch] += dt;
-    window += dt;
     ++samples;
   }
   result.run = RunInfo(sim);
   result.samples = samples;
 
+  double window = 0;
+  for (double t : batch_time) window += t;
   double sum = 0;
   for (size_t i = 0; i < probes.size(); ++i) {
     const double y = probes[i].point.y() - floor;
-    const double p = window > 0 ? sums[i] / window : 0;
-    const double reference = rho0 * g * (H - y);
-    const double error = std::abs(p - reference) / (rho0 * g * H);
+    double weighted = 0;
     std::vector<double> batch_means;
     for (int b = 0; b < kHydrostaticBatches; ++b) {
+      weighted += batch_sums[b][i];
       if (batch_time[b] > 0) batch_means.push_back(batch_sums[b][i] / batch_time[b]);
     }
+    const double p = window > 0 ? weighted / window : 0;
+    const double reference = rho0 * g * (H - y);
+    const double error = std::abs(p - reference) / (rho0 * g * H);
     const double standard_error = BatchMeansStandardError(batch_means);
     result.profile.push_back({y, p, reference, standard_error});
     result.pressure_error_max = std::max(result.pressure_error_max, error);
