@@ -35,7 +35,7 @@ struct CapturedFrame {
 
 CapturedFrame Capture(const dysa::Simulation& sim) {
   const dysa::ParticleArrays& p = sim.state().particles;
-  CapturedFrame f{sim.state().step, sim.state().time, {}, {}, {}};
+  CapturedFrame f{sim.step(), sim.time(), {}, {}, {}};
   f.positions.resize(3 * p.size());
   f.velocities.resize(3 * p.size());
   f.densities.resize(p.size());
@@ -52,7 +52,7 @@ CapturedFrame Capture(const dysa::Simulation& sim) {
 
 std::vector<CapturedFrame> Record(dysa::Scene scene, double warmup_s, int frames) {
   dysa::Simulation sim(std::move(scene));
-  while (sim.state().time < warmup_s) sim.Step();
+  while (sim.time() < warmup_s) sim.Step();
   std::vector<CapturedFrame> out;
   for (int f = 0; f < frames; ++f) {
     sim.StepFrame();

@@ -104,7 +104,7 @@ Timing Measure(const dysa::Scene& scene, int warmup, int steps, int repeats) {
       }
     }
     t.iterations_per_step = double(iterations) / steps;
-    t.particles = sim.state().particles.size();
+    t.particles = sim.particle_count();
     t.passes = sim.PassNames();
   }
   return t;
@@ -197,21 +197,20 @@ int main(int argc, char** argv) {
       scene.solver = solver;
       dysa::Simulation sim(scene);
       double smallest = 1e30;
-      while (sim.state().time < scene.end_time && sim.alarm().empty()) {
+      while (sim.time() < scene.end_time && sim.alarm().empty()) {
         sim.Step(scene.end_time);
         // The last step is cut to land on end_time: not a step the CFL condition chose.
-        if (sim.state().time < scene.end_time) smallest = std::min(smallest, sim.last_dt());
+        if (sim.time() < scene.end_time) smallest = std::min(smallest, sim.last_dt());
       }
       const double fixed = std::ceil(scene.end_time / smallest);
-      const double ratio = fixed / double(sim.state().step);
+      const double ratio = fixed / double(sim.step());
       std::printf(
           "%-6s dam break a/15 %zu particles to t = %.3f s: %llu adaptive steps; the "
           "smallest was %.3g s, so a fixed step needs %.0f (x%.2f)\n",
-          solver, sim.state().particles.size(), scene.end_time,
-          (unsigned long long)sim.state().step, smallest, fixed, ratio);
-      steps_csv << solver << ",dam_break," << sim.state().particles.size() << ',' << scene.end_time
-                << ',' << sim.state().step << ',' << smallest << ',' << fixed << ',' << ratio
-                << '\n';
+          solver, sim.particle_count(), scene.end_time, (unsigned long long)sim.step(), smallest,
+          fixed, ratio);
+      steps_csv << solver << ",dam_break," << sim.particle_count() << ',' << scene.end_time << ','
+                << sim.step() << ',' << smallest << ',' << fixed << ',' << ratio << '\n';
     }
     std::printf("wrote %s/pass_skipping.csv and adaptive_steps.csv\n", out_dir.c_str());
     return 0;

@@ -2,7 +2,10 @@
 // thread counts. Writes bench/results/seed_step.csv (per pass) and seed_step_summary.csv.
 //
 //   build/release/bench/seed_step_bench [--scene NAME] [--warmup N] [--steps N]
-//                                       [--threads 1,2] [--out bench/results]
+//                                       [--threads 1,2] [--device cpu|cuda[:N]]
+//                                       [--out bench/results]
+//
+// On a GPU (--device cuda) the thread count is the host's alone; one is enough.
 #include <omp.h>
 
 #include <CLI/CLI.hpp>
@@ -12,7 +15,9 @@
 #include <fstream>
 #include <iostream>
 
+#include "dysa/core/device.h"
 #include "dysa/core/simulation.h"
+#include "dysa/core/types.h"
 
 namespace {
 
@@ -23,13 +28,15 @@ struct Result {
   double wall_s = 0;
   uint64_t hash = 0;
   std::vector<dysa::PassProfile> passes;
+  std::string device;  // Simulation::DeviceDescription()
   double ms_per_step() const { return 1e3 * wall_s / double(steps); }
   double mps() const { return double(particles) * double(steps) / wall_s / 1e6; }
 };
 
-Result Measure(const dysa::Scene& scene, int threads, int warmup, int steps) {
+Result Measure(const dysa::Scene& scene, const dysa::Device& device, int threads, int warmup,
+               int steps) {
   omp_set_num_threads(threads);
-  dysa::Simulation sim(scene);
+  dysa::Simulation sim(scene, device);
   for (int i = 0; i < warmup; ++i) sim.Step();
   sim.ResetProfile();
   const auto start = std::chrono::steady_clock::now();
@@ -37,10 +44,11 @@ Result Measure(const dysa::Scene& scene, int threads, int warmup, int steps) {
   Result r;
   r.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   r.threads = threads;
-  r.particles = sim.state().particles.size();
+  r.particles = sim.particle_count();
   r.steps = uint64_t(steps);
   r.hash = dysa::StateHash(sim.state());
   r.passes.assign(sim.profile().begin(), sim.profile().end());
+  r.device = sim.DeviceDescription();
   return r;
 }
 
@@ -63,19 +71,31 @@ int main(int argc, char** argv) {
   app.add_option("--threads", thread_counts, "Thread counts, comma separated")
       ->delimiter(',')
       ->check(CLI::Range(1, 1024));
+  std::string device_text = "cpu";
+  app.add_option("--device", device_text, "Where the steps run: cpu, cuda or cuda:N")
+      ->capture_default_str();
   app.add_option("--out", out_dir, "Directory for the CSV files")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
 
+  dysa::Device device;
+  try {
+    device = dysa::ParseDevice(device_text);
+    dysa::QueryDevice(device);  // no GPU: say what is missing before loading anything
+  } catch (const dysa::ConfigError& e) {
+    std::fprintf(stderr, "seed_step_bench: error: --device %s: %s\n", device_text.c_str(),
+                 e.message().c_str());
+    return 2;
+  }
   try {
     const dysa::Scene scene = dysa::LoadScene(scene_name);
     std::vector<Result> results;
     for (int t : thread_counts) {
-      results.push_back(Measure(scene, t, warmup, steps));
+      results.push_back(Measure(scene, device, t, warmup, steps));
       const Result& r = results.back();
       std::printf(
-          "%s: %zu particles, %d threads: %.2f ms/step, %.2f million particle-steps/s, "
+          "%s: %zu particles, %d threads on %s: %.2f ms/step, %.2f million particle-steps/s, "
           "state hash %016llx\n",
-          scene_name.c_str(), r.particles, t, r.ms_per_step(), r.mps(),
+          scene_name.c_str(), r.particles, t, r.device.c_str(), r.ms_per_step(), r.mps(),
           static_cast<unsigned long long>(r.hash));
       for (const dysa::PassProfile& p : r.passes) {
         std::printf("    %-16s %8.3f ms/step  %5.1f%%\n", p.name.c_str(),

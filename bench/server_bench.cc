@@ -8,6 +8,7 @@
 //   server_bench                       # all parts, results in bench/results/server_*.csv
 //   server_bench --part pipeline --large 100 --seconds 5
 //   server_bench --part slowdown --slowdown-subscribers 4 --pairs 20 --window 3
+//   server_bench --part live --device cuda  # the simulations step on the GPU
 #include <grpcpp/grpcpp.h>
 #include <omp.h>
 
@@ -21,7 +22,9 @@
 #include <thread>
 
 #include "dysa/codec/frame_codec.h"
+#include "dysa/core/device.h"
 #include "dysa/core/scene.h"
+#include "dysa/core/types.h"
 #include "dysa/service/server.h"
 #include "dysa/service/simulation_host.h"
 #include "dysa/v1/simulation.grpc.pb.h"
@@ -177,8 +180,9 @@ double StageMs(const dysa::service::HostStatus& status, const std::string& name)
 }
 
 // The live parts' host: paused at first, then simulating as fast as it can.
-HostOptions AsFastAsItRuns(int solver_threads) {
+HostOptions AsFastAsItRuns(int solver_threads, const dysa::Device& device) {
   HostOptions options;
+  options.device = device;
   options.frame_rate = 0;
   options.start_paused = true;
   options.solver_threads = solver_threads;
@@ -188,10 +192,10 @@ HostOptions AsFastAsItRuns(int solver_threads) {
 // Part 1: the live simulation as fast as it runs, from the same state each time, with 0, 1, 4
 // and 16 subscribers: simulated frames per second and frames delivered to each subscriber.
 void Live(const std::vector<int>& counts, double seconds, int warmup_frames, int solver_threads,
-          std::ofstream& csv) {
+          const dysa::Device& device, std::ofstream& csv) {
   const dysa::Scene scene = dysa::LoadScene("seed_test_scene");
   for (int n : counts) {
-    SimulationHost host(scene, AsFastAsItRuns(solver_threads));
+    SimulationHost host(scene, AsFastAsItRuns(solver_threads, device));
     Server server(host, Loopback());
     auto stub = dysa::v1::Simulation::NewStub(
         grpc::CreateChannel(Address(server), grpc::InsecureChannelCredentials()));
@@ -276,10 +280,10 @@ void Control(dysa::v1::Simulation::Stub& stub,
 }
 
 void Slowdown(int subscribers, int pairs, double seconds, int warmup_frames, int solver_threads,
-              const std::filesystem::path& out) {
+              const dysa::Device& device, const std::filesystem::path& out) {
   using dysa::v1::Simulation;
   const dysa::Scene scene = dysa::LoadScene("seed_test_scene");
-  SimulationHost host(scene, AsFastAsItRuns(solver_threads));
+  SimulationHost host(scene, AsFastAsItRuns(solver_threads, device));
   Server server(host, Loopback());
   auto stub =
       Simulation::NewStub(grpc::CreateChannel(Address(server), grpc::InsecureChannelCredentials()));
@@ -355,12 +359,13 @@ void Slowdown(int subscribers, int pairs, double seconds, int warmup_frames, int
 // they are encoded (the simulation is paused), so the numbers are the fan-out's capacity:
 // encoding, gRPC on loopback and each client's decoding, on the same 2 cores.
 void Pipeline(const dysa::Scene& scene, double warmup_time, int recorded,
-              const std::vector<int>& counts, Mode mode, double seconds, std::ofstream& csv) {
+              const std::vector<int>& counts, Mode mode, double seconds, const dysa::Device& device,
+              std::ofstream& csv) {
   std::printf("recording %d frames of %s ...\n", recorded, scene.name.c_str());
   std::vector<FrameSnapshot> frames(recorded);
   {
-    dysa::Simulation sim(scene);
-    while (sim.state().time < warmup_time) sim.StepFrame();
+    dysa::Simulation sim(scene, device);
+    while (sim.time() < warmup_time) sim.StepFrame();
     for (FrameSnapshot& f : frames) {
       sim.StepFrame();
       dysa::service::GatherSnapshot(sim, dysa::codec::kPositions | dysa::codec::kSpeed, f);
@@ -369,6 +374,7 @@ void Pipeline(const dysa::Scene& scene, double warmup_time, int recorded,
   for (int n : counts) {
     HostOptions options;
     options.start_paused = true;
+    options.device = device;
     SimulationHost host(scene, options);
     // The feeder below is the only publisher: keyframe requests are served by its next frame.
     host.hub().set_frame_needed([] {});
@@ -411,9 +417,10 @@ void Pipeline(const dysa::Scene& scene, double warmup_time, int recorded,
 
 // Part 3: the thesis scene at 60 frames/s with one subscriber that never reads and one that does:
 // resident memory of the whole process, sampled every second.
-void Stalled(double seconds, const std::filesystem::path& out) {
+void Stalled(double seconds, const dysa::Device& device, const std::filesystem::path& out) {
   HostOptions options;
   options.frame_rate = 60;
+  options.device = device;
   SimulationHost host(dysa::LoadScene("seed_test_scene"), options);
   Server server(host, Loopback());
   Client stalled(Address(server), 0, Mode::kStalled);
@@ -490,7 +497,22 @@ int main(int argc, char** argv) {
   app.add_option("--window", window_seconds, "Length of each slowdown window, s")
       ->check(CLI::Range(0.5, 60.0))
       ->capture_default_str();
+  std::string device_text = "cpu";
+  app.add_option("--device", device_text,
+                 "Where every part's simulation steps: cpu, cuda or cuda:N (frames are gathered, "
+                 "encoded and sent on the CPU either way)")
+      ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
+
+  dysa::Device device;
+  try {
+    device = dysa::ParseDevice(device_text);
+    std::printf("device %s\n", dysa::QueryDevice(device).Describe(device).c_str());
+  } catch (const dysa::ConfigError& e) {
+    std::fprintf(stderr, "server_bench: error: --device %s: %s\n", device_text.c_str(),
+                 e.message().c_str());
+    return 2;
+  }
 
   std::filesystem::create_directories(out_dir);
   std::printf("%d OpenMP threads\n", omp_get_max_threads());
@@ -506,21 +528,22 @@ int main(int argc, char** argv) {
       std::vector<int> with_zero{0};
       with_zero.insert(with_zero.end(), counts.begin(), counts.end());
       with_zero.push_back(0);  // again at the end: drift of the machine shows here
-      Live(with_zero, seconds, 30, solver_threads, csv);
+      Live(with_zero, seconds, 30, solver_threads, device, csv);
     }
     if (part != "live") {
-      Pipeline(dysa::LoadScene("seed_test_scene"), 1.0, 60, counts, Mode::kDecode, seconds, csv);
+      Pipeline(dysa::LoadScene("seed_test_scene"), 1.0, 60, counts, Mode::kDecode, seconds, device,
+               csv);
       const dysa::Scene block = LargeBlock(large);
-      Pipeline(block, 0.1, 30, {1}, Mode::kDecode, seconds, csv);
-      Pipeline(block, 0.1, 30, {1}, Mode::kReceive, seconds, csv);
+      Pipeline(block, 0.1, 30, {1}, Mode::kDecode, seconds, device, csv);
+      Pipeline(block, 0.1, 30, {1}, Mode::kReceive, seconds, device, csv);
     }
   }
   if (part == "slowdown" || part == "all") {
-    Slowdown(slowdown_subscribers, pairs, window_seconds, 30, solver_threads,
+    Slowdown(slowdown_subscribers, pairs, window_seconds, 30, solver_threads, device,
              std::filesystem::path(out_dir) / "server_slowdown.csv");
   }
   if (part == "stalled" || part == "all") {
-    Stalled(stalled_seconds, std::filesystem::path(out_dir) / "server_stalled_memory.csv");
+    Stalled(stalled_seconds, device, std::filesystem::path(out_dir) / "server_stalled_memory.csv");
   }
   return 0;
 }

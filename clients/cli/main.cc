@@ -5,9 +5,11 @@
 #include <iostream>
 #include <sstream>
 
+#include "dysa/core/device.h"
 #include "dysa/core/params.h"
 #include "dysa/core/scene.h"
 #include "dysa/core/solver.h"
+#include "dysa/core/types.h"
 #include "run_command.h"
 #include "validate_command.h"
 
@@ -39,6 +41,39 @@ std::string ParameterHelp() {
   text += "\nSolvers:";
   for (const dysa::SolverInfo& s : dysa::SolverRegistry()) text += " " + std::string(s.name);
   return text + "\n";
+}
+
+constexpr const char* kDeviceHelp =
+    "Where the steps run: cpu (default; OpenMP), cuda (= cuda:0) or cuda:N, a CUDA GPU (for the "
+    "solvers with a GPU backend)";
+
+// --device: cpu, cuda or cuda:N, as dysa::ParseDevice reads them; anything else is a usage error
+// naming the flag and the accepted forms.
+CLI::Validator DeviceValidator() {
+  return CLI::Validator(
+      [](std::string& text) -> std::string {
+        try {
+          dysa::ParseDevice(text);
+          return "";
+        } catch (const dysa::ConfigError& e) {
+          return e.message();
+        }
+      },
+      "cpu|cuda[:N]");
+}
+
+// An error of `dysa run` or `dysa validate`; a device that cannot run (no GPU, no driver, a build
+// without CUDA, a solver without a GPU backend) is a usage error (2), naming --device.
+int ReportError(const std::string& command, const std::exception& error, const std::string& device,
+                int status) {
+  const auto* config = dynamic_cast<const dysa::ConfigError*>(&error);
+  if (config && config->field() == "device") {
+    std::cerr << "dysa " << command << ": error: --device " << device << ": " << config->message()
+              << "\n";
+    return 2;
+  }
+  std::cerr << "dysa " << command << ": error: " << error.what() << "\n";
+  return status;
 }
 
 #ifdef DYSA_WITH_REMOTE
@@ -261,6 +296,8 @@ int main(int argc, char** argv) {
   end_opt->excludes(steps_opt);
   run_cmd->add_option("--threads", run.threads, "OpenMP threads (default: all cores)")
       ->check(CLI::Range(1, 1024));
+  std::string run_device = "cpu";
+  run_cmd->add_option("--device", run_device, kDeviceHelp)->check(DeviceValidator());
   run_cmd->add_option("--out", run.out_dir, "Output directory for probes.csv and frames")
       ->capture_default_str();
   run_cmd
@@ -280,6 +317,8 @@ int main(int argc, char** argv) {
   validate_cmd->add_option("--set", validate.sets, "Override a parameter, NAME=VALUE (repeatable)");
   validate_cmd->add_option("--threads", validate.threads, "OpenMP threads (default: all cores)")
       ->check(CLI::Range(1, 1024));
+  std::string validate_device = "cpu";
+  validate_cmd->add_option("--device", validate_device, kDeviceHelp)->check(DeviceValidator());
   validate_cmd
       ->add_option("--slab-layers", validate.slab_layers,
                    "Particles across each case's 3D slab (default 4; more keeps the side walls "
@@ -306,18 +345,18 @@ int main(int argc, char** argv) {
     if (*steps_opt) run.steps = steps;
     run.progress = isatty(STDERR_FILENO) != 0;
     try {
+      run.device = dysa::ParseDevice(run_device);
       dysa::RunOffline(run, std::cout, std::cerr);
     } catch (const std::exception& e) {
-      std::cerr << "dysa run: error: " << e.what() << "\n";
-      return 1;
+      return ReportError("run", e, run_device, 1);
     }
   }
   if (validate_cmd->parsed()) {
     try {
+      validate.device = dysa::ParseDevice(validate_device);
       return dysa::RunValidate(validate, std::cout);
     } catch (const std::exception& e) {
-      std::cerr << "dysa validate: error: " << e.what() << "\n";
-      return 2;
+      return ReportError("validate", e, validate_device, 2);
     }
   }
   return 0;

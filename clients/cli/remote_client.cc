@@ -64,6 +64,8 @@ ServerStatus FromProto(const pb::Status& s) {
   out.frames_encoded = s.frames_encoded();
   out.state_hash = s.state_hash();
   out.scene_version = s.scene_version();
+  out.device = s.device();
+  out.device_memory_bytes = s.device_memory_bytes();
   return out;
 }
 

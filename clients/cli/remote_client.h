@@ -74,6 +74,9 @@ struct ServerStatus {
   uint64_t state_hash = 0;      // while paused: equal hashes mean bit-identical states; 0 running
   uint64_t scene_version = 0;   // changes whenever GetScene() would answer differently
   uint32_t solver_threads = 0;  // OpenMP threads the solver steps with
+  // "cpu", or e.g. "cuda:0 NVIDIA H200, 139.8 GiB, sm_90"; empty from a server that predates it.
+  std::string device;
+  uint64_t device_memory_bytes = 0;  // bytes of GPU memory the simulation holds; 0 on the CPU
 };
 
 struct ControlResult {

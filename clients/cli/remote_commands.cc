@@ -53,6 +53,14 @@ std::string HumanBytes(double bytes) {
   return Fixed(bytes, unit == 0 ? 0 : 1) + " " + kUnits[unit];
 }
 
+// Where the server's simulation steps: "cpu", or the GPU and the memory the simulation holds on
+// it ("cuda:0 NVIDIA H200, 139.8 GiB, sm_90; 52.4 MB held").
+std::string DeviceText(const ServerStatus& s) {
+  if (s.device.empty()) return "not reported (an older server)";
+  if (s.device_memory_bytes == 0) return s.device;
+  return s.device + "; " + HumanBytes(double(s.device_memory_bytes)) + " held";
+}
+
 // Rows of cells printed as columns, each as wide as its widest cell; `right` columns are
 // right-aligned (numbers).
 void PrintTable(const std::vector<std::vector<std::string>>& rows, const std::set<size_t>& right,
@@ -113,7 +121,9 @@ Json ToJson(const ServerStatus& s) {
           {"frames_encoded", s.frames_encoded},
           {"state_hash", s.state_hash},
           {"scene_version", s.scene_version},
-          {"solver_threads", s.solver_threads}};
+          {"solver_threads", s.solver_threads},
+          {"device", s.device},
+          {"device_memory_bytes", s.device_memory_bytes}};
 }
 
 Json ToJson(const ControlResult& r) {
@@ -313,6 +323,7 @@ void PrintStatus(Client& client, bool json, std::ostream& out) {
   std::vector<std::vector<std::string>> rows = {
       {"scene", s.scene + " (solver " + s.solver + ", " + std::to_string(s.solver_threads) +
                     (s.solver_threads == 1 ? " thread)" : " threads)")},
+      {"device", DeviceText(s)},
       {"state", s.state},
       {"frame", std::to_string(s.frame)},
       {"step", std::to_string(s.step)},
@@ -554,6 +565,13 @@ uint32_t ParseFields(const std::vector<std::string>& names) {
 // watch
 
 void Watch(Client& client, const WatchOptions& options, std::ostream& out) {
+  // Once, before the frames: what runs where (frames carry neither scene nor device).
+  const ServerStatus status = client.GetStatus();
+  if (!options.json) {
+    out << "watching " << status.scene << " (solver " << status.solver << ") on "
+        << DeviceText(status) << "\n"
+        << std::flush;
+  }
   std::unique_ptr<FrameStream> stream = client.StreamFrames(options.stream);
   WatchStats stats;
   const std::string address = client.address();
@@ -627,7 +645,8 @@ void Watch(Client& client, const WatchOptions& options, std::ostream& out) {
                       {"time", stats.time},
                       {"particles", stats.particles},
                       {"frames_skipped", stats.frames_skipped},
-                      {"decode_errors", stats.decode_errors}},
+                      {"decode_errors", stats.decode_errors},
+                      {"device", status.device}},
                      out);
   }
   if (options.live) out << "\n";

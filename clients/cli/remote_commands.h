@@ -59,8 +59,9 @@ struct WatchOptions {
   const std::atomic<bool>* interrupted = nullptr;  // set by a SIGINT handler; ends the watch
 };
 
-// Opens StreamFrames, decodes every frame and shows frame, simulated time, particles, frames/s
-// received, bytes per frame and per particle, and the latency since the server produced it.
+// Names the scene and the device it runs on (one GetStatus), then opens StreamFrames, decodes
+// every frame and shows frame, simulated time, particles, frames/s received, bytes per frame and
+// per particle, and the latency since the server produced it.
 // An interruption or the end of `seconds` is a normal end.
 void Watch(Client& client, const WatchOptions& options, std::ostream& out);
 

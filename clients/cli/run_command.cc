@@ -39,7 +39,7 @@ class ProbeWriter {
     file_ << std::setprecision(9);
   }
   void Write(const Simulation& sim) {
-    file_ << sim.state().time << ',' << sim.state().step;
+    file_ << sim.time() << ',' << sim.step();
     for (double v : EvaluateProbes(sim.scene().probes, sim.model(), sim.state())) file_ << ',' << v;
     file_ << '\n';
     if (!file_) throw std::runtime_error("error writing probes.csv");
@@ -62,12 +62,14 @@ void PrintProfile(const Simulation& sim, double wall_s, uint64_t steps, int thre
         << std::setprecision(3) << std::setw(12) << per_step << std::setw(9) << std::setprecision(1)
         << (total_ms > 0 ? 100 * pass.total_ms / total_ms : 0.0) << "%\n";
   }
-  const double particle_steps = double(sim.state().particles.size()) * double(steps);
+  const double particle_steps = double(sim.particle_count()) * double(steps);
   out << std::left << std::setw(18) << "total" << std::right << std::setprecision(3)
       << std::setw(12) << (steps ? total_ms / double(steps) : 0.0) << "\n\n"
-      << steps << " steps of " << sim.state().particles.size() << " particles in "
-      << std::setprecision(2) << wall_s << " s with " << threads
-      << " threads: " << std::setprecision(2) << (wall_s > 0 ? particle_steps / wall_s / 1e6 : 0.0)
+      << steps << " steps of " << sim.particle_count() << " particles in " << std::setprecision(2)
+      << wall_s << " s "
+      << (sim.device().is_cuda() ? "on " + sim.DeviceDescription()
+                                 : "with " + std::to_string(threads) + " threads")
+      << ": " << std::setprecision(2) << (wall_s > 0 ? particle_steps / wall_s / 1e6 : 0.0)
       << " million particle-steps/s\n";
   out.unsetf(std::ios::floatfield);
 }
@@ -81,7 +83,7 @@ void RunOffline(const RunOptions& options, std::ostream& out, std::ostream& prog
   if (options.threads > 0) omp_set_num_threads(options.threads);
   const int threads = options.threads > 0 ? options.threads : omp_get_max_threads();
 
-  Simulation sim(std::move(scene));
+  Simulation sim(std::move(scene), options.device);
   const Scene& sc = sim.scene();
   const double end_time = options.end_time.value_or(sc.end_time);
   // A physical solver's steps are CFL-adaptive: each is capped so that it lands exactly on the
@@ -97,8 +99,8 @@ void RunOffline(const RunOptions& options, std::ostream& out, std::ostream& prog
   std::optional<VtkSeriesWriter> vtk;
   if (options.vtk_every > 0) vtk.emplace(dir, "frames");
 
-  out << "scene " << sc.name << ": " << sim.state().particles.size() << " particles, solver "
-      << sc.solver << ", "
+  out << "scene " << sc.name << ": " << sim.particle_count() << " particles, solver " << sc.solver
+      << (sim.device().is_cuda() ? " on " + sim.DeviceDescription() : "") << ", "
       << (adaptive ? "adaptive dt <= " + Number(sim.params().max_time_step)
                    : "dt " + Number(sim.model().dt))
       << " s, "
@@ -113,10 +115,11 @@ void RunOffline(const RunOptions& options, std::ostream& out, std::ostream& prog
   double next_vtk = vtk_interval;
   const auto start = Clock::now();
   auto last_progress = start;
+  // Per step: the cheap accessors only (on a GPU, state() copies every particle array back);
+  // state() only for the steps that write probes or frames.
   auto done = [&] {
-    if (options.steps) return sim.state().step >= *options.steps;
-    return adaptive ? sim.state().time >= end_time
-                    : sim.state().time + 0.5 * sim.model().dt >= end_time;
+    if (options.steps) return sim.step() >= *options.steps;
+    return adaptive ? sim.time() >= end_time : sim.time() + 0.5 * sim.model().dt >= end_time;
   };
   while (!done()) {
     if (adaptive) {
@@ -126,37 +129,38 @@ void RunOffline(const RunOptions& options, std::ostream& out, std::ostream& prog
     } else {
       sim.Step();
     }
-    const State& st = sim.state();
-    if (st.time + 1e-9 * interval >= next_output) {
+    const double time = sim.time();
+    const uint64_t step = sim.step();
+    if (time + 1e-9 * interval >= next_output) {
       probes.Write(sim);
-      while (next_output <= st.time + 1e-9 * interval) next_output += interval;
+      while (next_output <= time + 1e-9 * interval) next_output += interval;
     }
     if (adaptive) {
-      if (vtk && st.time + 1e-9 * vtk_interval >= next_vtk) {
-        vtk->WriteFrame(st.particles, st.time);
-        while (next_vtk <= st.time + 1e-9 * vtk_interval) next_vtk += vtk_interval;
+      if (vtk && time + 1e-9 * vtk_interval >= next_vtk) {
+        vtk->WriteFrame(sim.state().particles, time);
+        while (next_vtk <= time + 1e-9 * vtk_interval) next_vtk += vtk_interval;
       }
     } else {
       const uint64_t ipf = uint64_t(sim.params().iterations_per_frame);
-      if (vtk && st.step % ipf == 0 && (st.step / ipf) % uint64_t(options.vtk_every) == 0) {
-        vtk->WriteFrame(st.particles, st.time);
+      if (vtk && step % ipf == 0 && (step / ipf) % uint64_t(options.vtk_every) == 0) {
+        vtk->WriteFrame(sim.state().particles, time);
       }
     }
     const auto now = Clock::now();
     if (options.progress && Seconds(now - last_progress) > 0.25) {
       last_progress = now;
       const double wall = Seconds(now - start);
-      progress << "\r  t = " << std::fixed << std::setprecision(3) << st.time << " s"
-               << (options.steps ? "" : " / " + Number(end_time) + " s") << "  step " << st.step
+      progress << "\r  t = " << std::fixed << std::setprecision(3) << time << " s"
+               << (options.steps ? "" : " / " + Number(end_time) + " s") << "  step " << step
                << "  " << std::setprecision(2)
-               << double(st.particles.size()) * double(st.step) / wall / 1e6
+               << double(sim.particle_count()) * double(step) / wall / 1e6
                << " M particle-steps/s   " << std::flush;
       progress.unsetf(std::ios::floatfield);
     }
   }
   const double wall_s = Seconds(Clock::now() - start);
   if (options.progress) progress << "\r" << std::string(72, ' ') << "\r" << std::flush;
-  PrintProfile(sim, wall_s, sim.state().step, threads, out);
+  PrintProfile(sim, wall_s, sim.step(), threads, out);
   out << "probes: " << (dir / "probes.csv").string();
   if (vtk)
     out << ", ParaView series: " << (dir / "frames.pvd").string() << " (" << vtk->frames()

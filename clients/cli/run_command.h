@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "dysa/core/device.h"
+
 namespace dysa {
 
 struct RunOptions {
@@ -15,14 +17,16 @@ struct RunOptions {
   std::optional<double> end_time;  // s; default: the scene's end_time
   std::optional<uint64_t> steps;   // instead of end_time
   int threads = 0;                 // 0: OpenMP's default
+  Device device;                   // where the steps run (--device): the CPU or a CUDA GPU
   std::string out_dir = "out";
   int vtk_every = 0;      // write a VTK frame every K frames; 0: none
   bool progress = false;  // a live progress line on stderr
 };
 
 // Runs the scene and writes OUT/probes.csv (and VTK frames); prints the per-pass timing table
-// and throughput to `out`. Throws ConfigError for bad scenes or parameters and
-// std::runtime_error for I/O failures.
+// and throughput to `out`. Throws ConfigError for bad scenes or parameters,
+// ConfigError("device", ...) when options.device cannot run (naming what is missing) or has no
+// backend for the scene's solver, and std::runtime_error for I/O failures.
 void RunOffline(const RunOptions& options, std::ostream& out, std::ostream& progress);
 
 }  // namespace dysa

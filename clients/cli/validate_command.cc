@@ -134,11 +134,14 @@ int RunValidate(const ValidateOptions& options, std::ostream& out) {
   base.solver = options.solver;
   base.sets = options.sets;
   base.slab_layers = options.slab_layers;
+  base.device = options.device;
+  // Fails here, naming what is missing, rather than after the first case's set-up.
+  const std::string device = QueryDevice(options.device).Describe(options.device);
   // Targets: at the scenes' resolution the project's (hydrostatic pressure within 1% of
   // rho0 g H, dam-break front RMS within 5%); --quick, the bounds the CI test asserts.
   const bool quick = options.quick;
   out << (quick ? "quick resolutions (the CI bounds)" : "scene resolutions (the project targets)")
-      << "\n";
+      << (options.device.is_cuda() ? ", on " + device : "") << "\n";
 
   ValidationOptions tank = base;
   if (quick) tank.spacing = kQuickTankSpacing;

@@ -5,6 +5,8 @@
 #include <string>
 #include <vector>
 
+#include "dysa/core/device.h"
+
 namespace dysa {
 
 struct ValidateOptions {
@@ -13,10 +15,12 @@ struct ValidateOptions {
   int threads = 0;                // 0: OpenMP's default
   int slab_layers = 4;            // particles across each case's slab (kSlabLayers)
   std::vector<std::string> sets;  // NAME=VALUE overrides for every case
+  Device device;                  // where the cases step (--device)
 };
 
 // Runs every case, prints one table row per measure (value, target, ok/MISSED) to `out`, and
-// returns 0 when every target is met, 1 otherwise. Throws ConfigError for bad options.
+// returns 0 when every target is met, 1 otherwise. Throws ConfigError for bad options, and
+// ConfigError("device", ...) before any case runs when options.device cannot run.
 int RunValidate(const ValidateOptions& options, std::ostream& out);
 
 }  // namespace dysa

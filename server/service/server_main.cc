@@ -15,6 +15,7 @@
 #include <mutex>
 #include <sstream>
 
+#include "dysa/core/device.h"
 #include "dysa/core/scene.h"
 #include "dysa/core/types.h"
 #include "dysa/service/server.h"
@@ -75,6 +76,7 @@ int main(int argc, char** argv) {
   // Phase 1: flags.
   CLI::App app{"dysa-server: runs a DySAQUASIMs simulation and serves it over gRPC"};
   std::string scene_arg = "seed_test_scene";
+  std::string device_arg = "cpu";
   std::string listen = "127.0.0.1:50051";
   int threads = 0;
   double frame_rate = 60;
@@ -91,6 +93,10 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--threads", threads, "OpenMP threads for the solver (default: all cores)")
       ->check(CLI::Range(1, 1024));
+  app.add_option("--device", device_arg,
+                 "Where the simulation steps: cpu (OpenMP), cuda (= cuda:0) or cuda:N, a CUDA GPU "
+                 "(scenes whose solver has no GPU backend are refused)")
+      ->capture_default_str();
   app.add_option("--frame-rate", frame_rate,
                  "Frames simulated per wall second at most; 0: as fast as possible")
       ->check(CLI::Range(0.0, 10000.0))
@@ -130,6 +136,13 @@ int main(int argc, char** argv) {
   dysa::service::ServerOptions server_options;
   dysa::Scene scene;
   try {
+    try {
+      host_options.device = dysa::ParseDevice(device_arg);
+      // Refuses to start without the GPU, naming what is missing (driver, GPU, ordinal, build).
+      dysa::QueryDevice(host_options.device);
+    } catch (const dysa::ConfigError& e) {
+      throw std::runtime_error("--device " + device_arg + ": " + e.message());
+    }
     scene = dysa::LoadScene(scene_arg);
     if (!token_file.empty()) server_options.token = ReadToken(token_file);
     if (!tls_cert.empty()) {
@@ -166,6 +179,15 @@ int main(int argc, char** argv) {
     host = std::make_unique<dysa::service::SimulationHost>(std::move(scene), host_options);
     server = std::make_unique<dysa::service::Server>(*host, server_options);
     if (!port_file.empty()) WritePortFile(port_file, server->port());
+  } catch (const dysa::ConfigError& e) {
+    // The scene's solver has no backend on --device (or the GPU failed as it was set up): a
+    // usage error, as in phase 2. Others (--max-particles) as before.
+    if (e.field() != "device") {
+      std::cerr << "dysa-server: error: " << e.what() << "\n";
+      return 1;
+    }
+    std::cerr << "dysa-server: error: --device " << device_arg << ": " << e.message() << "\n";
+    return 2;
   } catch (const std::exception& e) {
     std::cerr << "dysa-server: error: " << e.what() << "\n";
     return 1;
@@ -177,7 +199,8 @@ int main(int argc, char** argv) {
            ? ""
            : (protect_watch ? ", token for every call" : ", token for controls")) +
       ", " + std::to_string(host->Status().solver_threads) +
-      (host->Status().solver_threads == 1 ? " solver thread" : " solver threads"));
+      (host->Status().solver_threads == 1 ? " solver thread" : " solver threads") + " on " +
+      host->Status().device);
 
   int signal_number = 0;
   sigwait(&signals, &signal_number);

@@ -175,6 +175,30 @@ TEST(DysaRemoteBinaryTest, ConnectionRefusedNamesTheAddress) {
   EXPECT_THAT(env.err, HasSubstr("127.0.0.1:1"));
 }
 
+// dysa-server --device: a bad value, or a device that cannot run (cuda:63: no machine has 64
+// GPUs; on this one, maybe no GPU or no CUDA build at all), stops it before it listens: exit 2
+// and a message naming the flag and what is wrong.
+TEST(DysaServerBinaryTest, AnUnusableDeviceStopsItBeforeItListens) {
+  TempDir dir;
+  const fs::path port_file = dir.path() / "port";
+  const auto server = [&](const std::string& device) {
+    return RunCaptured(dir.path(), std::string("'") + DYSA_SERVER_BINARY +
+                                       "' --listen 127.0.0.1:0 --port-file '" + port_file.string() +
+                                       "' --device " + device);
+  };
+  Result r = server("bogus");
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_THAT(r.err, HasSubstr("dysa-server: error: --device bogus: "));
+  EXPECT_THAT(r.err, HasSubstr("use cpu, cuda or cuda:N (N in [0, 63])"));
+  r = server("cuda:63");
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_THAT(r.err, HasSubstr("dysa-server: error: --device cuda:63: "));
+  EXPECT_THAT(r.err, HasSubstr("CUDA"));
+  EXPECT_FALSE(fs::exists(port_file));
+  const Result help = RunCaptured(dir.path(), std::string("'") + DYSA_SERVER_BINARY + "' --help");
+  EXPECT_THAT(help.out, HasSubstr("--device"));
+}
+
 TEST(DysaRemoteBinaryTest, UsageErrorsExitWithTwoBeforeAnyCall) {
   TempDir dir;
   // No server listens at 127.0.0.1:1, so an exit status of 2 (not 1) shows no call was made.
@@ -212,6 +236,7 @@ TEST_F(RemoteTest, StatusPrintsATableAndJson) {
   EXPECT_THAT(r.out, HasSubstr("mean ms"));
   EXPECT_THAT(r.out, HasSubstr("density"));
   EXPECT_THAT(r.out, HasSubstr("total"));
+  EXPECT_THAT(r.out, ::testing::ContainsRegex("\ndevice +cpu\n"));
 
   // --json before or after the verb.
   for (const char* args : {"--json status", "status --json"}) {
@@ -224,6 +249,8 @@ TEST_F(RemoteTest, StatusPrintsATableAndJson) {
     EXPECT_EQ(s.value("particles", 0u), kSeedBasicParticles);
     EXPECT_EQ(s.value("frame", 0u), 2u);
     EXPECT_EQ(s.value("step", 0u), 6u);  // 3 steps per frame
+    EXPECT_EQ(s.value("device", ""), "cpu");
+    EXPECT_EQ(s.value("device_memory_bytes", 1u), 0u);
     ASSERT_TRUE(s.contains("passes") && s["passes"].is_array());
     EXPECT_FALSE(s["passes"].empty());
     for (const Json& p : s["passes"]) {
@@ -481,7 +508,8 @@ TEST_F(RemoteTest, WatchPrintsFramesAndStopsAfterSeconds) {
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_GE(took, 1.9);
   EXPECT_LT(took, 30);
-  // Not a terminal: a line a second, then a summary.
+  // Not a terminal: what runs where, a line a second, then a summary.
+  EXPECT_THAT(r.out, HasSubstr("watching seed_basic (solver seed) on cpu\n"));
   EXPECT_THAT(r.out, HasSubstr("frame "));
   EXPECT_THAT(r.out, HasSubstr(std::to_string(kSeedBasicParticles) + " particles"));
   EXPECT_THAT(r.out, HasSubstr("frames/s"));
@@ -494,6 +522,7 @@ TEST_F(RemoteTest, WatchPrintsFramesAndStopsAfterSeconds) {
   EXPECT_GT(j["frames"].get<uint64_t>(), 0u) << j;
   EXPECT_EQ(j["particles"], kSeedBasicParticles / 3);
   EXPECT_EQ(j["decode_errors"], 0);
+  EXPECT_EQ(j["device"], "cpu");
 }
 
 TEST_F(RemoteTest, WatchEndsCleanlyOnCtrlC) {

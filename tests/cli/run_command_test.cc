@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "dysa/core/device.h"
 #include "dysa/core/params.h"
 #include "dysa/core/probes.h"
 #include "dysa/core/scene.h"
@@ -30,6 +31,7 @@ namespace {
 
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
+using ::testing::Not;
 
 using dysa::testing::CommandResult;
 using dysa::testing::ReadFile;
@@ -132,6 +134,8 @@ TEST(RunOfflineTest, PrintsEveryPassAndTheThroughput) {
   EXPECT_THAT(text, HasSubstr("particle-steps/s"));
   EXPECT_THAT(text, HasSubstr("512 particles"));
   EXPECT_THAT(text, HasSubstr("12 steps"));
+  EXPECT_THAT(text, HasSubstr("solver seed, dt "));  // the CPU, by default: no device named
+  EXPECT_THAT(text, HasSubstr(" threads: "));
   EXPECT_TRUE(progress.str().empty());  // progress is off
 }
 
@@ -218,6 +222,17 @@ TEST(RunOfflineTest, BadSetThrowsConfigError) {
   ExpectRunConfigError(options, "particle_quantity");
 }
 
+// No machine has a 64th GPU (cuda:63, the largest ordinal ParseDevice takes): whatever is
+// missing here (the CUDA build, the driver, any GPU, that ordinal), the run fails with
+// ConfigError("device") before it writes anything.
+TEST(RunOfflineTest, AnUnavailableDeviceThrowsConfigErrorNamingIt) {
+  TempDir dir;
+  RunOptions options = SmallRun(dir.path());
+  options.device = ParseDevice("cuda:63");
+  ASSERT_FALSE(DeviceUnavailableReason(options.device).empty());
+  ExpectRunConfigError(options, "device");
+}
+
 // ---------------------------------------------------------------------------------------------
 // The real executable.
 
@@ -291,6 +306,62 @@ TEST(DysaBinaryTest, ValidationThatMissesATargetFailsAndNamesIt) {
   EXPECT_THAT(r.out, ::testing::ContainsRegex("pressure error max / rho0 g H +[0-9.]+% +1\\.00% +"
                                               "MISSED"));
   EXPECT_THAT(r.out, HasSubstr("validate: targets MISSED"));
+}
+
+TEST(DysaBinaryTest, BadDeviceIsAUsageErrorNamingTheFlagAndTheForms) {
+  TempDir dir;
+  const fs::path out_dir = dir.path() / "out";
+  for (const char* device : {"bogus", "cuda:99", "cuda:", "gpu"}) {
+    const Result r = RunDysa(dir.path(), std::string("run seed_basic --steps 1 --device ") +
+                                             device + " --out '" + out_dir.string() + "'");
+    EXPECT_EQ(r.exit_code, 2) << device << ": " << r.err;
+    EXPECT_THAT(r.err, HasSubstr("--device")) << device;
+    EXPECT_THAT(r.err, HasSubstr("use cpu, cuda or cuda:N (N in [0, 63])")) << device;
+  }
+  const Result validate = RunDysa(dir.path(), "validate --quick --device bogus");
+  EXPECT_EQ(validate.exit_code, 2) << validate.err;
+  EXPECT_THAT(validate.err, HasSubstr("--device"));
+  EXPECT_THAT(validate.err, HasSubstr("use cpu, cuda or cuda:N"));
+  EXPECT_FALSE(fs::exists(out_dir / "probes.csv"));
+  // --help names the flag and its forms.
+  const Result help = RunDysa(dir.path(), "run --help");
+  EXPECT_THAT(help.out, HasSubstr("--device"));
+  EXPECT_THAT(help.out, HasSubstr("cuda:N"));
+}
+
+// A device that parses but cannot run here (cuda:63: no machine has 64 GPUs; on this one, no
+// GPU or no CUDA build at all) fails cleanly: exit 2, the flag and value, and what is missing.
+TEST(DysaBinaryTest, UnavailableDeviceFailsWithWhatIsMissing) {
+  TempDir dir;
+  const fs::path out_dir = dir.path() / "out";
+  std::vector<std::string> devices = {"cuda:63"};
+  if (!DeviceUnavailableReason(ParseDevice("cuda")).empty()) devices.push_back("cuda");
+  for (const std::string& device : devices) {
+    const Result r = RunDysa(dir.path(), "run seed_basic --steps 1 --device " + device +
+                                             " --out '" + out_dir.string() + "'");
+    EXPECT_EQ(r.exit_code, 2) << device << ": " << r.err;
+    EXPECT_THAT(r.err, HasSubstr("dysa run: error: --device " + device + ": ")) << r.err;
+    EXPECT_THAT(r.err, HasSubstr(DeviceUnavailableReason(ParseDevice(device))));
+    EXPECT_THAT(r.err, HasSubstr("CUDA"));
+    EXPECT_TRUE(r.out.empty()) << r.out;
+    EXPECT_FALSE(fs::exists(out_dir / "probes.csv"));
+  }
+  // validate checks the device before its first case.
+  const Result validate = RunDysa(dir.path(), "validate --quick --device cuda:63");
+  EXPECT_EQ(validate.exit_code, 2) << validate.err;
+  EXPECT_THAT(validate.err, HasSubstr("dysa validate: error: --device cuda:63: "));
+  EXPECT_THAT(validate.out, Not(HasSubstr("hydrostatic_tank")));
+}
+
+TEST(DysaBinaryTest, ExplicitCpuDeviceRuns) {
+  TempDir dir;
+  const fs::path out_dir = dir.path() / "out";
+  const Result r = RunDysa(
+      dir.path(), "run seed_basic --set particle_quantity=6 --steps 3 --device cpu --out '" +
+                      out_dir.string() + "'");
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("particle-steps/s"));
+  EXPECT_TRUE(fs::exists(out_dir / "probes.csv"));
 }
 
 TEST(DysaBinaryTest, SmallRunSucceeds) {

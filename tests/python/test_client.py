@@ -235,6 +235,8 @@ class ClientTest(unittest.TestCase):
         self.assertEqual(status.particles, _PARTICLES)
         self.assertEqual(status.alarm, "")
         self.assertEqual(status.solver_threads, 2)  # dysa-server --threads 2
+        self.assertEqual(status.device, "cpu")  # dysa-server's default --device
+        self.assertEqual(status.device_memory_bytes, 0)
         self.assertGreater(status.time, 0.0)
         names = [p.name for p in status.passes]
         self.assertIn("density", names)

@@ -110,6 +110,8 @@ TEST(ServerTest, EveryControlRpcAppliesAndReports) {
   EXPECT_EQ(status.particles(), 1000u);
   EXPECT_EQ(status.solver(), "seed");
   EXPECT_EQ(status.scene(), "seed_basic");
+  EXPECT_EQ(status.device(), "cpu");  // HostOptions' default device
+  EXPECT_EQ(status.device_memory_bytes(), 0u);
 
   v1::ControlReply reply;
   v1::StepRequest step;
@@ -171,6 +173,7 @@ TEST(ServerTest, EveryControlRpcAppliesAndReports) {
   ASSERT_TRUE(stub.LoadScene(Context().get(), load, &reply).ok());
   EXPECT_EQ(reply.status().scene(), "tiny");
   EXPECT_EQ(reply.status().particles(), 125u);
+  EXPECT_EQ(reply.status().device(), "cpu");  // a loaded scene runs where the server does
   load.set_name("seed_basic");
   ASSERT_TRUE(stub.LoadScene(Context().get(), load, &reply).ok());
   EXPECT_EQ(reply.status().particles(), 27000u);

@@ -185,6 +185,29 @@ TEST(SimulationHostLimitsTest, TheParticleLimitRefusesScenesAndParameters) {
   EXPECT_EQ(host.Status().particles, 1000u);
 }
 
+TEST_F(SimulationHostTest, TheStatusNamesTheDevice) {
+  const HostStatus status = host_.Status();
+  EXPECT_EQ(status.device, "cpu");  // HostOptions' default
+  EXPECT_EQ(status.device_memory_bytes, 0u);
+  const ControlResult r = Apply(host_, LoadSceneControl{SmallScene(8)});
+  ASSERT_EQ(r.code, ControlCode::kOk) << r.message;
+  EXPECT_EQ(r.status.device, "cpu");
+}
+
+// No machine has a 64th GPU (cuda:63, the largest ordinal ParseDevice takes), and this one may
+// have none at all: the host refuses to start, naming the device field, whatever is missing.
+TEST(SimulationHostDeviceTest, AnUnavailableDeviceIsAConfigErrorNamingTheDevice) {
+  HostOptions options = Paused();
+  options.device = ParseDevice("cuda:63");
+  try {
+    SimulationHost host(SmallScene(), options);
+    ADD_FAILURE() << "no ConfigError";
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.field(), "device") << e.what();
+    EXPECT_EQ(e.message(), DeviceUnavailableReason(options.device));
+  }
+}
+
 TEST(SimulationHostLimitsTest, ControlsAfterStopAreAnsweredUnavailable) {
   SimulationHost host(SmallScene(), Paused());
   host.Start();

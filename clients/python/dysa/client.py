@@ -132,6 +132,10 @@ class Status:
     frames_encoded: int  # frames encoded for subscribers since the server started
     scene_version: int = 0  # changes whenever get_scene() would answer differently
     solver_threads: int = 0  # OpenMP threads the solver steps with (dysa-server --threads)
+    # Where the simulation steps (dysa-server --device): "cpu", or the GPU, e.g.
+    # "cuda:0 NVIDIA H200, 139.8 GiB, sm_90"; empty from a server that predates it.
+    device: str = ""
+    device_memory_bytes: int = 0  # bytes of GPU memory the simulation holds; 0 on the CPU
 
     @property
     def paused(self) -> bool:
@@ -234,7 +238,8 @@ def _status(m: Any) -> Status:
         passes=tuple(PassTiming(p.name, p.last_ms, p.mean_ms, p.calls) for p in m.passes),
         subscribers=m.subscribers, alarm=m.alarm, warning=m.warning, history_frames=m.history_frames,
         history_bytes=m.history_bytes, frames_encoded=m.frames_encoded,
-        scene_version=m.scene_version, solver_threads=m.solver_threads)
+        scene_version=m.scene_version, solver_threads=m.solver_threads, device=m.device,
+        device_memory_bytes=m.device_memory_bytes)
 
 
 def _control(m: Any) -> ControlResult:

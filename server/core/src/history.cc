@@ -19,7 +19,7 @@ void History::Start(const Simulation& sim) {
 }
 
 void History::Record(const Simulation& sim) {
-  const uint64_t frame = sim.state().frame;
+  const uint64_t frame = sim.frame();
   if (frame % interval_ == 0 && (checkpoints_.empty() || checkpoints_.back().frame < frame)) {
     Add(sim);
   }
@@ -27,16 +27,16 @@ void History::Record(const Simulation& sim) {
 }
 
 void History::RecordParameterChange(const Simulation& sim) {
-  if (!checkpoints_.empty() && checkpoints_.back().frame == sim.state().frame) {
+  if (!checkpoints_.empty() && checkpoints_.back().frame == sim.frame()) {
     bytes_ -= checkpoints_.back().bytes();
     checkpoints_.pop_back();
   }
   Add(sim);
-  Trim(sim.state().frame);
+  Trim(sim.frame());
 }
 
 uint64_t History::Restore(Simulation& sim, uint64_t target) {
-  if (checkpoints_.empty()) return sim.state().frame;  // Start() not called: nothing kept
+  if (checkpoints_.empty()) return sim.frame();  // Start() not called: nothing kept
   target = std::max(target, oldest_frame());
   // The newest checkpoint at or before target (there is one: the oldest is at or before it).
   while (checkpoints_.size() > 1 && checkpoints_.back().frame > target) {
@@ -44,7 +44,7 @@ uint64_t History::Restore(Simulation& sim, uint64_t target) {
     checkpoints_.pop_back();
   }
   sim.RestoreCheckpoint(checkpoints_.back());
-  while (sim.state().frame < target) sim.StepFrame();
+  while (sim.frame() < target) sim.StepFrame();
   return target;
 }
 

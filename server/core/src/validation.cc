@@ -71,8 +71,8 @@ Scene ValidationScene(const char* name, const ValidationOptions& options) {
 }
 
 ValidationRun RunInfo(const Simulation& sim) {
-  return {sim.scene().solver, sim.params().particle_spacing, sim.state().particles.size(),
-          sim.state().step, sim.state().time};
+  return {sim.scene().solver, sim.params().particle_spacing, sim.particle_count(), sim.step(),
+          sim.time()};
 }
 
 }  // namespace
@@ -88,7 +88,7 @@ double BatchMeansStandardError(const std::vector<double>& batch_means) {
 }
 
 HydrostaticResult RunHydrostaticTank(const ValidationOptions& options) {
-  Simulation sim(ValidationScene("hydrostatic_tank", options));
+  Simulation sim(ValidationScene("hydrostatic_tank", options), options.device);
   const Scene& scene = sim.scene();
   const double end = scene.end_time;
   HydrostaticResult result;
@@ -118,7 +118,7 @@ HydrostaticResult RunHydrostaticTank(const ValidationOptions& options) {
   };
   const double start_height = mean_height(sim.state().particles);
   const double window_start = std::max(0.0, end - kHydrostaticAveragingTime);
-  while (sim.state().time < window_start) sim.Step(window_start);
+  while (sim.time() < window_start) sim.Step(window_start);
   // The time-weighted sums per part of the window (by the time a step ends in): together they
   // give the window's mean; apart, its standard error.
   std::vector<std::vector<double>> batch_sums(kHydrostaticBatches,
@@ -126,11 +126,11 @@ HydrostaticResult RunHydrostaticTank(const ValidationOptions& options) {
   std::vector<double> batch_time(kHydrostaticBatches, 0.0);
   const double batch_length = (end - window_start) / kHydrostaticBatches;
   int samples = 0;
-  while (sim.state().time < end) {
+  while (sim.time() < end) {
     sim.Step(end);
     const double dt = sim.last_dt();
     const std::vector<double> p = EvaluateProbes(probes, sim.model(), sim.state());
-    const int batch = std::clamp(int((sim.state().time - window_start) / batch_length - 1e-9), 0,
+    const int batch = std::clamp(int((sim.time() - window_start) / batch_length - 1e-9), 0,
                                  kHydrostaticBatches - 1);
     for (size_t i = 0; i < p.size(); ++i) batch_sums[batch][i] += p[i] * dt;
     batch_time[batch] += dt;
@@ -187,7 +187,7 @@ HydrostaticResult RunHydrostaticTank(const ValidationOptions& options) {
 }
 
 DamBreakResult RunDamBreak(const ValidationOptions& options) {
-  Simulation sim(ValidationScene("dam_break_martin_moyce", options));
+  Simulation sim(ValidationScene("dam_break_martin_moyce", options), options.device);
   const Scene& scene = sim.scene();
   DamBreakResult result;
   const double d = sim.params().particle_spacing;
@@ -208,9 +208,9 @@ DamBreakResult RunDamBreak(const ValidationOptions& options) {
   result.trace.push_back({0, front_Z()});
   for (const MartinMoyceRow& row : MartinMoyce1952Front()) {
     const double t = row.T * time_unit;
-    while (sim.state().time < t) {
+    while (sim.time() < t) {
       sim.Step(t);
-      result.trace.push_back({sim.state().time / time_unit, front_Z()});
+      result.trace.push_back({sim.time() / time_unit, front_Z()});
     }
     const double Z = result.trace.back().Z;
     result.rows.push_back({row.T, Z, row.Z});
@@ -260,7 +260,7 @@ PoiseuilleResult RunPoiseuille(const ValidationOptions& options) {
   block.size = scene.domain.Size();
   BlockParticleCounts(scene, scene.params);
 
-  Simulation sim(scene);
+  Simulation sim(scene, options.device);
   PoiseuilleResult result;
   result.width = scene.domain.Size().x();
   result.force = std::abs(sim.params().gravity);
@@ -272,7 +272,7 @@ PoiseuilleResult RunPoiseuille(const ValidationOptions& options) {
   const int columns = std::max(1, int(std::lround(result.width / d)));
   const double column = result.width / columns;
   for (const double t : kPoiseuilleTimes) {
-    while (sim.state().time < t) sim.Step(t);
+    while (sim.time() < t) sim.Step(t);
     PoiseuilleResult::Profile profile;
     profile.t = t;
     std::vector<double> sum(columns, 0.0);

@@ -47,7 +47,7 @@ SimulationHost::SimulationHost(Scene scene, HostOptions options)
   if (const std::string over = CheckParticleLimit(scene, scene.params); !over.empty()) {
     throw ConfigError("max_particles", over);
   }
-  sim_ = std::make_unique<Simulation>(std::move(scene));
+  sim_ = std::make_unique<Simulation>(std::move(scene), options_.device);
   running_ = !options_.start_paused;
   DescribeScene();
   StartScene();
@@ -159,7 +159,7 @@ void SimulationHost::AdvanceFrame() {
   sim_->StepFrame();
   if (!sim_->alarm().empty()) {
     // The core stopped at the first step that diverged.
-    alarm_ = sim_->alarm() + " (frame " + std::to_string(sim_->state().frame) +
+    alarm_ = sim_->alarm() + " (frame " + std::to_string(sim_->frame()) +
              "); paused. Step back, reset, or lower the time step";
     running_ = false;
     Log("alarm: " + alarm_);
@@ -179,7 +179,7 @@ ControlResult SimulationHost::Apply(Control& control) {
   ControlResult result = std::visit(
       Overloaded{
           [&](PauseControl&) {
-            if (running_) Log("paused at frame " + std::to_string(sim_->state().frame));
+            if (running_) Log("paused at frame " + std::to_string(sim_->frame()));
             running_ = false;
             return ControlResult{};
           },
@@ -188,7 +188,7 @@ ControlResult SimulationHost::Apply(Control& control) {
               return Error(ControlCode::kFailedPrecondition,
                            "cannot resume: " + alarm_ + " (StepBack or Reset first)");
             }
-            if (!running_) Log("resumed at frame " + std::to_string(sim_->state().frame));
+            if (!running_) Log("resumed at frame " + std::to_string(sim_->frame()));
             running_ = true;
             return ControlResult{};
           },
@@ -218,7 +218,7 @@ ControlResult SimulationHost::Apply(Control& control) {
             }
             running_ = false;
             // A diverged state is not in the history: the last good frame is the one before.
-            const uint64_t from = sim_->state().frame;
+            const uint64_t from = sim_->frame();
             const uint64_t target = from > c.count ? from - c.count : 0;
             const uint64_t reached = history_.Restore(*sim_, target);
             alarm_.clear();
@@ -264,7 +264,9 @@ ControlResult SimulationHost::Apply(Control& control) {
               return Error(ControlCode::kResourceExhausted, over);
             }
             try {
-              auto next = std::make_unique<Simulation>(std::move(c.scene));
+              // On a GPU, a solver without a GPU backend fails here (ConfigError "device"):
+              // the old scene runs on.
+              auto next = std::make_unique<Simulation>(std::move(c.scene), options_.device);
               sim_ = std::move(next);
             } catch (const ConfigError& e) {
               return Error(ControlCode::kInvalidArgument, e.what());
@@ -301,9 +303,10 @@ void SimulationHost::StartScene() {
   gather_ = {};
   publisher_.ResetTiming();
   const Scene& scene = sim_->scene();
-  Log("scene '" + scene.name + "': " + std::to_string(sim_->state().particles.size()) +
-      " particles, solver " + scene.solver + ", history " + std::to_string(history_.window()) +
-      " frames (a checkpoint every " + std::to_string(history_.interval()) + ")");
+  Log("scene '" + scene.name + "': " + std::to_string(sim_->particle_count()) +
+      " particles, solver " + scene.solver + " on " + sim_->DeviceDescription() + ", history " +
+      std::to_string(history_.window()) + " frames (a checkpoint every " +
+      std::to_string(history_.interval()) + ")");
   Publish(/*force=*/true, /*discontinuity=*/true);
   RefreshStatus();
 }
@@ -357,13 +360,13 @@ void SimulationHost::Publish(bool force, bool discontinuity) {
 }
 
 void SimulationHost::RefreshStatus() {
+  // Per frame: the cheap accessors only (on a GPU, state() copies every particle array back).
   HostStatus s;
-  const State& state = sim_->state();
   s.running = running_;
-  s.step = state.step;
-  s.frame = state.frame;
-  s.time = state.time;
-  s.particles = uint32_t(state.particles.size());
+  s.step = sim_->step();
+  s.frame = sim_->frame();
+  s.time = sim_->time();
+  s.particles = uint32_t(sim_->particle_count());
   s.solver = sim_->scene().solver;
   s.scene = sim_->scene().name;
   if (recent_frames_.size() >= 2 && running_) {
@@ -385,9 +388,11 @@ void SimulationHost::RefreshStatus() {
   s.solver_threads = uint32_t(running_threads_);
   s.alarm = alarm_;
   s.warning = sim_->warning();
-  s.history_frames = history_.available(state.frame);
+  s.device = sim_->DeviceDescription();
+  s.device_memory_bytes = sim_->DeviceBytes();
+  s.history_frames = history_.available(s.frame);
   s.history_bytes = history_.bytes();
-  if (!running_) s.state_hash = StateHash(state);
+  if (!running_) s.state_hash = StateHash(sim_->state());
   s.scene_version = scene_version_;
   std::lock_guard lock(status_mu_);
   status_ = std::move(s);

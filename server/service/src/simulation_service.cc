@@ -59,6 +59,8 @@ void ToProto(const HostStatus& s, v1::Status& out) {
   out.set_state_hash(s.state_hash);
   out.set_scene_version(s.scene_version);
   out.set_solver_threads(s.solver_threads);
+  out.set_device(s.device);
+  out.set_device_memory_bytes(s.device_memory_bytes);
 }
 
 void ToProto(const Vec3d& v, v1::Vec3& out) {

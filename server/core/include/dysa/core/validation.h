@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "dysa/core/device.h"
 #include "dysa/core/scene.h"
 
 namespace dysa {
@@ -92,6 +93,8 @@ struct ValidationOptions {
   int slab_layers = kSlabLayers;
   std::string solver;  // "": the scene's (wcsph)
   std::vector<std::string> sets;
+  // Where the cases step; a solver without a GPU backend throws ConfigError("device", ...).
+  Device device;
 };
 HydrostaticResult RunHydrostaticTank(const ValidationOptions& options = {});
 

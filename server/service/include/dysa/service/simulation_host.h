@@ -19,6 +19,7 @@
 #include <variant>
 #include <vector>
 
+#include "dysa/core/device.h"
 #include "dysa/core/history.h"
 #include "dysa/core/scene.h"
 #include "dysa/core/simulation.h"
@@ -37,6 +38,9 @@ struct HostOptions {
   // unless OMP_NUM_THREADS says otherwise). Frames are encoded on a thread of their own with the
   // cores left over, or on the simulation thread when none are (FramePublisher).
   int solver_threads = 0;
+  // Where every simulation of the host steps, including the scenes LoadScene brings: the CPU, or
+  // a CUDA GPU (dysa-server --device). Scenes whose solver has no GPU backend are refused there.
+  Device device;
   // One line per significant event (scene loaded, reset, alarm, ...); may be empty.
   std::function<void(const std::string&)> log;
 };
@@ -63,6 +67,9 @@ struct HostStatus {
   // (encoding it and starting the writes, on the publishing thread), per frame.
   std::vector<PassStatus> passes;
   uint32_t solver_threads = 0;  // OpenMP threads the simulation thread steps with
+  // Simulation::DeviceDescription(): "cpu" or e.g. "cuda:0 NVIDIA H200, 139.8 GiB, sm_90".
+  std::string device;
+  uint64_t device_memory_bytes = 0;  // bytes of GPU memory the simulation holds; 0 on the CPU
   uint32_t subscribers = 0;
   std::string alarm;    // empty when healthy
   std::string warning;  // the solver's latest accuracy warning (Simulation::warning())
@@ -127,7 +134,9 @@ inline constexpr uint32_t kMaxStepCount = 10000;
 
 class SimulationHost {
  public:
-  // Throws ConfigError for an invalid scene or one over options.max_particles.
+  // Throws ConfigError for an invalid scene or one over options.max_particles, and
+  // ConfigError("device", ...) when options.device cannot run it (no GPU, or no GPU backend for
+  // the scene's solver).
   SimulationHost(Scene scene, HostOptions options);
   ~SimulationHost();  // Stop()
   SimulationHost(const SimulationHost&) = delete;
