@@ -85,7 +85,7 @@ int main(int argc, char** argv) {
   std::string token_file, tls_cert, tls_key, port_file;
   bool protect_watch = false;
   bool paused = false;
-  uint64_t max_particles = dysa::kMaxParticles;
+  uint64_t max_particles = dysa::kMaxStreamedParticles;
   size_t max_subscribers = 64;
   app.add_option("--scene", scene_arg, "Built-in scene name or scene JSON file")
       ->capture_default_str();
@@ -122,7 +122,7 @@ int main(int argc, char** argv) {
   key_opt->needs(cert_opt);
   app.add_option("--max-particles", max_particles,
                  "Refuse scenes and parameters with more particles (RESOURCE_EXHAUSTED)")
-      ->check(CLI::Range(uint64_t{1}, uint64_t{dysa::kMaxParticles}))
+      ->check(CLI::Range(uint64_t{1}, uint64_t{dysa::kMaxStreamedParticles}))
       ->capture_default_str();
   app.add_option("--max-subscribers", max_subscribers, "Frame streams open at once at most")
       ->check(CLI::Range(size_t{1}, size_t{100000}))

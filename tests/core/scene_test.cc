@@ -306,14 +306,14 @@ TEST(ParseSceneTest, ParticleCountsThatWouldExhaustMemoryAreRejected) {
   // The same through particle_quantity... which the parameter range already bounds (500^3 fits),
   // so through a spacing instead: 1000 cells per axis.
   ExpectConfigError(R"({"fluid_blocks": [{"size": 10, "spacing": 0.01}]})", "fluid_blocks[0]");
-  // Two blocks each under the limit whose sum is over it: 2 x 250^3 = 3.1e7 > 2e7.
+  // Two blocks each under the limit whose sum is over it: 2 x 700^3 = 6.9e8 > 5e8.
   e = ExpectConfigError(
-      R"({"fluid_blocks": [{"particles_per_axis": 250}, {"particles_per_axis": 250}]})",
+      R"({"fluid_blocks": [{"particles_per_axis": 700}, {"particles_per_axis": 700}]})",
       "fluid_blocks[1]");
   EXPECT_THAT(e.what(), HasSubstr(std::to_string(kMaxParticles)));
-  // Exactly at the limit is fine: 200 x 200 x 500 = 2e7.
-  EXPECT_NO_THROW(ParseScene(R"({"fluid_blocks": [{"particles_per_axis": [200, 200, 500]}]})"));
-  ExpectConfigError(R"({"fluid_blocks": [{"particles_per_axis": [200, 200, 501]}]})",
+  // Exactly at the limit is fine: 500 x 1000 x 1000 = 5e8.
+  EXPECT_NO_THROW(ParseScene(R"({"fluid_blocks": [{"particles_per_axis": [500, 1000, 1000]}]})"));
+  ExpectConfigError(R"({"fluid_blocks": [{"particles_per_axis": [500, 1000, 1001]}]})",
                     "fluid_blocks[0]");
 }
 
@@ -328,17 +328,17 @@ TEST(ParseSceneTest, ParticleCountProductThatOverflowsIsRejected) {
 }
 
 TEST(BlockParticleCountsTest, ChecksTheLimitWithTheGivenParams) {
-  Scene scene = ParseScene(R"({"fluid_blocks": [{}, {}, {}]})");
+  Scene scene = ParseScene(R"({"fluid_blocks": [{}, {}, {}, {}, {}, {}]})");
   Params p = scene.params;
-  p.particle_quantity = 200;  // 3 x 8e6 > 2e7
+  p.particle_quantity = 440;  // 6 x 8.5e7 = 5.1e8 > 5e8
   try {
     BlockParticleCounts(scene, p);
     FAIL() << "no ConfigError";
   } catch (const ConfigError& e) {
-    EXPECT_EQ(e.field(), "fluid_blocks[2]");
+    EXPECT_EQ(e.field(), "fluid_blocks[5]");
   }
-  p.particle_quantity = 150;
-  EXPECT_EQ(BlockParticleCounts(scene, p).size(), 3u);
+  p.particle_quantity = 400;  // 6 x 6.4e7 = 3.8e8
+  EXPECT_EQ(BlockParticleCounts(scene, p).size(), 6u);
 }
 
 TEST(ParseSceneTest, BadProbesAreNamed) {

@@ -319,14 +319,15 @@ TEST(SimulationTest, SetParamsValidatesEverythingBeforeApplyingAnything) {
 }
 
 TEST(SimulationTest, SetParamsRejectsAParticleCountOverTheLimit) {
-  Scene scene = ParseScene(R"({"fluid_blocks": [{"particles_per_axis": 2}, {}, {}]})");
+  Scene scene = ParseScene(R"({"fluid_blocks": [{"particles_per_axis": 2}, {}, {}, {}, {}]})");
   SetParam(scene.params, "particle_quantity", 3);
   Simulation sim(scene);
-  EXPECT_EQ(sim.state().particles.size(), 8u + 27 + 27);
-  // 2 x 500^3 = 2.5e8 particles: rejected before anything is allocated.
+  EXPECT_EQ(sim.state().particles.size(), 8u + 4 * 27);
+  // 8 + 4 x 500^3 = 5e8 + 8 particles, over kMaxParticles: rejected before anything is
+  // allocated.
   EXPECT_THROW(sim.SetParam("particle_quantity", 500), ConfigError);
   EXPECT_EQ(sim.params().particle_quantity, 3);
-  EXPECT_EQ(sim.state().particles.size(), 62u);
+  EXPECT_EQ(sim.state().particles.size(), 116u);
 }
 
 TEST(SimulationTest, SpawnIsDeterministicAndIdsAreAPermutation) {

@@ -5,19 +5,49 @@
 #include <cmath>
 #include <string>
 
+#include "gpu_backend.h"
+#include "solvers/seed/seed_solver.h"
+
 namespace dysa {
 
-Simulation::Simulation(Scene scene) : scene_(std::move(scene)) {
+Simulation::Simulation(Scene scene, const Device& device)
+    : scene_(std::move(scene)), device_(device) {
   solver_ = CreateSolver(scene_.solver);
   model_ = MakeModel(scene_, scene_.params);
+  if (device_.is_cuda()) gpu_ = CreateGpuBackend(device_, scene_.solver);
   Rebuild();
   Reset();
 }
 
+Simulation::~Simulation() = default;
+Simulation::Simulation(Simulation&&) noexcept = default;
+Simulation& Simulation::operator=(Simulation&&) noexcept = default;
+
+const State& Simulation::state() const {
+  if (host_stale_) {
+    gpu_->Download(state_.particles);
+    host_stale_ = false;
+  }
+  return state_;
+}
+
+std::string Simulation::DeviceDescription() const {
+  return gpu_ ? gpu_->info().Describe(device_) : "cpu";
+}
+
+uint64_t Simulation::DeviceBytes() const { return gpu_ ? gpu_->DeviceBytes() : 0; }
+
 std::vector<std::string> Simulation::PassNames() const {
   std::vector<std::string> names;
-  for (const Pass& pass : passes_) names.push_back(pass.name);
+  for (const PassProfile& prof : profile_) names.push_back(prof.name);
   return names;
+}
+
+void Simulation::RecordPassTime(size_t pass, double ms) {
+  PassProfile& prof = profile_[pass];
+  prof.last_ms = ms;
+  prof.total_ms += ms;
+  ++prof.calls;
 }
 
 void Simulation::Step(double until) {
@@ -30,22 +60,36 @@ void Simulation::Step(double until) {
   } else {
     state_.dt = model_.dt;
   }
-  for (size_t k = 0; k < passes_.size(); ++k) {
-    const auto start = Clock::now();
-    passes_[k].run(model_, state_);
-    const double ms = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
-    PassProfile& prof = profile_[k];
-    prof.last_ms = ms;
-    prof.total_ms += ms;
-    ++prof.calls;
+  bool finite = true;
+  if (gpu_) {
+    const GpuBackend::StepReport report = gpu_->Step(model_, state_);
+    for (size_t k = 0; k < report.pass_ms.size() && k < profile_.size(); ++k) {
+      RecordPassTime(k, report.pass_ms[k]);
+    }
+    host_stale_ = true;
+    if (report.limited > 0) {
+      state_.warning = seed::VelocityLimiterWarning(report.limited, model_, state_.step + 1);
+    }
+    finite = report.finite;
+  } else {
+    for (size_t k = 0; k < passes_.size(); ++k) {
+      const auto start = Clock::now();
+      passes_[k].run(model_, state_);
+      RecordPassTime(k, std::chrono::duration<double, std::milli>(Clock::now() - start).count());
+    }
+    // About 0.1 ms per 100,000 particles, well under 1% of a step: checked every step so that
+    // no later step, probe or frame ever reads a diverged state.
+    finite = StateIsFinite(state_.particles);
   }
   // A physical step clamped to the cap lands on `until` itself, not on start + (until - start),
   // which can differ from it in the last bit and leave a sliver of a step.
   state_.time = model_.physical && state_.dt >= state_.max_dt ? until : start_time + state_.dt;
   ++state_.step;
-  // About 0.1 ms per 100,000 particles, well under 1% of a step: checked every step so that no
-  // later step, probe or frame ever reads a diverged state.
-  if (!StateIsFinite(state_.particles)) {
+  CheckStep(finite, start_time);
+}
+
+void Simulation::CheckStep(bool finite, double start_time) {
+  if (!finite) {
     alarm_ = "non-finite particle state after step " + std::to_string(state_.step) +
              " (t = " + std::to_string(start_time) + " s, dt = " + std::to_string(state_.dt) +
              " s): the step diverged; reduce the time step or stiffness, or reset";
@@ -53,6 +97,13 @@ void Simulation::Step(double until) {
     alarm_ = "the time step collapsed to " + std::to_string(state_.dt) + " s at step " +
              std::to_string(state_.step) + " (t = " + std::to_string(start_time) + " s)";
   }
+}
+
+void Simulation::UploadParticles() {
+  particle_count_ = state_.particles.size();
+  if (!gpu_) return;
+  gpu_->Upload(state_.particles);
+  host_stale_ = false;
 }
 
 void Simulation::StepFrame() {
@@ -72,6 +123,7 @@ void Simulation::Reset() {
   state_.warning.clear();
   SpawnParticles(scene_, model_.params, state_.particles);
   solver_->InitState(state_);
+  UploadParticles();
   state_.time = 0;
   state_.step = 0;
   state_.frame = 0;
@@ -84,7 +136,7 @@ size_t Checkpoint::bytes() const {
 }
 
 Checkpoint Simulation::SaveCheckpoint() const {
-  const ParticleArrays& p = state_.particles;
+  const ParticleArrays& p = state().particles;
   return Checkpoint{model_.params, state_.time, state_.step,         state_.frame,          p.id,
                     p.position,    p.velocity,  p.density_stiffness, p.divergence_stiffness};
 }
@@ -104,6 +156,7 @@ void Simulation::RestoreCheckpoint(const Checkpoint& checkpoint) {
   state_.time = checkpoint.time;
   state_.step = checkpoint.step;
   state_.frame = checkpoint.frame;
+  UploadParticles();
 }
 
 bool Simulation::SetParam(std::string_view name, double value) {
@@ -133,13 +186,19 @@ void Simulation::ResetProfile() {
 }
 
 void Simulation::Rebuild() {
-  passes_ = solver_->BuildPasses(model_);
+  std::vector<std::string> names;
+  if (gpu_) {
+    names = gpu_->Configure(model_);
+  } else {
+    passes_ = solver_->BuildPasses(model_);
+    for (const Pass& pass : passes_) names.push_back(pass.name);
+  }
   // Keep the accumulated timings of passes that stay in the list.
   std::vector<PassProfile> profile;
-  for (const Pass& pass : passes_) {
-    PassProfile prof{pass.name};
+  for (const std::string& name : names) {
+    PassProfile prof{name};
     for (const PassProfile& old : profile_) {
-      if (old.name == pass.name) prof = old;
+      if (old.name == name) prof = old;
     }
     profile.push_back(prof);
   }

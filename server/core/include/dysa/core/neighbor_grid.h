@@ -54,6 +54,10 @@ class NeighborGrid {
   // The smallest cell edge (>= the requested size); along a periodic axis cells may be longer.
   Real cell_size() const { return Real(cell_.minCoeff()); }
   Vec3d cell_sizes() const { return cell_; }
+  // What CellOf computes with (for a GPU grid that must agree with this one bit for bit).
+  Vec3d origin() const { return origin_; }
+  Vec3d inv_cell_sizes() const { return inv_cell_; }
+  Vec3 periods() const { return period_; }
   Eigen::Vector3i dims() const { return dims_; }
   const Periodicity& periodic() const { return periodic_; }
   int64_t cell_count() const { return int64_t{dims_.x()} * dims_.y() * dims_.z(); }

@@ -13,8 +13,13 @@
 namespace dysa {
 
 // The largest particle count a scene may ask for; a larger one is rejected before anything is
-// allocated. About 120 bytes per particle are live, so this is about 2.4 GB of state.
-inline constexpr uint64_t kMaxParticles = 20'000'000;
+// allocated. A particle takes about 60 bytes of host memory and, on a GPU, 124 bytes of device
+// memory (bench/gpu_bench), so this is about 30 GB of host and 62 GB of GPU memory; ids and
+// indices stay 32-bit.
+inline constexpr uint64_t kMaxParticles = 500'000'000;
+// The most a server simulates and streams by default (dysa-server --max-particles): the frame
+// codec's decoders allocate for at most this many.
+inline constexpr uint64_t kMaxStreamedParticles = 20'000'000;
 
 // A cuboid of fluid. Unset fields take the spawn parameters (particle_quantity, spawn_size,
 // spawn_jitter), as the thesis's single spawn cube did.

@@ -8,6 +8,7 @@
 #include <string_view>
 #include <vector>
 
+#include "dysa/core/device.h"
 #include "dysa/core/model.h"
 #include "dysa/core/scene.h"
 #include "dysa/core/solver.h"
@@ -15,7 +16,10 @@
 
 namespace dysa {
 
-// Wall time spent in one pass, in milliseconds.
+class GpuBackend;
+
+// Time spent in one pass, in milliseconds: wall time on the CPU, the time between CUDA events
+// around the pass's kernels on a GPU.
 struct PassProfile {
   std::string name;
   double last_ms = 0;   // the latest step
@@ -44,15 +48,33 @@ struct Checkpoint {
 
 class Simulation {
  public:
-  // Validates the scene (throws ConfigError) and spawns its particles.
-  explicit Simulation(Scene scene);
+  // Validates the scene (throws ConfigError) and spawns its particles. On a CUDA device the
+  // particles live in GPU memory and every step runs there; throws ConfigError("device", ...)
+  // when the device cannot run (naming what is missing) or the solver has no GPU backend.
+  explicit Simulation(Scene scene, const Device& device = {});
+  ~Simulation();
+  Simulation(Simulation&&) noexcept;
+  Simulation& operator=(Simulation&&) noexcept;
 
   const Scene& scene() const { return scene_; }
   const Params& params() const { return model_.params; }
   const Model& model() const { return model_; }
-  const State& state() const { return state_; }
+  // The whole state. On a GPU its particle arrays are a host copy, refreshed from device memory
+  // by this call when a step ran since the last one (a copy of every array: read it per frame,
+  // not per step; time(), step(), frame() and particle_count() cost nothing).
+  const State& state() const;
+  double time() const { return state_.time; }
+  uint64_t step() const { return state_.step; }
+  uint64_t frame() const { return state_.frame; }
+  size_t particle_count() const { return particle_count_; }
   std::span<const PassProfile> profile() const { return profile_; }
   std::vector<std::string> PassNames() const;
+
+  const Device& device() const { return device_; }
+  // "cpu", or the GPU: "cuda:0 NVIDIA H200, 139.8 GiB, sm_90".
+  std::string DeviceDescription() const;
+  // GPU memory the simulation holds, bytes (0 on the CPU).
+  uint64_t DeviceBytes() const;
 
   // One solver step: model().dt simulated seconds for a fixed-step solver (the seed); for a
   // physical solver the CFL step its time_step pass picks, never past `until` (s, simulated):
@@ -91,12 +113,22 @@ class Simulation {
 
  private:
   void Rebuild();
+  void RecordPassTime(size_t pass, double ms);
+  // After a step: the alarm when it diverged, from `finite` and the step's dt.
+  void CheckStep(bool finite, double start_time);
+  // The particles changed on the host (spawn, restore): hand them to the GPU.
+  void UploadParticles();
 
   Scene scene_;
+  Device device_;
   Model model_;
-  State state_;
+  // On a GPU the particle arrays are a cache of device memory (state()), hence mutable.
+  mutable State state_;
+  mutable bool host_stale_ = false;
+  size_t particle_count_ = 0;
   std::unique_ptr<Solver> solver_;
-  std::vector<Pass> passes_;
+  std::unique_ptr<GpuBackend> gpu_;  // null on the CPU
+  std::vector<Pass> passes_;         // the CPU's passes (empty on a GPU)
   std::vector<PassProfile> profile_;
   std::string alarm_;
 };

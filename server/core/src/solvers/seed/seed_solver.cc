@@ -290,13 +290,16 @@ void IntegrateAndCollideWithWalls(const Model& model, State& state) {
     p.position[i] += p.velocity[i] * dt;
     CollideWithDomainWalls(model.domain, model.periodic, damping, p.position[i], p.velocity[i]);
   }
-  if (limited > 0) {
-    state.warning = "velocity limiter: " + std::to_string(limited) +
-                    " particles faster than smoothing_radius / dt = " + std::to_string(limit) +
-                    " m/s slowed at step " + std::to_string(state.step + 1) +
-                    "; the time step is beyond this scene's stability limit (lower time_scale, "
-                    "raise iterations_per_frame or soften the pressure)";
-  }
+  if (limited > 0) state.warning = VelocityLimiterWarning(uint64_t(limited), model, state.step + 1);
+}
+
+std::string VelocityLimiterWarning(uint64_t limited, const Model& model, uint64_t step) {
+  const Real limit = Real(model.params.smoothing_radius / model.dt);
+  return "velocity limiter: " + std::to_string(limited) +
+         " particles faster than smoothing_radius / dt = " + std::to_string(limit) +
+         " m/s slowed at step " + std::to_string(step) +
+         "; the time step is beyond this scene's stability limit (lower time_scale, raise "
+         "iterations_per_frame or soften the pressure)";
 }
 
 template void ComputeDensities<true>(const Model&, State&);

@@ -10,7 +10,9 @@
 // Walls reflect the normal velocity scaled by the collision damping.
 #pragma once
 
+#include <cstdint>
 #include <memory>
+#include <string>
 
 #include "dysa/core/solver.h"
 
@@ -35,5 +37,9 @@ template <bool kNear>
 void ApplyPressureForces(const Model& model, State& state);
 void ApplyViscosity(const Model& model, State& state);
 void IntegrateAndCollideWithWalls(const Model& model, State& state);
+
+// The step's warning when the velocity limiter of IntegrateAndCollideWithWalls slowed `limited`
+// particles at step `step` (shared with the GPU backend).
+std::string VelocityLimiterWarning(uint64_t limited, const Model& model, uint64_t step);
 
 }  // namespace dysa::seed

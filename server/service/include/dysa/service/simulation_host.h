@@ -31,7 +31,8 @@ namespace dysa::service {
 struct HostOptions {
   double frame_rate = 60;  // frames per wall second the thread aims for; 0: as fast as possible
   HistoryConfig history;
-  uint64_t max_particles = kMaxParticles;  // scenes and parameter sets beyond it are refused
+  uint64_t max_particles =
+      kMaxStreamedParticles;  // scenes and parameter sets beyond it are refused
   size_t max_subscribers = 64;
   bool start_paused = false;
   // OpenMP threads the solver steps with; 0: the creating thread's OpenMP default (every core

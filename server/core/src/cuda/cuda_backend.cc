@@ -1,0 +1,227 @@
+// The CUDA backends of the solvers (built with DYSA_CUDA): the host side that turns a Model into
+// the kernels' constants, with the CPU passes' float arithmetic, and moves particles.
+#include <cmath>
+#include <memory>
+#include <string>
+
+#include "boundary_particles.h"
+#include "cfl_time_step.h"
+#include "cuda/seed_pipeline.h"
+#include "cuda/wcsph_pipeline.h"
+#include "dysa/core/kernels.h"
+#include "dysa/core/neighbor_grid.h"
+#include "gpu_backend.h"
+#include "solvers/seed/seed_solver.h"
+#include "solvers/wcsph/becker_teschner_solver.h"
+
+namespace dysa {
+namespace {
+
+static_assert(sizeof(Vec3) == 3 * sizeof(float), "Vec3 arrays are copied as xyz triples");
+
+float* Floats(std::vector<Vec3>& v) { return v.empty() ? nullptr : v.front().data(); }
+const float* Floats(const std::vector<Vec3>& v) { return v.empty() ? nullptr : v.front().data(); }
+
+cuda::GridLayout Layout(const NeighborGrid& grid) {
+  cuda::GridLayout layout;
+  for (int a = 0; a < 3; ++a) {
+    layout.origin[a] = grid.origin()[a];
+    layout.inv_cell[a] = grid.inv_cell_sizes()[a];
+    layout.dims[a] = grid.dims()[a];
+    layout.periodic[a] = grid.periodic()[a];
+    layout.period[a] = grid.periods()[a];
+  }
+  return layout;
+}
+
+void AddObstacles(const Model& model, std::vector<cuda::SphereObstacle>& spheres,
+                  std::vector<cuda::BoxObstacle>& boxes);
+
+class SeedGpuBackend final : public GpuBackend {
+ public:
+  SeedGpuBackend(const Device& device, const DeviceInfo& info) : pipeline_(device.index) {
+    info_ = info;
+  }
+
+  std::vector<std::string> Configure(const Model& model) override {
+    const Params& prm = model.params;
+    cuda::SeedStepConfig config;
+    NeighborGrid grid;  // the CPU pass's layout (SortParticlesIntoGrid)
+    grid.Configure(model.domain, Real(prm.smoothing_radius), model.periodic);
+    config.grid = Layout(grid);
+    // Every constant as the CPU passes compute it (seed_solver.cc), in float.
+    const SeedKernelFactors<Real> k(Real(prm.smoothing_radius));
+    const Real mass = Real(prm.particle_mass);
+    cuda::SeedConstants& c = config.constants;
+    c.h = k.h;
+    c.h2 = k.h2;
+    c.mass_spiky2 = mass * k.spiky2;
+    c.mass_spiky3 = mass * k.spiky3;
+    c.spiky2_grad = k.spiky2_grad;
+    c.spiky3_grad = k.spiky3_grad;
+    c.rho0 = Real(prm.target_density);
+    c.stiffness = Real(prm.pressure_multiplier);
+    c.near_stiffness = Real(prm.near_pressure_multiplier);
+    c.mass_dt = Real(prm.particle_mass * model.dt);
+    c.viscosity_scale = Real(prm.viscosity * model.dt) * k.poly6;
+    c.dt = Real(model.dt);
+    c.damping = Real(prm.collision_damping);
+    c.speed_limit = Real(prm.smoothing_radius / model.dt);
+    for (int a = 0; a < 3; ++a) {
+      c.domain_lo[a] = Real(model.domain.min[a]);
+      c.domain_hi[a] = Real(model.domain.max[a]);
+    }
+    config.near = prm.near_pressure_multiplier > 0;
+    config.viscosity = prm.viscosity > 0;
+    config.gravity_dv = Real(prm.gravity * model.dt);
+    config.lookahead = seed::kPredictionLookahead;
+    AddObstacles(model, config.spheres, config.boxes);
+    return pipeline_.Configure(config);
+  }
+
+  void Upload(const ParticleArrays& p) override {
+    pipeline_.Upload(p.size(), p.id.data(), Floats(p.position), Floats(p.velocity));
+  }
+
+  void Download(ParticleArrays& p) const override {
+    p.Resize(pipeline_.size());
+    pipeline_.Download(p.id.data(), Floats(p.position), Floats(p.velocity), Floats(p.predicted),
+                       p.density.data(), p.near_density.data(), p.pressure.data(),
+                       p.near_pressure.data());
+  }
+
+  StepReport Step(const Model&, State&) override {
+    cuda::StepOutcome outcome = pipeline_.Step();
+    return StepReport{std::move(outcome.pass_ms), outcome.finite, outcome.limited};
+  }
+
+  uint64_t DeviceBytes() const override { return pipeline_.DeviceBytes(); }
+
+ private:
+  cuda::SeedPipeline pipeline_;
+};
+
+void AddObstacles(const Model& model, std::vector<cuda::SphereObstacle>& spheres,
+                  std::vector<cuda::BoxObstacle>& boxes) {
+  for (const SphereObstacle& s : model.spheres) {
+    const Vec3 center = s.center.cast<Real>();
+    spheres.push_back({{center.x(), center.y(), center.z()}, Real(s.radius)});
+  }
+  for (const BoxObstacle& b : model.boxes) {
+    const Vec3 lo = b.box.min.cast<Real>(), hi = b.box.max.cast<Real>();
+    boxes.push_back({{lo.x(), lo.y(), lo.z()}, {hi.x(), hi.y(), hi.z()}});
+  }
+}
+
+// Weakly compressible SPH (Becker & Teschner 2007) on the GPU: the passes up to the time step
+// run there, the CFL step is chosen here from the maxima they return (CflLimits, the CPU's
+// code), and the integration runs there with it.
+class WcsphGpuBackend final : public GpuBackend {
+ public:
+  WcsphGpuBackend(const Device& device, const DeviceInfo& info) : pipeline_(device.index) {
+    info_ = info;
+  }
+
+  std::vector<std::string> Configure(const Model& model) override {
+    const Params& prm = model.params;
+    cuda::WcsphStepConfig config;
+    NeighborGrid grid;  // the CPU pass's layout (wcsph::SortIntoGrid)
+    grid.Configure(model.domain, Real(model.kernel_support), model.periodic);
+    config.grid = Layout(grid);
+    // The constants as the CPU passes compute them (becker_teschner_solver.cc).
+    cuda::SphConstants& c = config.constants;
+    const double rho0 = prm.rest_density;
+    c.support = Real(model.kernel_support);
+    c.mass = Real(model.particle_mass);
+    c.psi_scale = Real(rho0);
+    c.gradient_scale = Real(1 / model.gradient_moment);
+    c.viscosity_scale =
+        Real(10 * prm.kinematic_viscosity * model.particle_mass / model.viscosity_moment);
+    c.wall_viscosity_scale = Real(10 * prm.kinematic_viscosity / model.viscosity_moment);
+    const Real h = Real(prm.particle_spacing);
+    c.eps = Real(0.01) * h * h;
+    c.rest_density = rho0;
+    c.stiffness = rho0 * prm.speed_of_sound * prm.speed_of_sound / wcsph::kTaitExponent;
+    c.contact_range = Real(wcsph::kContactRange * prm.particle_spacing);
+    for (int a = 0; a < 3; ++a) {
+      c.domain_lo[a] = Real(model.domain.min[a]);
+      c.domain_hi[a] = Real(model.domain.max[a]);
+    }
+    const BoundaryParticles boundary(model, prm.particle_spacing, model.kernel_support);
+    cuda::BoundaryCloud cloud;
+    const size_t nb = boundary.size();
+    cloud.x.assign(boundary.grid().xs().begin(), boundary.grid().xs().begin() + nb);
+    cloud.y.assign(boundary.grid().ys().begin(), boundary.grid().ys().begin() + nb);
+    cloud.z.assign(boundary.grid().zs().begin(), boundary.grid().zs().begin() + nb);
+    cloud.volume.assign(boundary.volume().begin(), boundary.volume().end());
+    cloud.no_slip.assign(boundary.no_slip().begin(), boundary.no_slip().end());
+    config.viscosity = prm.kinematic_viscosity > 0;
+    config.wall_viscosity = config.viscosity && boundary.HasNoSlip();
+    AddObstacles(model, config.spheres, config.boxes);
+    return pipeline_.Configure(config, cloud);
+  }
+
+  void Upload(const ParticleArrays& p) override {
+    pipeline_.Upload(p.size(), p.id.data(), Floats(p.position), Floats(p.velocity));
+  }
+
+  void Download(ParticleArrays& p) const override {
+    p.Resize(pipeline_.size());
+    pipeline_.Download(p.id.data(), Floats(p.position), Floats(p.velocity), p.density.data(),
+                       p.pressure.data());
+  }
+
+  StepReport Step(const Model& model, State& state) override {
+    const Real gravity = Real(wcsph::GravityAt(model.params, state.time));
+    const cuda::StepMaxima maxima = pipeline_.Forces(gravity);
+    // ChooseTimeStepPass (cfl_time_step.cc) from the GPU's maxima.
+    const TimeStepLimits limits =
+        CflLimits(model, std::sqrt(double(maxima.speed2)), std::sqrt(double(maxima.acceleration2)),
+                  /*acoustic=*/true, maxima.density);
+    state.dt = ChooseTimeStep(limits, state.max_dt);
+    cuda::StepOutcome outcome = pipeline_.Integrate(Real(state.dt));
+    return StepReport{std::move(outcome.pass_ms), outcome.finite, 0};
+  }
+
+  uint64_t DeviceBytes() const override { return pipeline_.DeviceBytes(); }
+
+ private:
+  cuda::WcsphPipeline pipeline_;
+};
+
+}  // namespace
+
+bool CudaBackendBuilt() { return true; }
+
+std::string DeviceUnavailableReason(const Device& device) {
+  if (!device.is_cuda()) return "";
+  return cuda::ProbeCudaDevice(device.index, nullptr);
+}
+
+DeviceInfo QueryDevice(const Device& device) {
+  DeviceInfo info;
+  if (!device.is_cuda()) {
+    info.name = "cpu";
+    return info;
+  }
+  cuda::GpuProperties props;
+  const std::string reason = cuda::ProbeCudaDevice(device.index, &props);
+  if (!reason.empty()) throw ConfigError("device", reason);
+  info.name = props.name;
+  info.memory_bytes = props.memory_bytes;
+  info.compute_capability = props.compute_capability;
+  return info;
+}
+
+std::vector<std::string> GpuSolvers() { return {"seed", "wcsph"}; }
+
+std::unique_ptr<GpuBackend> CreateGpuBackend(const Device& device, std::string_view solver) {
+  const DeviceInfo info = QueryDevice(device);  // throws, naming what is missing
+  if (solver == "seed") return std::make_unique<SeedGpuBackend>(device, info);
+  if (solver == "wcsph") return std::make_unique<WcsphGpuBackend>(device, info);
+  throw ConfigError("device", "the solver \"" + std::string(solver) +
+                                  "\" has no CUDA backend yet (GPU solvers: seed, wcsph); run "
+                                  "it with --device cpu");
+}
+
+}  // namespace dysa

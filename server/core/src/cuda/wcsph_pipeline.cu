@@ -1,0 +1,367 @@
+// The wcsph solver's passes as CUDA kernels, each the CPU pass of
+// solvers/wcsph/becker_teschner_solver.cc with the same name and the same operations in the same
+// order (wcsph_pipeline.h). One thread per fluid (or boundary) particle, gathering only.
+#include <cuda_runtime.h>
+
+#include <cub/device/device_reduce.cuh>
+#include <stdexcept>
+#include <string>
+
+#include "cuda/device_buffer.cuh"
+#include "cuda/device_grid.cuh"
+#include "cuda/sph_kernels.cuh"
+#include "cuda/wcsph_pipeline.h"
+
+namespace dysa::cuda {
+namespace {
+
+using namespace sph;  // NOLINT: this file is the wcsph half of those kernels
+
+__global__ void DensityKernel(DeviceGrid fluid_grid, DeviceGrid boundary_grid, Fluid f, Boundary b,
+                              SphConstants c, uint32_t n) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= n) return;
+  const int3 cell = fluid_grid.SortedCell(i);
+  const F3 x{f.x[i], f.y[i], f.z[i]};
+  float fluid = 0;
+  ForEachWithin(fluid_grid, {f.x, f.y, f.z}, cell, x, c.support,
+                [&](uint32_t, F3, float r) { fluid += KernelW(r, c.support); });
+  float wall = 0;
+  ForEachWithin(boundary_grid, {b.x, b.y, b.z}, cell, x, c.support,
+                [&](uint32_t k, F3, float r) { wall += b.volume[k] * KernelW(r, c.support); });
+  const float rho = c.mass * fluid + c.psi_scale * wall;
+  f.density[i] = rho;
+  const double ratio = double(rho) / c.rest_density;
+  const double pressure = c.stiffness * (pow(ratio, 7.0) - 1);
+  f.pressure[i] = float(pressure > 0 ? pressure : 0);
+}
+
+__global__ void BoundaryPressureKernel(DeviceGrid fluid_grid, DeviceGrid boundary_grid, Fluid f,
+                                       Boundary b, SphConstants c, float gravity) {
+  const uint32_t k = blockIdx.x * blockDim.x + threadIdx.x;
+  if (k >= b.n) return;
+  const F3 x{b.x[k], b.y[k], b.z[k]};
+  const F3 g{0, gravity, 0};
+  float weights = 0, weighted = 0;
+  ForEachWithin(fluid_grid, {f.x, f.y, f.z}, boundary_grid.SortedCell(k), x, c.support,
+                [&](uint32_t j, F3 xbf, float r) {
+                  const float w = KernelW(r, c.support);
+                  weights += w;
+                  weighted += (f.pressure[j] + f.density[j] * Dot(g, xbf)) * w;
+                });
+  const float pressure = weights > 0 ? weighted / weights : 0.0f;
+  b.pressure[k] = pressure > 0 ? pressure : 0.0f;
+}
+
+// p / rho^2 of the fluid particles and of the boundary particles (their density from their
+// pressure through the inverse Tait equation).
+__global__ void PressureRatioKernel(Fluid f, Boundary b, SphConstants c, uint32_t n) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i < n) f.p_over_rho2[i] = f.pressure[i] / (f.density[i] * f.density[i]);
+  if (i < b.n) {
+    const double pb = b.pressure[i];
+    const double rho = c.rest_density * pow(pb / c.stiffness + 1, 1 / 7.0);
+    b.p_over_rho2[i] = float(pb / (rho * rho));
+  }
+}
+
+__global__ void PressureAccelerationKernel(DeviceGrid fluid_grid, DeviceGrid boundary_grid, Fluid f,
+                                           Boundary b, SphConstants c, float gravity, uint32_t n) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= n) return;
+  const int3 cell = fluid_grid.SortedCell(i);
+  const F3 x{f.x[i], f.y[i], f.z[i]};
+  const float pi = f.p_over_rho2[i];
+  F3 fluid{0, 0, 0};
+  ForEachWithin(fluid_grid, {f.x, f.y, f.z}, cell, x, c.support, [&](uint32_t j, F3 xij, float r) {
+    const float s = pi + f.p_over_rho2[j];
+    const float g = GradFactor(r, c.support);
+    fluid.x += s * (xij.x * g), fluid.y += s * (xij.y * g), fluid.z += s * (xij.z * g);
+  });
+  F3 wall{0, 0, 0};
+  ForEachWithin(boundary_grid, {b.x, b.y, b.z}, cell, x, c.support,
+                [&](uint32_t k, F3 xib, float r) {
+                  const float s = b.volume[k] * (pi + b.p_over_rho2[k]);
+                  const float g = GradFactor(r, c.support);
+                  wall.x += s * (xib.x * g), wall.y += s * (xib.y * g), wall.z += s * (xib.z * g);
+                });
+  f.ax[i] = 0.0f - c.gradient_scale * (c.mass * fluid.x + c.psi_scale * wall.x);
+  f.ay[i] = gravity - c.gradient_scale * (c.mass * fluid.y + c.psi_scale * wall.y);
+  f.az[i] = 0.0f - c.gradient_scale * (c.mass * fluid.z + c.psi_scale * wall.z);
+}
+
+// v += a dt, the wall contact, x += v dt (Integrate in becker_teschner_solver.cc).
+__global__ void IntegrateKernel(Fluid f, SphConstants c, Surfaces s, float dt, uint32_t n) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= n) return;
+  F3 v{f.vx[i] + f.ax[i] * dt, f.vy[i] + f.ay[i] * dt, f.vz[i] + f.az[i] * dt};
+  const F3 x{f.x[i], f.y[i], f.z[i]};
+  LimitApproachToSurfaces(c, s, x, dt, v);
+  MoveAndStore(c, s, f, i, x, v, dt);
+}
+
+}  // namespace
+
+struct WcsphPipeline::Impl {
+  explicit Impl(int device_index) : device(device_index), stream(device_index) {}
+
+  int device;
+  Stream stream;
+  WcsphStepConfig config;
+  std::vector<std::string> passes;
+  uint32_t n = 0;
+  DeviceBuffer<float> x, y, z, vx, vy, vz, x2, y2, z2, vx2, vy2, vz2;
+  DeviceBuffer<uint32_t> id, id2;
+  DeviceBuffer<float> density, pressure, ax, ay, az, p_over_rho2, speed2, acceleration2;
+  GridSorter sorter;
+  // The boundary: positions, volumes and flags in its grid's order, its grid, and per step its
+  // pressures and velocities.
+  uint32_t nb = 0;
+  DeviceBuffer<float> bx, by, bz, bvolume, bpressure, bp_over_rho2, bvx, bvy, bvz;
+  DeviceBuffer<uint8_t> bno_slip;
+  GridSorter boundary_sorter;
+  DeviceBuffer<SphereObstacle> spheres;
+  DeviceBuffer<BoxObstacle> boxes;
+  DeviceBuffer<float> device_maxima;              // [0] |v|^2, [1] |a|^2, [2] density
+  DeviceBuffer<unsigned long long> device_flags;  // [0] unused, [1] non-finite
+  PinnedBuffer<float> maxima;
+  PinnedBuffer<unsigned long long> flags;
+  DeviceBuffer<unsigned char> reduce_temp;
+  EventTimer timer;
+  size_t pass = 0;
+
+  Fluid View() {
+    return {x.data(),  y.data(),  z.data(),          vx.data(),       vy.data(),
+            vz.data(), id.data(), density.data(),    pressure.data(), ax.data(),
+            ay.data(), az.data(), p_over_rho2.data()};
+  }
+  Boundary BoundaryView() {
+    return {bx.data(),
+            by.data(),
+            bz.data(),
+            bvolume.data(),
+            bno_slip.data(),
+            bpressure.data(),
+            bp_over_rho2.data(),
+            bvx.data(),
+            bvy.data(),
+            bvz.data(),
+            nb};
+  }
+  Surfaces SurfaceView() {
+    Surfaces s{
+        spheres.data(), int(config.spheres.size()), boxes.data(), int(config.boxes.size()), {}};
+    for (int a = 0; a < 3; ++a) s.periodic[a] = config.grid.periodic[a];
+    return s;
+  }
+
+  void Allocate(uint32_t count) {
+    for (DeviceBuffer<float>* b :
+         {&x,   &y,   &z,       &vx,       &vy, &vz, &x2, &y2,          &z2,     &vx2,
+          &vy2, &vz2, &density, &pressure, &ax, &ay, &az, &p_over_rho2, &speed2, &acceleration2}) {
+      b->Resize(count > 0 ? count : 1);
+    }
+    id.Resize(count > 0 ? count : 1);
+    id2.Resize(count > 0 ? count : 1);
+    sorter.Reserve(count);
+    size_t bytes = 0;
+    CheckCuda(cub::DeviceReduce::Max(nullptr, bytes, speed2.data(), device_maxima.data(),
+                                     int64_t(count > 0 ? count : 1)),
+              "sizing the maxima");
+    reduce_temp.Resize(bytes > 0 ? bytes : 1);
+    n = count;
+  }
+
+  template <class T>
+  void Gather(const uint32_t* order, DeviceBuffer<T>& data, DeviceBuffer<T>& target, uint32_t m) {
+    GatherByOrder(order, data.data(), target.data(), m, stream.get());
+    data.swap(target);
+  }
+
+  void Max(const float* values, float* out) {
+    size_t bytes = reduce_temp.capacity();
+    CheckCuda(
+        cub::DeviceReduce::Max(reduce_temp.data(), bytes, values, out, int64_t(n), stream.get()),
+        "reducing the step's maxima");
+  }
+};
+
+WcsphPipeline::WcsphPipeline(int device) : impl_(std::make_unique<Impl>(device)) {}
+WcsphPipeline::~WcsphPipeline() = default;
+
+size_t WcsphPipeline::size() const { return impl_->n; }
+
+std::vector<std::string> WcsphPipeline::Configure(const WcsphStepConfig& config,
+                                                  const BoundaryCloud& boundary) {
+  Impl& m = *impl_;
+  DeviceScope scope(m.device);
+  cudaStream_t s = m.stream.get();
+  m.config = config;
+  m.spheres.Assign(config.spheres, s);
+  m.boxes.Assign(config.boxes, s);
+  m.sorter.Configure(config.grid);
+  m.boundary_sorter.Configure(config.grid);
+  // The boundary, sorted on its own grid (already in cell order: the stable sort keeps it).
+  m.nb = uint32_t(boundary.volume.size());
+  const uint32_t nb = m.nb > 0 ? m.nb : 1;
+  for (DeviceBuffer<float>* b :
+       {&m.bx, &m.by, &m.bz, &m.bvolume, &m.bpressure, &m.bp_over_rho2, &m.bvx, &m.bvy, &m.bvz}) {
+    b->Resize(nb);
+    b->Zero(s);
+  }
+  m.bno_slip.Resize(nb);
+  m.bx.Assign(boundary.x, s), m.by.Assign(boundary.y, s), m.bz.Assign(boundary.z, s);
+  m.bvolume.Assign(boundary.volume, s);
+  m.bno_slip.Assign(boundary.no_slip, s);
+  m.boundary_sorter.Reserve(m.nb);
+  m.boundary_sorter.Sort(config.grid, m.bx.data(), m.by.data(), m.bz.data(), m.nb, s);
+  if (m.nb > 0) {
+    // The identity permutation when the host's order is the grid's, as it is; applied anyway so
+    // that the arrays always match the cell starts.
+    const uint32_t* order = m.boundary_sorter.order();
+    DeviceBuffer<float> scratch;
+    scratch.Resize(m.nb);
+    for (DeviceBuffer<float>* b : {&m.bx, &m.by, &m.bz, &m.bvolume})
+      m.Gather(order, *b, scratch, m.nb);
+    DeviceBuffer<uint8_t> flags;
+    flags.Resize(m.nb);
+    m.Gather(order, m.bno_slip, flags, m.nb);
+  }
+  m.passes = {"neighbour_grid", "density", "boundary_pressure", "pressure_force"};
+  if (config.viscosity) {
+    m.passes.push_back("viscosity");
+    if (config.wall_viscosity) m.passes.push_back("wall_viscosity");
+  }
+  m.passes.push_back("time_step");
+  m.passes.push_back("integrate");
+  m.timer.Resize(m.passes.size() + 1);
+  m.device_maxima.Resize(3);
+  m.device_flags.Resize(2);
+  m.maxima.Resize(3);
+  m.flags.Resize(2);
+  CheckCuda(cudaStreamSynchronize(s), "configuring the wcsph step");
+  return m.passes;
+}
+
+void WcsphPipeline::Upload(size_t n, const uint32_t* id, const float* position,
+                           const float* velocity) {
+  Impl& m = *impl_;
+  DeviceScope scope(m.device);
+  if (n > uint64_t(UINT32_MAX) / 2) throw std::length_error("too many particles for the GPU");
+  m.Allocate(uint32_t(n));
+  cudaStream_t s = m.stream.get();
+  UploadInterleaved(position, n, m.x, m.y, m.z, s);
+  UploadInterleaved(velocity, n, m.vx, m.vy, m.vz, s);
+  if (n > 0) {
+    CheckCuda(cudaMemcpyAsync(m.id.data(), id, n * sizeof(uint32_t), cudaMemcpyHostToDevice, s),
+              "uploading ids");
+  }
+  m.density.Zero(s), m.pressure.Zero(s);
+  CheckCuda(cudaStreamSynchronize(s), "uploading particles");
+}
+
+void WcsphPipeline::Download(uint32_t* id, float* position, float* velocity, float* density,
+                             float* pressure) const {
+  Impl& m = *impl_;
+  DeviceScope scope(m.device);
+  cudaStream_t s = m.stream.get();
+  if (id) m.id.CopyTo(id, m.n, s);
+  if (position) DownloadInterleaved(m.x, m.y, m.z, m.n, position, s);
+  if (velocity) DownloadInterleaved(m.vx, m.vy, m.vz, m.n, velocity, s);
+  if (density) m.density.CopyTo(density, m.n, s);
+  if (pressure) m.pressure.CopyTo(pressure, m.n, s);
+  CheckCuda(cudaStreamSynchronize(s), "downloading particles");
+}
+
+StepMaxima WcsphPipeline::Forces(float gravity) {
+  Impl& m = *impl_;
+  DeviceScope scope(m.device);
+  const WcsphStepConfig& cfg = m.config;
+  const SphConstants c = cfg.constants;
+  const uint32_t n = m.n;
+  cudaStream_t s = m.stream.get();
+  const unsigned blocks = (n + kBlock - 1) / kBlock;
+  const unsigned boundary_blocks = (m.nb + kBlock - 1) / kBlock;
+  const unsigned either_blocks = blocks > boundary_blocks ? blocks : boundary_blocks;
+  m.pass = 0;
+  auto begin_pass = [&] { m.timer.Record(m.pass++, s); };
+
+  begin_pass();  // neighbour_grid
+  m.sorter.Sort(cfg.grid, m.x.data(), m.y.data(), m.z.data(), n, s);
+  const uint32_t* order = m.sorter.order();
+  if (n > 0) {
+    m.Gather(order, m.x, m.x2, n), m.Gather(order, m.y, m.y2, n), m.Gather(order, m.z, m.z2, n);
+    m.Gather(order, m.vx, m.vx2, n), m.Gather(order, m.vy, m.vy2, n);
+    m.Gather(order, m.vz, m.vz2, n), m.Gather(order, m.id, m.id2, n);
+  }
+  const DeviceGrid grid = m.sorter.View();
+  const DeviceGrid bgrid = m.boundary_sorter.View();
+  const Fluid f = m.View();
+  const Boundary b = m.BoundaryView();
+  begin_pass();  // density
+  if (n > 0) DensityKernel<<<blocks, kBlock, 0, s>>>(grid, bgrid, f, b, c, n);
+  begin_pass();  // boundary_pressure
+  if (m.nb > 0)
+    BoundaryPressureKernel<<<boundary_blocks, kBlock, 0, s>>>(grid, bgrid, f, b, c, gravity);
+  begin_pass();  // pressure_force
+  if (either_blocks > 0) PressureRatioKernel<<<either_blocks, kBlock, 0, s>>>(f, b, c, n);
+  if (n > 0) PressureAccelerationKernel<<<blocks, kBlock, 0, s>>>(grid, bgrid, f, b, c, gravity, n);
+  if (cfg.viscosity) {
+    begin_pass();  // viscosity
+    if (n > 0) ViscosityKernel<<<blocks, kBlock, 0, s>>>(grid, f, c, n);
+    if (cfg.wall_viscosity) {
+      begin_pass();  // wall_viscosity
+      if (m.nb > 0) BoundaryVelocityKernel<<<boundary_blocks, kBlock, 0, s>>>(grid, bgrid, f, b, c);
+      if (n > 0) WallViscosityKernel<<<blocks, kBlock, 0, s>>>(grid, bgrid, f, b, c, n);
+    }
+  }
+  begin_pass();  // time_step: the maxima here, the step on the host (CflLimits)
+  StepMaxima result;
+  if (n > 0) {
+    MaximaInputsKernel<<<blocks, kBlock, 0, s>>>(f, m.speed2.data(), m.acceleration2.data(), n);
+    m.Max(m.speed2.data(), m.device_maxima.data());
+    m.Max(m.acceleration2.data(), m.device_maxima.data() + 1);
+    m.Max(m.density.data(), m.device_maxima.data() + 2);
+    m.maxima.CopyFrom(m.device_maxima, 3, s);
+    CheckCuda(cudaGetLastError(), "launching the wcsph forces");
+    CheckCuda(cudaStreamSynchronize(s), "running the wcsph forces");
+    // The CPU's maxima start at 0 (reduction(max) over values that are all >= 0).
+    result.speed2 = m.maxima.data()[0] > 0 ? m.maxima.data()[0] : 0.0f;
+    result.acceleration2 = m.maxima.data()[1] > 0 ? m.maxima.data()[1] : 0.0f;
+    result.density = m.maxima.data()[2] > 0 ? m.maxima.data()[2] : 0.0f;
+  }
+  return result;
+}
+
+StepOutcome WcsphPipeline::Integrate(float dt) {
+  Impl& m = *impl_;
+  DeviceScope scope(m.device);
+  const uint32_t n = m.n;
+  cudaStream_t s = m.stream.get();
+  const unsigned blocks = (n + kBlock - 1) / kBlock;
+  m.timer.Record(m.pass++, s);  // integrate
+  CheckCuda(cudaMemsetAsync(m.device_flags.data(), 0, 2 * sizeof(unsigned long long), s),
+            "clearing the step's flags");
+  if (n > 0) {
+    IntegrateKernel<<<blocks, kBlock, 0, s>>>(m.View(), m.config.constants, m.SurfaceView(), dt, n);
+  }
+  m.timer.Record(m.pass, s);
+  const Fluid f = m.View();
+  CheckFinite(f.x, f.y, f.z, f.vx, f.vy, f.vz, n, m.device_flags.data() + 1, s);
+  CheckCuda(cudaGetLastError(), "launching the wcsph integration");
+  m.flags.CopyFrom(m.device_flags, 2, s);
+  CheckCuda(cudaStreamSynchronize(s), "running the wcsph integration");
+  StepOutcome outcome;
+  outcome.pass_ms = m.timer.ElapsedMs(m.pass);
+  outcome.finite = m.flags.data()[1] == 0;
+  return outcome;
+}
+
+uint64_t WcsphPipeline::DeviceBytes() const {
+  const Impl& m = *impl_;
+  return uint64_t(m.x.capacity()) * (20 * sizeof(float) + 2 * sizeof(uint32_t)) +
+         uint64_t(m.bx.capacity()) * (9 * sizeof(float) + 1) + m.sorter.DeviceBytes() +
+         m.boundary_sorter.DeviceBytes() + m.reduce_temp.capacity();
+}
+
+}  // namespace dysa::cuda

@@ -1,0 +1,71 @@
+// The wcsph solver's step on a CUDA GPU (solvers/wcsph/becker_teschner_solver.h): the plain
+// interface between the host code and the kernels, as seed_pipeline.h.
+//
+// Each kernel performs the CPU pass's operations in the CPU's order (scalar neighbour loops in
+// the grid's fixed order, Eigen's x^2 + (y^2 + z^2) for norms and dot products, no fused
+// multiply-add), so the GPU follows the CPU closely; it is not bit-identical because the Tait
+// equation's pow() in double is CUDA's (within 2 ulp) and not glibc's, which can move a
+// pressure by one float ulp now and then, and a chaotic flow amplifies that.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "cuda/gpu_types.h"
+
+namespace dysa::cuda {
+
+struct WcsphStepConfig {
+  GridLayout grid;  // the fluid's grid; the boundary's has the same layout
+  SphConstants constants;
+  bool viscosity = false;       // kinematic_viscosity > 0
+  bool wall_viscosity = false;  // and a no-slip wall
+  std::vector<SphereObstacle> spheres;
+  std::vector<BoxObstacle> boxes;
+};
+
+// The boundary particles (BoundaryParticles) in their grid's order: n positions, volumes and
+// no-slip flags.
+struct BoundaryCloud {
+  std::vector<float> x, y, z;
+  std::vector<float> volume;  // m^3
+  std::vector<uint8_t> no_slip;
+};
+
+// What the CFL step needs from the particles of this step.
+struct StepMaxima {
+  float speed2 = 0;         // (m/s)^2, the largest |v|^2
+  float acceleration2 = 0;  // (m/s^2)^2, the largest |a|^2
+  float density = 0;        // kg/m^3, the largest density
+};
+
+class WcsphPipeline {
+ public:
+  explicit WcsphPipeline(int device);
+  ~WcsphPipeline();
+  WcsphPipeline(const WcsphPipeline&) = delete;
+  WcsphPipeline& operator=(const WcsphPipeline&) = delete;
+
+  // Returns the pass names (the CPU solver's).
+  std::vector<std::string> Configure(const WcsphStepConfig& config, const BoundaryCloud& boundary);
+  void Upload(size_t n, const uint32_t* id, const float* position, const float* velocity);
+  // Any output pointer may be null. position, velocity: n xyz triples.
+  void Download(uint32_t* id, float* position, float* velocity, float* density,
+                float* pressure) const;
+  // The passes before the time step (neighbour_grid ... wall_viscosity) with gravity `gravity`
+  // (m/s^2 along y), and the time_step pass's maxima.
+  StepMaxima Forces(float gravity);
+  // The integrate pass with the step dt; the outcome holds every pass's time.
+  StepOutcome Integrate(float dt);
+  size_t size() const;
+  uint64_t DeviceBytes() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace dysa::cuda

@@ -1,0 +1,52 @@
+// A solver's step on a GPU, behind the narrow interface Simulation uses: the particles live in
+// device memory between steps and cross to the host only when read (frames, checkpoints,
+// probes, status) or replaced (reset, restore).
+#pragma once
+
+#include <memory>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "dysa/core/device.h"
+#include "dysa/core/model.h"
+#include "dysa/core/state.h"
+
+namespace dysa {
+
+class GpuBackend {
+ public:
+  virtual ~GpuBackend() = default;
+
+  const DeviceInfo& info() const { return info_; }
+
+  // Sets up the passes of `model` (rebuilt whenever parameters change) and returns their
+  // names, the CPU solver's.
+  virtual std::vector<std::string> Configure(const Model& model) = 0;
+  // Replaces the device's particles with `particles` (ids, positions, velocities).
+  virtual void Upload(const ParticleArrays& particles) = 0;
+  // Copies every per-particle array the CPU solver keeps back into `particles` (resized).
+  virtual void Download(ParticleArrays& particles) const = 0;
+
+  struct StepReport {
+    std::vector<double> pass_ms;  // per pass, from CUDA events
+    bool finite = true;           // every position and velocity finite afterwards
+    uint64_t limited = 0;         // particles slowed by the velocity limiter
+  };
+  // One step of state.dt (set by the caller for a fixed-step solver).
+  virtual StepReport Step(const Model& model, State& state) = 0;
+  // Device memory held, bytes.
+  virtual uint64_t DeviceBytes() const = 0;
+
+ protected:
+  DeviceInfo info_;
+};
+
+// The GPU backend of `solver` on `device`. Throws ConfigError("device", ...) when the device
+// cannot run (naming what is missing) or the solver has no GPU backend.
+std::unique_ptr<GpuBackend> CreateGpuBackend(const Device& device, std::string_view solver);
+
+// The solvers with a GPU backend in this build (none without DYSA_CUDA).
+std::vector<std::string> GpuSolvers();
+
+}  // namespace dysa
