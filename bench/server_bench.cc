@@ -1,6 +1,7 @@
 // Server benchmark: frames delivered to 1, 4 and 16 subscribers, the simulation's slowdown with
 // subscribers against none, the pipeline's capacity (encode, gRPC on loopback, decode) for the
-// thesis scene and a 1M-particle block, and memory with a stalled subscriber over time.
+// thesis scene and a 1M-particle block, memory with a stalled subscriber over time, and the
+// live server with its simulation on a CUDA GPU for blocks of 1M and 10M particles.
 //
 // Everything runs in this process: the real Server and SimulationHost on a loopback port, and
 // clients that each have their own connection and decode every frame, as a viewer does.
@@ -9,6 +10,7 @@
 //   server_bench --part pipeline --large 100 --seconds 5
 //   server_bench --part slowdown --slowdown-subscribers 4 --pairs 20 --window 3
 //   server_bench --part live --device cuda  # the simulations step on the GPU
+//   server_bench --part gpu --gpu-sizes 1000000,10000000   # on cuda:0 unless --device says
 #include <grpcpp/grpcpp.h>
 #include <omp.h>
 
@@ -16,10 +18,13 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <string>
 #include <thread>
+#include <vector>
 
 #include "dysa/codec/frame_codec.h"
 #include "dysa/core/device.h"
@@ -169,6 +174,14 @@ dysa::Scene LargeBlock(int n) {
   scene.params.spawn_size = size;
   scene.name = "block_" + std::to_string(n) + "^3";
   return scene;
+}
+
+// The smallest such block with at least `particles` particles (1,000,000: 100^3; 10,000,000:
+// 216^3 = 10,077,696).
+dysa::Scene LargeBlockOf(uint64_t particles) {
+  int n = std::max(1, int(std::cbrt(double(particles))) - 1);
+  while (uint64_t(n) * n * n < particles) ++n;
+  return LargeBlock(n);
 }
 
 // The mean time per frame of the host's stage `name` (gather_frames, publish_frames), 0 if none.
@@ -452,6 +465,126 @@ void Stalled(double seconds, const dysa::Device& device, const std::filesystem::
   server.Shutdown();
 }
 
+// Part 4: the live server with its simulation on a GPU (issue "The server on the GPU box"). A
+// block of the thesis fluid (LargeBlockOf: seed_test_scene's spacing and parameters, 2 steps a
+// frame) runs as fast as it can (frame_rate 0) with 0 and 1 subscribers that decode every frame
+// on the same machine, as a viewer does; each configuration starts from a freshly spawned block
+// `warmup_frames` frames into its fall. The host keeps dysa-server's defaults otherwise
+// (history 600 frames / 256 MiB, max_particles 20M). Per configuration: simulated and delivered
+// frames/s, bytes per frame, and the host's per-frame stages over the measured window only:
+// the solver's step (the sum of its passes, CUDA events on a GPU), gather_frames (the particles
+// copied back and put in id order, on the simulation thread) and publish_frames (encoding and
+// starting the writes).
+
+// A host stage's or pass's accumulated time and calls, to difference over a window.
+struct StageTotals {
+  double step_ms = 0;  // the solver's passes together
+  double gather_ms = 0, publish_ms = 0;
+  uint64_t gather_calls = 0, publish_calls = 0;
+};
+
+StageTotals Totals(const dysa::service::HostStatus& status) {
+  StageTotals t;
+  for (const auto& pass : status.passes) {
+    const double total = pass.mean_ms * double(pass.calls);
+    if (pass.name == "gather_frames") {
+      t.gather_ms = total;
+      t.gather_calls = pass.calls;
+    } else if (pass.name == "publish_frames") {
+      t.publish_ms = total;
+      t.publish_calls = pass.calls;
+    } else {
+      t.step_ms += total;
+    }
+  }
+  return t;
+}
+
+// The frame rates the issue asks for: 1M particles at 60 frames/s, 10M at 10; 0 for other sizes.
+double GpuTarget(uint64_t requested) {
+  if (requested >= 10'000'000) return 10;
+  if (requested >= 1'000'000) return 60;
+  return 0;
+}
+
+void Gpu(const std::vector<uint64_t>& sizes, const std::vector<int>& counts, double seconds,
+         int warmup_frames, int solver_threads, const dysa::Device& device, std::ofstream& csv) {
+  for (uint64_t requested : sizes) {
+    const dysa::Scene scene = LargeBlockOf(requested);
+    const double target = GpuTarget(requested);
+    for (int n : counts) {
+      const auto setup = Clock::now();
+      SimulationHost host(scene, AsFastAsItRuns(solver_threads, device));
+      Server server(host, Loopback());
+      auto stub = dysa::v1::Simulation::NewStub(
+          grpc::CreateChannel(Address(server), grpc::InsecureChannelCredentials()));
+      dysa::v1::StepRequest warmup;
+      warmup.set_count(warmup_frames);
+      Control(*stub, &dysa::v1::Simulation::Stub::Step, warmup);
+      std::vector<std::unique_ptr<Client>> clients;
+      for (int i = 0; i < n; ++i) {
+        clients.push_back(std::make_unique<Client>(Address(server), i, Mode::kDecode));
+      }
+      Control(*stub, &dysa::v1::Simulation::Stub::Resume, dysa::v1::ResumeRequest{});
+      // Every client has its first frame (a keyframe) before the window starts; Measure then
+      // starts at once.
+      const auto deadline = Clock::now() + std::chrono::seconds(120);
+      for (auto& c : clients) {
+        while (c->frames == 0 && Clock::now() < deadline) {
+          std::this_thread::sleep_for(std::chrono::milliseconds(5));
+        }
+      }
+      const double setup_s = Seconds(Clock::now() - setup);
+      const FrameMark begin = NextFrame(host);
+      const StageTotals t0 = Totals(host.Status());
+      Delivery d;
+      if (n > 0) {
+        d = Measure(clients, seconds);
+      } else {
+        std::this_thread::sleep_for(std::chrono::duration<double>(seconds));
+      }
+      const FrameMark end = NextFrame(host);
+      const auto status = host.Status();
+      const StageTotals t1 = Totals(status);
+      clients.clear();
+      server.Shutdown();
+
+      const uint64_t frames = end.frame - begin.frame;
+      const double sim_fps = frames / Seconds(end.at - begin.at);
+      const double frame_ms = frames ? 1000.0 / sim_fps : 0;
+      const double step_ms = frames ? (t1.step_ms - t0.step_ms) / frames : 0;
+      const auto per_call = [](double total, uint64_t calls) { return calls ? total / calls : 0; };
+      const double gather_ms =
+          per_call(t1.gather_ms - t0.gather_ms, t1.gather_calls - t0.gather_calls);
+      const double publish_ms =
+          per_call(t1.publish_ms - t0.publish_ms, t1.publish_calls - t0.publish_calls);
+      const uint64_t gathered = t1.gather_calls - t0.gather_calls;
+      const double delivered = n > 0 ? d.fps_min : 0.0;
+      const bool met =
+          target > 0 && frames > 0 && sim_fps >= target && (n == 0 || delivered >= target);
+      std::printf(
+          "gpu       %9u particles  %d subscribers: simulation %7.2f frames/s (%.2f ms a frame, "
+          "step %.2f ms), delivered %7.2f frames/s, %10.0f B/frame (%.2f B/particle), latency "
+          "%6.1f ms, gather %.2f ms (%llu frames), publish %.2f ms; target %s%s (set-up %.1f s)\n",
+          status.particles, n, sim_fps, frame_ms, step_ms, delivered, d.bytes_per_frame,
+          status.particles ? d.bytes_per_frame / status.particles : 0.0, d.latency_ms, gather_ms,
+          (unsigned long long)gathered, publish_ms,
+          target > 0 ? std::to_string(int(target)).c_str() : "none",
+          target > 0 ? (met ? " met" : " NOT met") : "", setup_s);
+      std::fflush(stdout);
+      std::string where = status.device;  // "cuda:0 NVIDIA H200, 139.8 GiB, sm_90"
+      std::replace(where.begin(), where.end(), ',', ';');
+      csv << where << "," << status.particles << "," << n << "," << sim_fps << "," << delivered
+          << "," << d.bytes_per_frame << "," << gather_ms << "," << publish_ms << "," << step_ms
+          << "," << frame_ms << "," << d.latency_ms << "," << frames << "," << gathered << ","
+          << status.solver_threads << "," << status.device_memory_bytes << ","
+          << (target > 0 ? std::to_string(int(target)) : "") << ","
+          << (target > 0 ? (met ? "yes" : "no") : "") << "\n";
+      csv.flush();
+    }
+  }
+}
+
 std::vector<int> ParseCounts(const std::string& text) {
   std::vector<int> counts;
   std::stringstream in(text);
@@ -473,8 +606,10 @@ int main(int argc, char** argv) {
   int slowdown_subscribers = 4;
   int pairs = 12;
   double window_seconds = 3;
-  app.add_option("--part", part, "live, slowdown, pipeline, stalled or all")
-      ->check(CLI::IsMember({"live", "slowdown", "pipeline", "stalled", "all"}))
+  app.add_option("--part", part,
+                 "live, slowdown, pipeline, stalled, gpu or all (gpu: with a CUDA --device, or "
+                 "alone, where it defaults to cuda:0)")
+      ->check(CLI::IsMember({"live", "slowdown", "pipeline", "stalled", "gpu", "all"}))
       ->capture_default_str();
   app.add_option("--seconds", seconds, "Measurement per configuration")->capture_default_str();
   app.add_option("--stalled-seconds", stalled_seconds, "Length of the stalled-subscriber run")
@@ -500,9 +635,24 @@ int main(int argc, char** argv) {
   std::string device_text = "cpu";
   app.add_option("--device", device_text,
                  "Where every part's simulation steps: cpu, cuda or cuda:N (frames are gathered, "
-                 "encoded and sent on the CPU either way)")
+                 "encoded and sent on the CPU either way); --part gpu alone: cuda:0")
+      ->capture_default_str();
+  std::string gpu_sizes_text = "1000000,10000000";
+  app.add_option("--gpu-sizes", gpu_sizes_text,
+                 "Particles of the gpu part's blocks, at least (the smallest cube of particles "
+                 "with as many)")
+      ->capture_default_str();
+  std::string gpu_counts_text = "0,1";
+  app.add_option("--gpu-subscribers", gpu_counts_text,
+                 "Subscriber counts of the gpu part (each decodes every frame)")
+      ->capture_default_str();
+  int gpu_warmup = 10;
+  app.add_option("--gpu-warmup", gpu_warmup, "Frames the gpu part steps before each window")
+      ->check(CLI::Range(1, 10000))
       ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
+  // The gpu part steps on the GPU unless --device names a device (cpu: a dry run of the part).
+  if (part == "gpu" && app.count("--device") == 0) device_text = "cuda";
 
   dysa::Device device;
   try {
@@ -544,6 +694,22 @@ int main(int argc, char** argv) {
   }
   if (part == "stalled" || part == "all") {
     Stalled(stalled_seconds, device, std::filesystem::path(out_dir) / "server_stalled_memory.csv");
+  }
+  if (part == "gpu" || (part == "all" && device.is_cuda())) {
+    std::vector<uint64_t> sizes;
+    for (int size : ParseCounts(gpu_sizes_text)) {
+      if (size < 1 || uint64_t(size) > dysa::kMaxStreamedParticles) {
+        std::fprintf(stderr, "server_bench: error: --gpu-sizes: %d is outside [1, %llu]\n", size,
+                     (unsigned long long)dysa::kMaxStreamedParticles);
+        return 2;
+      }
+      sizes.push_back(uint64_t(size));
+    }
+    std::ofstream csv(std::filesystem::path(out_dir) / "server_gpu.csv");
+    csv << "device,particles,subscribers,simulated_fps,delivered_fps,bytes_per_frame,gather_ms,"
+           "publish_ms,step_ms,frame_ms,latency_ms,frames,frames_gathered,solver_threads,"
+           "device_memory_bytes,target_fps,target_met\n";
+    Gpu(sizes, ParseCounts(gpu_counts_text), seconds, gpu_warmup, solver_threads, device, csv);
   }
   return 0;
 }

@@ -28,6 +28,17 @@ ControlResult Error(ControlCode code, std::string message) {
   return result;
 }
 
+// OpenMP threads of the publishing thread (0: publish inline on the simulation thread). On the
+// CPU, the cores the solver leaves: with none left, a publishing thread would only take the
+// solver's cycles. On a GPU the solver leaves every core but the simulation thread's own (which
+// waits for the GPU and gathers frames), so frames encode while the GPU steps the next one
+// instead of adding their encoding to every frame's time.
+int PublisherThreads(const HostOptions& options, int solver_threads) {
+  const int cores = omp_get_num_procs();
+  if (options.device.is_cuda()) return std::max(1, cores - 1);
+  return std::max(0, cores - solver_threads);
+}
+
 int64_t UnixMicros() {
   return std::chrono::duration_cast<std::chrono::microseconds>(
              std::chrono::system_clock::now().time_since_epoch())
@@ -41,8 +52,7 @@ SimulationHost::SimulationHost(Scene scene, HostOptions options)
       solver_threads_(options_.solver_threads > 0 ? options_.solver_threads
                                                   : omp_get_max_threads()),
       hub_(options_.max_subscribers),
-      // A publishing thread with the cores the solver leaves; inline when it leaves none.
-      publisher_(hub_, std::max(0, omp_get_num_procs() - solver_threads_)),
+      publisher_(hub_, PublisherThreads(options_, solver_threads_)),
       history_(options_.history) {
   if (const std::string over = CheckParticleLimit(scene, scene.params); !over.empty()) {
     throw ConfigError("max_particles", over);

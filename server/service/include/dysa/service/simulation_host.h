@@ -37,7 +37,9 @@ struct HostOptions {
   bool start_paused = false;
   // OpenMP threads the solver steps with; 0: the creating thread's OpenMP default (every core
   // unless OMP_NUM_THREADS says otherwise). Frames are encoded on a thread of their own with the
-  // cores left over, or on the simulation thread when none are (FramePublisher).
+  // cores left over, or on the simulation thread when none are (FramePublisher). On a GPU the
+  // solver needs no cores: these threads only put frames in id order (gather_frames), and the
+  // publishing thread has every core but one whatever this says.
   int solver_threads = 0;
   // Where every simulation of the host steps, including the scenes LoadScene brings: the CPU, or
   // a CUDA GPU (dysa-server --device). Scenes whose solver has no GPU backend are refused there.

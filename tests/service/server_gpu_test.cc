@@ -1,0 +1,316 @@
+// dysa-server's service with its simulation on a CUDA GPU (HostOptions::device cuda:0), over
+// real gRPC on a free loopback port: step back on the GPU (checkpoints downloaded from device
+// memory, restored into it, and frames re-simulated there) lands on the states of the first
+// pass bit for bit, for the seed and wcsph solvers; GetStatus names the GPU; frames gathered
+// from the GPU stream the simulation's particles in id order; a scene whose solver has no GPU
+// backend is refused naming the device, and the old scene runs on. ctest label `gpu`: every test
+// skips, printing why, where no CUDA GPU can run (a build without CUDA, no driver, no GPU).
+#include <grpcpp/grpcpp.h>
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "dysa/codec/frame_codec.h"
+#include "dysa/core/device.h"
+#include "dysa/core/scene.h"
+#include "dysa/core/simulation.h"
+#include "dysa/service/server.h"
+#include "dysa/service/simulation_host.h"
+#include "dysa/v1/simulation.grpc.pb.h"
+#include "gpu_backend.h"  // GpuSolvers(): server/core/src
+
+namespace dysa::service {
+namespace {
+
+using v1::Simulation;
+
+const Device kGpu{Device::Kind::kCuda, 0};
+
+#define SKIP_WITHOUT_GPU()                                                     \
+  do {                                                                         \
+    const std::string reason = DeviceUnavailableReason(kGpu);                  \
+    if (!reason.empty()) GTEST_SKIP() << "no CUDA GPU to test on: " << reason; \
+  } while (0)
+
+// 10^3 particles of the thesis's basic set-up (3 steps a frame).
+Scene SeedScene() {
+  Scene scene = LoadScene("seed_basic");
+  SetParam(scene.params, "particle_quantity", 10);
+  SetParam(scene.params, "spawn_size", 1.2);
+  return scene;
+}
+
+// wcsph_pipeline_test's dam of 10 x 15 x 4 particles breaking past a sphere and a box (tens of
+// CFL steps a frame).
+Scene WcsphScene() {
+  return ParseScene(R"({
+    "name": "wcsph_dam",
+    "domain": {"min": [0, 0, 0], "max": [0.6, 0.4, 0.08], "no_slip": [false, true, false]},
+    "fluid_blocks": [{"center": [0.1, 0.15, 0.04], "size": [0.2, 0.3, 0.08]}],
+    "obstacles": [{"type": "sphere", "center": [0.33, 0.0, 0.04], "radius": 0.07},
+                  {"type": "box", "center": [0.5, 0.04, 0.04], "size": [0.04, 0.08, 0.3]}],
+    "solver": "wcsph",
+    "params": {"gravity": -9.81, "particle_spacing": 0.02, "speed_of_sound": 25,
+               "kinematic_viscosity": 1e-5}
+  })");
+}
+
+// The dam as dfsph would run it: its solver has no GPU backend (as long as GpuSolvers() does
+// not list it).
+constexpr const char* kDfsphScene = R"({
+  "name": "dfsph_dam",
+  "domain": {"min": [0, 0, 0], "max": [0.6, 0.4, 0.08]},
+  "fluid_blocks": [{"center": [0.1, 0.15, 0.04], "size": [0.2, 0.3, 0.08]}],
+  "solver": "dfsph",
+  "params": {"gravity": -9.81, "particle_spacing": 0.02}
+})";
+
+// The host's log lines, kept for the test to read (the host logs from its own thread).
+struct LogLines {
+  std::mutex mu;
+  std::vector<std::string> lines;
+  bool Contains(const std::string& text) {
+    std::lock_guard lock(mu);
+    return std::any_of(lines.begin(), lines.end(),
+                       [&](const std::string& line) { return line.find(text) != line.npos; });
+  }
+};
+
+// A paused host on cuda:0 whose history keeps a checkpoint every 4 frames (a budget of 1 MiB
+// against 600 frames; max_interval 4), so a step back restores a checkpoint from device memory
+// and re-simulates up to 3 frames on the GPU.
+HostOptions GpuOptions(const std::shared_ptr<LogLines>& log) {
+  HostOptions options;
+  options.device = kGpu;
+  options.start_paused = true;
+  options.history.frames = 600;
+  options.history.max_bytes = size_t{1} << 20;
+  options.history.max_interval = 4;
+  options.log = [log](const std::string& line) {
+    std::lock_guard lock(log->mu);
+    log->lines.push_back(line);
+  };
+  return options;
+}
+
+// A host and a server on a free port, and a client stub.
+class Fixture {
+ public:
+  Fixture(Scene scene, HostOptions options) {
+    ServerOptions server_options;
+    server_options.listen = "127.0.0.1:0";
+    host_ = std::make_unique<SimulationHost>(std::move(scene), std::move(options));
+    server_ = std::make_unique<Server>(*host_, server_options);
+    stub_ = Simulation::NewStub(grpc::CreateChannel(address(), grpc::InsecureChannelCredentials()));
+  }
+  ~Fixture() {
+    server_.reset();
+    host_.reset();
+  }
+  std::string address() const { return "127.0.0.1:" + std::to_string(server_->port()); }
+  Simulation::Stub& stub() { return *stub_; }
+
+ private:
+  std::unique_ptr<SimulationHost> host_;
+  std::unique_ptr<Server> server_;
+  std::unique_ptr<Simulation::Stub> stub_;
+};
+
+std::unique_ptr<grpc::ClientContext> Context() {
+  auto context = std::make_unique<grpc::ClientContext>();
+  context->set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(120));
+  return context;
+}
+
+v1::Status GetStatus(Simulation::Stub& stub) {
+  v1::Status status;
+  EXPECT_TRUE(stub.GetStatus(Context().get(), {}, &status).ok());
+  return status;
+}
+
+v1::ControlReply Step(Simulation::Stub& stub, uint32_t count) {
+  v1::StepRequest request;
+  request.set_count(count);
+  v1::ControlReply reply;
+  const grpc::Status s = stub.Step(Context().get(), request, &reply);
+  EXPECT_TRUE(s.ok()) << s.error_message();
+  return reply;
+}
+
+// Steps 10 frames one at a time, steps back 7 (to frame 3: the checkpoint of frame 0 restored,
+// frames 1-3 re-simulated), forward again one at a time, then back 5 and forward 5 in one call
+// each: every state hash (StateHash of the state downloaded from the GPU, paused) equals the
+// first pass's at the same frame.
+void ExpectStepBackReplaysTheFirstPass(Simulation::Stub& stub) {
+  std::vector<uint64_t> first;
+  for (int f = 1; f <= 10; ++f) {
+    const v1::ControlReply reply = Step(stub, 1);
+    ASSERT_EQ(reply.status().frame(), uint64_t(f));
+    ASSERT_EQ(reply.status().alarm(), "");
+    first.push_back(reply.status().state_hash());
+    ASSERT_NE(first.back(), 0u);
+    if (f > 1) {
+      ASSERT_NE(first.back(), first[f - 2]) << "frame " << f << ": nothing moved";
+    }
+  }
+  v1::StepBackRequest back;
+  back.set_count(7);
+  v1::ControlReply reply;
+  ASSERT_TRUE(stub.StepBack(Context().get(), back, &reply).ok());
+  EXPECT_EQ(reply.frames_moved(), 7u);
+  EXPECT_EQ(reply.status().frame(), 3u);
+  EXPECT_EQ(reply.status().state_hash(), first[2]) << "frame 3, re-simulated on the GPU";
+  for (int f = 4; f <= 10; ++f) {
+    reply = Step(stub, 1);
+    ASSERT_EQ(reply.status().frame(), uint64_t(f));
+    EXPECT_EQ(reply.status().state_hash(), first[f - 1]) << "frame " << f << ", second pass";
+  }
+  back.set_count(5);
+  ASSERT_TRUE(stub.StepBack(Context().get(), back, &reply).ok());
+  EXPECT_EQ(reply.status().frame(), 5u);
+  EXPECT_EQ(reply.status().state_hash(), first[4]) << "frame 5, re-simulated from frame 4";
+  reply = Step(stub, 5);
+  EXPECT_EQ(reply.frames_moved(), 5u);
+  EXPECT_EQ(reply.status().frame(), 10u);
+  EXPECT_EQ(reply.status().state_hash(), first[9]) << "frame 10, third pass";
+}
+
+TEST(ServerGpuTest, SeedStepBackOnTheGpuReplaysTheFirstPassBitForBit) {
+  SKIP_WITHOUT_GPU();
+  auto log = std::make_shared<LogLines>();
+  Fixture fx(SeedScene(), GpuOptions(log));
+  ASSERT_TRUE(log->Contains("a checkpoint every 4)")) << "the history does not re-simulate";
+  ExpectStepBackReplaysTheFirstPass(fx.stub());
+}
+
+TEST(ServerGpuTest, WcsphStepBackOnTheGpuReplaysTheFirstPassBitForBit) {
+  SKIP_WITHOUT_GPU();
+  auto log = std::make_shared<LogLines>();
+  Fixture fx(WcsphScene(), GpuOptions(log));
+  ASSERT_TRUE(log->Contains("a checkpoint every 4)")) << "the history does not re-simulate";
+  EXPECT_EQ(GetStatus(fx.stub()).solver(), "wcsph");
+  ExpectStepBackReplaysTheFirstPass(fx.stub());
+}
+
+TEST(ServerGpuTest, GetStatusNamesTheGpu) {
+  SKIP_WITHOUT_GPU();
+  auto log = std::make_shared<LogLines>();
+  Fixture fx(SeedScene(), GpuOptions(log));
+  const v1::Status status = GetStatus(fx.stub());
+  const std::string described = QueryDevice(kGpu).Describe(kGpu);
+  EXPECT_EQ(status.device().rfind("cuda:0 ", 0), 0u) << status.device();
+  EXPECT_EQ(status.device(), described);  // "cuda:0 NVIDIA H200, 139.8 GiB, sm_90"
+  EXPECT_GT(status.device_memory_bytes(), 0u);
+  EXPECT_EQ(status.particles(), 1000u);
+  EXPECT_TRUE(log->Contains("on " + described)) << "the scene's log line names the GPU";
+  // The GPU's passes report their times (CUDA events) as the CPU's do.
+  const v1::ControlReply reply = Step(fx.stub(), 2);
+  ASSERT_GT(reply.status().passes_size(), 0);
+  EXPECT_EQ(reply.status().passes(0).name(), "external_forces");
+  EXPECT_EQ(reply.status().passes(0).calls(), 2u * 3);
+}
+
+// A subscriber of the GPU server gets the frame the GPU computed, in particle-id order: the same
+// particles (to the codec's quantisation, and float rounding should the GPU's sums ever differ
+// from the CPU's in the last bit) as the same frames simulated on the CPU.
+TEST(ServerGpuTest, FramesStreamTheGpuStateInIdOrder) {
+  SKIP_WITHOUT_GPU();
+  auto log = std::make_shared<LogLines>();
+  Fixture fx(SeedScene(), GpuOptions(log));
+  Step(fx.stub(), 5);
+  dysa::Simulation cpu(SeedScene());
+  for (int f = 0; f < 5; ++f) cpu.StepFrame();
+
+  v1::StreamFramesRequest request;
+  request.add_fields(v1::FIELD_VELOCITY);
+  request.add_fields(v1::FIELD_DENSITY);
+  request.set_position_bits(24);
+  request.set_velocity_bits(16);
+  auto context = Context();
+  auto reader = fx.stub().StreamFrames(context.get(), request);
+  codec::FrameDecoder decoder;
+  std::optional<codec::Frame> frame;
+  v1::FrameMessage message;
+  while (!frame && reader->Read(&message)) {  // a late joiner of a paused host: frame 5
+    for (const std::string& chunk : message.chunks()) {
+      auto decoded =
+          decoder.AddChunk({reinterpret_cast<const uint8_t*>(chunk.data()), chunk.size()});
+      if (decoded) frame = std::move(*decoded);
+    }
+  }
+  context->TryCancel();
+  ASSERT_TRUE(frame.has_value());
+  EXPECT_EQ(frame->step, cpu.step());
+  ASSERT_EQ(frame->count, 1000u);
+  ASSERT_EQ(frame->positions.size(), 3u * 1000);
+  ASSERT_EQ(frame->velocities.size(), 3u * 1000);
+  ASSERT_EQ(frame->densities.size(), 1000u);
+  const ParticleArrays& p = cpu.state().particles;
+  const auto near = [](float decoded, float expected, double quantum) {
+    return std::abs(double(decoded) - double(expected)) <=
+           quantum + 1e-4 * std::abs(double(expected)) + 1e-6;
+  };
+  for (size_t i = 0; i < p.size(); ++i) {
+    const size_t k = p.id[i];
+    for (int a = 0; a < 3; ++a) {
+      ASSERT_TRUE(near(frame->positions[3 * k + a], p.position[i][a], frame->position_error[a]))
+          << "particle " << k << " axis " << a << ": " << frame->positions[3 * k + a] << " vs "
+          << p.position[i][a];
+      ASSERT_TRUE(near(frame->velocities[3 * k + a], p.velocity[i][a], frame->velocity_error))
+          << "particle " << k << " axis " << a << ": " << frame->velocities[3 * k + a] << " vs "
+          << p.velocity[i][a];
+    }
+    ASSERT_TRUE(near(frame->densities[k], p.density[i], frame->density_error))
+        << "particle " << k << ": " << frame->densities[k] << " vs " << p.density[i];
+  }
+}
+
+TEST(ServerGpuTest, ASceneWhoseSolverHasNoGpuBackendIsRefusedAndTheOldSceneRunsOn) {
+  SKIP_WITHOUT_GPU();
+  const std::vector<std::string> gpu_solvers = GpuSolvers();
+  if (std::find(gpu_solvers.begin(), gpu_solvers.end(), "dfsph") != gpu_solvers.end()) {
+    GTEST_SKIP() << "dfsph has a CUDA backend in this build: no built-in solver for a GPU server "
+                    "to refuse";
+  }
+  auto log = std::make_shared<LogLines>();
+  Fixture fx(SeedScene(), GpuOptions(log));
+  Step(fx.stub(), 2);
+  v1::LoadSceneRequest load;
+  load.set_json_text(kDfsphScene);
+  v1::ControlReply reply;
+  const grpc::Status s = fx.stub().LoadScene(Context().get(), load, &reply);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(s.error_message().find("device"), std::string::npos) << s.error_message();
+  EXPECT_NE(s.error_message().find("dfsph"), std::string::npos) << s.error_message();
+
+  // The old scene runs on, on the GPU, from where it was.
+  v1::Status status = GetStatus(fx.stub());
+  EXPECT_EQ(status.scene(), "seed_basic");
+  EXPECT_EQ(status.solver(), "seed");
+  EXPECT_EQ(status.particles(), 1000u);
+  EXPECT_EQ(status.frame(), 2u);
+  EXPECT_EQ(status.device().rfind("cuda:0 ", 0), 0u) << status.device();
+  reply = Step(fx.stub(), 3);
+  EXPECT_EQ(reply.frames_moved(), 3u);
+  EXPECT_EQ(reply.status().frame(), 5u);
+  ASSERT_TRUE(fx.stub().Resume(Context().get(), {}, &reply).ok());
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  while (GetStatus(fx.stub()).frame() < 10 && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  status = GetStatus(fx.stub());
+  EXPECT_GE(status.frame(), 10u);
+  EXPECT_EQ(status.alarm(), "");
+  EXPECT_EQ(status.scene(), "seed_basic");
+}
+
+}  // namespace
+}  // namespace dysa::service
