@@ -1,15 +1,22 @@
-// The seed solver on a CUDA GPU against the same machine's CPU cores, from the thesis scene
+// The solvers on a CUDA GPU against the same machine's CPU cores, from the thesis scene
 // (91,125 particles) to the largest block that fits: ms per pass, particle-steps/s, pair
-// interactions within the kernel support per second, GPU bytes per particle, speed-up.
+// interactions within the kernel support per second, simulated seconds per wall second, GPU
+// bytes per particle, speed-up.
 //
-//   build/release/bench/gpu_bench [--device cuda:0] [--sizes 91125,1000000,10000000,100000000]
-//                                 [--cpu-max 10000000] [--threads N] [--out bench/results]
+//   build/release/bench/gpu_bench [--solvers seed,wcsph,dfsph] [--device cuda:0]
+//       [--sizes 91125,1000000,10000000,100000000] [--physical-sizes 91125,1000000]
+//       [--cpu-max 10000000] [--threads N] [--out bench/results]
 //
-// Every size is a cube of the thesis fluid (seed_test_scene: its smoothing radius 0.3 m and its
-// particle spacing 5 / 44 m, so the same density and neighbours per particle) in a box
-// --domain-ratio times its edge. Writes gpu_seed_<gpu>.csv (one row per size and device) and
-// gpu_seed_passes_<gpu>.csv (per pass). The CPU runs in the same process, on --threads threads
-// (default: all cores), for sizes up to --cpu-max.
+// seed: every size is a cube of the thesis fluid (seed_test_scene: its smoothing radius 0.3 m
+// and its particle spacing 5 / 44 m, so the same density and neighbours per particle) in a box
+// --domain-ratio times its edge. wcsph, dfsph: a 3D dam break, a water column 0.5 x 1 x 0.5 m
+// against the wall of a 2 x 1.25 x 0.5 m tank with a no-slip floor, at the particle spacing that
+// gives the size, measured from t = --warmup-time (0.05 s: the column falling) for --seconds of
+// wall time. The
+// CPU starts from the GPU's state at the start of its timed steps.
+// Writes gpu_<solver>_<gpu>.csv (one row per size and device) and gpu_<solver>_passes_<gpu>.csv
+// (per pass). The CPU runs in the same process, on --threads threads (default: all cores), for
+// sizes up to --cpu-max.
 #include <omp.h>
 
 #include <CLI/CLI.hpp>
@@ -19,12 +26,14 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "dysa/core/device.h"
 #include "dysa/core/neighbor_grid.h"
 #include "dysa/core/simulation.h"
+#include "dysa/core/solver.h"
 
 namespace {
 
@@ -45,14 +54,29 @@ dysa::Scene ThesisBlock(int q, double domain_ratio) {
   return scene;
 }
 
-// Mean number of other particles within the smoothing radius, over a sample of particles
+// The dam break of the physical solvers with about n particles.
+dysa::Scene DamBreak(const std::string& solver, double n) {
+  dysa::Scene scene = dysa::ParseScene(R"({
+    "domain": {"min": [0, 0, 0], "max": [2, 1.25, 0.5], "no_slip": [false, true, false]},
+    "fluid_blocks": [{"center": [0.25, 0.5, 0.25], "size": [0.5, 1, 0.5]}],
+    "params": {"gravity": -9.81, "speed_of_sound": 60, "kinematic_viscosity": 1e-6,
+               "max_time_step": 0.002}
+  })");
+  scene.solver = solver;
+  // 0.25 m^3 of water: n d^3 = 0.25.
+  dysa::SetParam(scene.params, "particle_spacing", std::cbrt(0.25 / n));
+  scene.name = "dam_break_" + solver;
+  return scene;
+}
+
+// Mean number of other particles within the kernel's support, over a sample of particles
 // (the pairs each neighbour pass evaluates per particle).
 double MeanNeighbours(const dysa::Simulation& sim) {
   const dysa::ParticleArrays& p = sim.state().particles;
-  const dysa::Real h = dysa::Real(sim.params().smoothing_radius);
+  const dysa::Real h = dysa::Real(sim.model().kernel_support);
   dysa::NeighborGrid grid;
   grid.Configure(sim.model().domain, h, sim.model().periodic);
-  grid.Sort(p.predicted);
+  grid.Sort(sim.model().physical ? p.position : p.predicted);
   const int64_t n = int64_t(p.size());
   const int64_t stride = std::max<int64_t>(1, n / 20000);
   int64_t pairs = 0, sampled = 0;
@@ -78,6 +102,7 @@ struct Row {
   int steps = 0;
   double setup_s = 0;
   double ms_per_step = 0;
+  double simulated_per_wall = 0;  // simulated seconds per wall second
   double neighbours = 0;
   uint64_t device_bytes = 0;
   std::vector<dysa::PassProfile> passes;
@@ -85,16 +110,25 @@ struct Row {
   double pairs_per_s() const { return particle_steps_per_s() * neighbours; }
 };
 
+// Steps `scene` on `device`: `warmup` steps and up to `warmup_time` simulated seconds untimed
+// (or none, from `start` when given), then as many timed steps as fit in `budget_s`. `start`, if
+// not null and empty, receives the state the timed steps started from.
 Row Measure(const dysa::Scene& scene, const dysa::Device& device, int warmup, double budget_s,
-            int max_steps) {
+            int max_steps, double warmup_time, std::optional<dysa::Checkpoint>* start_state) {
   Row row;
   const auto setup = Clock::now();
   dysa::Simulation sim(scene, device);
   row.setup_s = std::chrono::duration<double>(Clock::now() - setup).count();
   row.device = sim.DeviceDescription();
   row.particles = sim.particle_count();
-  for (int i = 0; i < warmup; ++i) sim.Step();
+  if (start_state && start_state->has_value()) {
+    sim.RestoreCheckpoint(**start_state);
+  } else {
+    for (int i = 0; i < warmup || sim.time() < warmup_time; ++i) sim.Step();
+    if (start_state) *start_state = sim.SaveCheckpoint();
+  }
   sim.ResetProfile();
+  const double start_time = sim.time();
   const auto start = Clock::now();
   double elapsed = 0;
   while (row.steps < max_steps && (row.steps < 3 || elapsed < budget_s)) {
@@ -103,6 +137,7 @@ Row Measure(const dysa::Scene& scene, const dysa::Device& device, int warmup, do
     elapsed = std::chrono::duration<double>(Clock::now() - start).count();
   }
   row.ms_per_step = 1e3 * elapsed / row.steps;
+  row.simulated_per_wall = (sim.time() - start_time) / elapsed;
   row.passes.assign(sim.profile().begin(), sim.profile().end());
   row.device_bytes = sim.DeviceBytes();
   row.neighbours = MeanNeighbours(sim);
@@ -122,16 +157,23 @@ std::string FileSafe(std::string text) {
 int main(int argc, char** argv) {
   CLI::App app{"The seed solver on a CUDA GPU against the CPU cores"};
   std::string device_text = "cuda:0";
+  std::vector<std::string> solvers = {"seed", "wcsph", "dfsph"};
   std::vector<long long> sizes = {91125, 1000000, 10000000, 100000000};
+  std::vector<long long> physical_sizes = {91125, 1000000, 10000000};
   long long cpu_max = 10000000;
   int threads = omp_get_num_procs();
   int warmup = 20;
+  double physical_warmup = 0.05;
   double budget_s = 3.0;
   int max_steps = 500;
   double domain_ratio = 1.4;
   std::string out_dir = "bench/results";
   app.add_option("--device", device_text, "The GPU: cuda or cuda:N")->capture_default_str();
   app.add_option("--sizes", sizes, "Particle counts (rounded to cubes), comma separated")
+      ->delimiter(',')
+      ->check(CLI::Range(8LL, 2000000000LL));
+  app.add_option("--solvers", solvers, "Solvers, comma separated")->delimiter(',');
+  app.add_option("--physical-sizes", physical_sizes, "Particle counts of wcsph and dfsph")
       ->delimiter(',')
       ->check(CLI::Range(8LL, 2000000000LL));
   app.add_option("--cpu-max", cpu_max, "Largest count also run on the CPU (0: none)")
@@ -141,6 +183,10 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--warmup", warmup, "Untimed steps first")
       ->check(CLI::Range(0, 10000))
+      ->capture_default_str();
+  app.add_option("--warmup-time", physical_warmup,
+                 "Untimed simulated seconds of wcsph and dfsph (the column falling), s")
+      ->check(CLI::Range(0.0, 10.0))
       ->capture_default_str();
   app.add_option("--seconds", budget_s, "Timed seconds per run (at least 3 steps)")
       ->check(CLI::Range(0.0, 600.0))
@@ -162,47 +208,60 @@ int main(int argc, char** argv) {
     std::printf("GPU: %s; CPU: %d threads\n", info.Describe(gpu).c_str(), threads);
     std::filesystem::create_directories(out_dir);
     const std::string tag = FileSafe(info.name);
-    std::ofstream summary(out_dir + "/gpu_seed_" + tag + ".csv");
-    std::ofstream passes(out_dir + "/gpu_seed_passes_" + tag + ".csv");
-    summary << "device,particles,steps,ms_per_step,particle_steps_per_s,neighbours,"
-               "pairs_per_s,device_bytes_per_particle,speedup_over_cpu,setup_s\n";
-    passes << "device,particles,pass,ms\n";
-    for (long long size : sizes) {
-      const int q = std::max(2, int(std::lround(std::cbrt(double(size)))));
-      const dysa::Scene scene = ThesisBlock(q, domain_ratio);
-      std::vector<Row> rows;
-      rows.push_back(Measure(scene, gpu, warmup, budget_s, max_steps));
-      if (size <= cpu_max)
-        rows.push_back(Measure(scene, dysa::Device{}, std::min(warmup, 5), budget_s, max_steps));
-      const double gpu_ms = rows.front().ms_per_step;
-      for (const Row& r : rows) {
-        const bool on_gpu = &r == &rows.front();
-        const double speedup = rows.size() > 1 ? rows.back().ms_per_step / gpu_ms : 0.0;
-        std::printf(
-            "%-40s %11zu particles: %9.3f ms/step, %.3g particle-steps/s, %.1f neighbours, "
-            "%.3g pairs/s",
-            r.device.c_str(), r.particles, r.ms_per_step, r.particle_steps_per_s(), r.neighbours,
-            r.pairs_per_s());
-        if (on_gpu) {
-          std::printf(", %.1f GPU bytes/particle", double(r.device_bytes) / double(r.particles));
-          if (speedup > 0) std::printf(", %.1fx the CPU", speedup);
+    for (const std::string& solver : solvers) {
+      dysa::FindSolver(solver);  // throws, naming the known solvers
+      const bool physical = solver != "seed";
+      const std::string base = out_dir + "/gpu_" + solver;
+      std::ofstream summary(base + "_" + tag + ".csv");
+      std::ofstream passes(base + "_passes_" + tag + ".csv");
+      summary << "device,particles,steps,ms_per_step,particle_steps_per_s,neighbours,"
+                 "pairs_per_s,simulated_s_per_wall_s,device_bytes_per_particle,speedup_over_cpu,"
+                 "setup_s\n";
+      passes << "device,particles,pass,ms\n";
+      for (long long size : physical ? physical_sizes : sizes) {
+        const int q = std::max(2, int(std::lround(std::cbrt(double(size)))));
+        const dysa::Scene scene =
+            physical ? DamBreak(solver, double(size)) : ThesisBlock(q, domain_ratio);
+        const double warmup_time = physical ? physical_warmup : 0.0;
+        // The CPU starts from the state the GPU's timed steps started from.
+        std::optional<dysa::Checkpoint> start;
+        std::vector<Row> rows;
+        rows.push_back(Measure(scene, gpu, warmup, budget_s, max_steps, warmup_time,
+                               size <= cpu_max ? &start : nullptr));
+        if (size <= cpu_max) {
+          rows.push_back(Measure(scene, dysa::Device{}, 0, budget_s, max_steps, 0, &start));
         }
-        std::printf(" (%d steps, set-up %.1f s)\n", r.steps, r.setup_s);
-        summary << '"' << r.device << "\"," << r.particles << ',' << r.steps << ',' << r.ms_per_step
-                << ',' << r.particle_steps_per_s() << ',' << r.neighbours << ',' << r.pairs_per_s()
-                << ',' << (on_gpu ? double(r.device_bytes) / double(r.particles) : 0.0) << ','
-                << (on_gpu ? speedup : 0.0) << ',' << r.setup_s << '\n';
-        for (const dysa::PassProfile& p : r.passes) {
-          const double ms = p.calls ? p.total_ms / double(p.calls) : 0.0;
-          std::printf("    %-16s %9.3f ms\n", p.name.c_str(), ms);
-          passes << '"' << r.device << "\"," << r.particles << ',' << p.name << ',' << ms << '\n';
+        const double gpu_ms = rows.front().ms_per_step;
+        for (const Row& r : rows) {
+          const bool on_gpu = &r == &rows.front();
+          const double speedup = rows.size() > 1 ? rows.back().ms_per_step / gpu_ms : 0.0;
+          std::printf(
+              "%-6s %-38s %11zu particles: %9.3f ms/step, %.3g particle-steps/s, %.1f "
+              "neighbours, %.3g pairs/s, %.3g simulated s per wall s",
+              solver.c_str(), r.device.c_str(), r.particles, r.ms_per_step,
+              r.particle_steps_per_s(), r.neighbours, r.pairs_per_s(), r.simulated_per_wall);
+          if (on_gpu) {
+            std::printf(", %.1f GPU bytes/particle", double(r.device_bytes) / double(r.particles));
+            if (speedup > 0) std::printf(", %.1fx the CPU", speedup);
+          }
+          std::printf(" (%d steps, set-up %.1f s)\n", r.steps, r.setup_s);
+          summary << '"' << r.device << "\"," << r.particles << ',' << r.steps << ','
+                  << r.ms_per_step << ',' << r.particle_steps_per_s() << ',' << r.neighbours << ','
+                  << r.pairs_per_s() << ',' << r.simulated_per_wall << ','
+                  << (on_gpu ? double(r.device_bytes) / double(r.particles) : 0.0) << ','
+                  << (on_gpu ? speedup : 0.0) << ',' << r.setup_s << '\n';
+          for (const dysa::PassProfile& p : r.passes) {
+            const double ms = p.calls ? p.total_ms / double(p.calls) : 0.0;
+            std::printf("    %-18s %9.3f ms\n", p.name.c_str(), ms);
+            passes << '"' << r.device << "\"," << r.particles << ',' << p.name << ',' << ms << '\n';
+          }
         }
+        summary.flush();
+        passes.flush();
       }
-      summary.flush();
-      passes.flush();
+      std::printf("wrote %s_%s.csv and %s_passes_%s.csv\n", base.c_str(), tag.c_str(), base.c_str(),
+                  tag.c_str());
     }
-    std::printf("wrote %s/gpu_seed_%s.csv and gpu_seed_passes_%s.csv\n", out_dir.c_str(),
-                tag.c_str(), tag.c_str());
   } catch (const std::exception& e) {
     std::fprintf(stderr, "gpu_bench: %s\n", e.what());
     return 2;

@@ -1,16 +1,19 @@
 // The CUDA backends of the solvers (built with DYSA_CUDA): the host side that turns a Model into
 // the kernels' constants, with the CPU passes' float arithmetic, and moves particles.
+#include <algorithm>
 #include <cmath>
 #include <memory>
 #include <string>
 
 #include "boundary_particles.h"
 #include "cfl_time_step.h"
+#include "cuda/dfsph_pipeline.h"
 #include "cuda/seed_pipeline.h"
 #include "cuda/wcsph_pipeline.h"
 #include "dysa/core/kernels.h"
 #include "dysa/core/neighbor_grid.h"
 #include "gpu_backend.h"
+#include "solvers/dfsph/bender_koschier_solver.h"
 #include "solvers/seed/seed_solver.h"
 #include "solvers/wcsph/becker_teschner_solver.h"
 
@@ -113,6 +116,50 @@ void AddObstacles(const Model& model, std::vector<cuda::SphereObstacle>& spheres
   }
 }
 
+// The fluid grid of the physical solvers (wcsph::SortIntoGrid's layout).
+cuda::GridLayout PhysicalGrid(const Model& model) {
+  NeighborGrid grid;
+  grid.Configure(model.domain, Real(model.kernel_support), model.periodic);
+  return Layout(grid);
+}
+
+// The physical solvers' constants as their CPU passes compute them (becker_teschner_solver.cc,
+// bender_koschier_solver.cc).
+cuda::SphConstants PhysicalConstants(const Model& model) {
+  const Params& prm = model.params;
+  cuda::SphConstants c;
+  const double rho0 = prm.rest_density;
+  c.support = Real(model.kernel_support);
+  c.mass = Real(model.particle_mass);
+  c.psi_scale = Real(rho0);
+  c.gradient_scale = Real(1 / model.gradient_moment);
+  c.viscosity_scale =
+      Real(10 * prm.kinematic_viscosity * model.particle_mass / model.viscosity_moment);
+  c.wall_viscosity_scale = Real(10 * prm.kinematic_viscosity / model.viscosity_moment);
+  const Real h = Real(prm.particle_spacing);
+  c.eps = Real(0.01) * h * h;
+  c.rest_density = rho0;
+  c.stiffness = rho0 * prm.speed_of_sound * prm.speed_of_sound / wcsph::kTaitExponent;
+  c.contact_range = Real(wcsph::kContactRange * prm.particle_spacing);
+  for (int a = 0; a < 3; ++a) {
+    c.domain_lo[a] = Real(model.domain.min[a]);
+    c.domain_hi[a] = Real(model.domain.max[a]);
+  }
+  return c;
+}
+
+// The boundary particles in their grid's order.
+cuda::BoundaryCloud Cloud(const BoundaryParticles& boundary) {
+  cuda::BoundaryCloud cloud;
+  const size_t nb = boundary.size();
+  cloud.x.assign(boundary.grid().xs().begin(), boundary.grid().xs().begin() + nb);
+  cloud.y.assign(boundary.grid().ys().begin(), boundary.grid().ys().begin() + nb);
+  cloud.z.assign(boundary.grid().zs().begin(), boundary.grid().zs().begin() + nb);
+  cloud.volume.assign(boundary.volume().begin(), boundary.volume().end());
+  cloud.no_slip.assign(boundary.no_slip().begin(), boundary.no_slip().end());
+  return cloud;
+}
+
 // Weakly compressible SPH (Becker & Teschner 2007) on the GPU: the passes up to the time step
 // run there, the CFL step is chosen here from the maxima they return (CflLimits, the CPU's
 // code), and the integration runs there with it.
@@ -123,42 +170,14 @@ class WcsphGpuBackend final : public GpuBackend {
   }
 
   std::vector<std::string> Configure(const Model& model) override {
-    const Params& prm = model.params;
     cuda::WcsphStepConfig config;
-    NeighborGrid grid;  // the CPU pass's layout (wcsph::SortIntoGrid)
-    grid.Configure(model.domain, Real(model.kernel_support), model.periodic);
-    config.grid = Layout(grid);
-    // The constants as the CPU passes compute them (becker_teschner_solver.cc).
-    cuda::SphConstants& c = config.constants;
-    const double rho0 = prm.rest_density;
-    c.support = Real(model.kernel_support);
-    c.mass = Real(model.particle_mass);
-    c.psi_scale = Real(rho0);
-    c.gradient_scale = Real(1 / model.gradient_moment);
-    c.viscosity_scale =
-        Real(10 * prm.kinematic_viscosity * model.particle_mass / model.viscosity_moment);
-    c.wall_viscosity_scale = Real(10 * prm.kinematic_viscosity / model.viscosity_moment);
-    const Real h = Real(prm.particle_spacing);
-    c.eps = Real(0.01) * h * h;
-    c.rest_density = rho0;
-    c.stiffness = rho0 * prm.speed_of_sound * prm.speed_of_sound / wcsph::kTaitExponent;
-    c.contact_range = Real(wcsph::kContactRange * prm.particle_spacing);
-    for (int a = 0; a < 3; ++a) {
-      c.domain_lo[a] = Real(model.domain.min[a]);
-      c.domain_hi[a] = Real(model.domain.max[a]);
-    }
-    const BoundaryParticles boundary(model, prm.particle_spacing, model.kernel_support);
-    cuda::BoundaryCloud cloud;
-    const size_t nb = boundary.size();
-    cloud.x.assign(boundary.grid().xs().begin(), boundary.grid().xs().begin() + nb);
-    cloud.y.assign(boundary.grid().ys().begin(), boundary.grid().ys().begin() + nb);
-    cloud.z.assign(boundary.grid().zs().begin(), boundary.grid().zs().begin() + nb);
-    cloud.volume.assign(boundary.volume().begin(), boundary.volume().end());
-    cloud.no_slip.assign(boundary.no_slip().begin(), boundary.no_slip().end());
-    config.viscosity = prm.kinematic_viscosity > 0;
+    config.grid = PhysicalGrid(model);
+    config.constants = PhysicalConstants(model);
+    const BoundaryParticles boundary(model, model.params.particle_spacing, model.kernel_support);
+    config.viscosity = model.params.kinematic_viscosity > 0;
     config.wall_viscosity = config.viscosity && boundary.HasNoSlip();
     AddObstacles(model, config.spheres, config.boxes);
-    return pipeline_.Configure(config, cloud);
+    return pipeline_.Configure(config, Cloud(boundary));
   }
 
   void Upload(const ParticleArrays& p) override {
@@ -189,6 +208,101 @@ class WcsphGpuBackend final : public GpuBackend {
   cuda::WcsphPipeline pipeline_;
 };
 
+// Divergence-free SPH (Bender & Koschier 2015/2017) on the GPU: the passes and the solves'
+// iterations run there; the two time steps are chosen here (CflLimits, the CPU's code) from the
+// maxima the GPU returns.
+class DfsphGpuBackend final : public GpuBackend {
+ public:
+  DfsphGpuBackend(const Device& device, const DeviceInfo& info) : pipeline_(device.index) {
+    info_ = info;
+  }
+
+  std::vector<std::string> Configure(const Model& model) override {
+    cuda::DfsphStepConfig config;
+    config.grid = PhysicalGrid(model);
+    config.constants = PhysicalConstants(model);
+    const BoundaryParticles boundary(model, model.params.particle_spacing, model.kernel_support);
+    config.viscosity = model.params.kinematic_viscosity > 0;
+    config.wall_viscosity = config.viscosity && boundary.HasNoSlip();
+    config.gradient_moment = Real(model.gradient_moment);
+    for (int a = 0; a < 3; ++a) {
+      if (model.periodic[a]) config.period[a] = Real(model.domain.max[a] - model.domain.min[a]);
+    }
+    AddObstacles(model, config.spheres, config.boxes);
+    return pipeline_.Configure(config, Cloud(boundary));
+  }
+
+  void Upload(const ParticleArrays& p) override {
+    // A state the solver did not initialise starts without a warm start (dfsph::SortIntoGrid).
+    const bool warm =
+        p.density_stiffness.size() == p.size() && p.divergence_stiffness.size() == p.size();
+    const std::vector<Real> zeros(warm ? 0 : p.size(), Real(0));
+    pipeline_.Upload(p.size(), p.id.data(), Floats(p.position), Floats(p.velocity),
+                     warm ? p.density_stiffness.data() : zeros.data(),
+                     warm ? p.divergence_stiffness.data() : zeros.data());
+  }
+
+  void Download(ParticleArrays& p) const override {
+    p.Resize(pipeline_.size());
+    p.density_stiffness.resize(pipeline_.size());
+    p.divergence_stiffness.resize(pipeline_.size());
+    pipeline_.Download(p.id.data(), Floats(p.position), Floats(p.velocity), p.density.data(),
+                       p.pressure.data(), p.density_stiffness.data(),
+                       p.divergence_stiffness.data());
+  }
+
+  StepReport Step(const Model& model, State& state) override {
+    const Params& prm = model.params;
+    const Real gravity = Real(wcsph::GravityAt(prm, state.time));
+    State::SolverStats& stats = state.solver_stats;
+    const uint64_t step = state.step + 1;
+    // DivergenceSolve's step: the one the time_step pass will choose from these velocities.
+    const float speed2 = pipeline_.Prepare(gravity);
+    const double divergence_dt =
+        std::min(CflLimits(model, std::sqrt(double(speed2)), std::abs(prm.gravity), false).Min(),
+                 prm.max_time_step);
+    const cuda::SolveResult divergence = pipeline_.DivergenceSolve(
+        divergence_dt, {prm.divergence_tolerance, prm.max_iterations, Real(prm.warm_start)});
+    Record(divergence, "divergence", prm.divergence_tolerance, step, stats.divergence_iterations,
+           stats.divergence_error, state);
+    // ChooseIncompressibleTimeStepPass from the GPU's maxima.
+    const cuda::StepMaxima maxima = pipeline_.Forces(gravity);
+    const TimeStepLimits limits =
+        CflLimits(model, std::sqrt(double(maxima.speed2)), std::sqrt(double(maxima.acceleration2)),
+                  /*acoustic=*/false, maxima.density);
+    state.dt = ChooseTimeStep(limits, state.max_dt);
+    if (prm.cfl_factor > kIncompressibleMaxCfl) {
+      state.warning = "cfl_factor " + std::to_string(prm.cfl_factor) +
+                      " is beyond the incompressible solver's stability limit; steps use " +
+                      std::to_string(kIncompressibleMaxCfl);
+    }
+    const Real dt = Real(state.dt);
+    const cuda::SolveResult density = pipeline_.DensitySolve(
+        dt, {prm.density_tolerance, prm.max_iterations, Real(prm.warm_start)});
+    Record(density, "density", prm.density_tolerance, step, stats.density_iterations,
+           stats.density_error, state);
+    cuda::StepOutcome outcome = pipeline_.Integrate(dt, Real(prm.particle_spacing / state.dt));
+    if (outcome.limited > 0) state.warning = dfsph::SpeedLimitWarning(outcome.limited, step);
+    return StepReport{std::move(outcome.pass_ms), outcome.finite, 0};
+  }
+
+  uint64_t DeviceBytes() const override { return pipeline_.DeviceBytes(); }
+
+ private:
+  // A solve's statistics into state.solver_stats, and its warning when it stopped at the cap.
+  static void Record(const cuda::SolveResult& result, const char* solve, double tolerance,
+                     uint64_t step, int& iterations, double& error, State& state) {
+    iterations = result.iterations;
+    error = result.error;
+    if (result.capped) {
+      ++state.solver_stats.capped_solves;
+      state.warning = dfsph::CapWarning(solve, result.iterations, result.error, tolerance, step);
+    }
+  }
+
+  cuda::DfsphPipeline pipeline_;
+};
+
 }  // namespace
 
 bool CudaBackendBuilt() { return true; }
@@ -213,15 +327,16 @@ DeviceInfo QueryDevice(const Device& device) {
   return info;
 }
 
-std::vector<std::string> GpuSolvers() { return {"seed", "wcsph"}; }
+std::vector<std::string> GpuSolvers() { return {"seed", "wcsph", "dfsph"}; }
 
 std::unique_ptr<GpuBackend> CreateGpuBackend(const Device& device, std::string_view solver) {
   const DeviceInfo info = QueryDevice(device);  // throws, naming what is missing
   if (solver == "seed") return std::make_unique<SeedGpuBackend>(device, info);
   if (solver == "wcsph") return std::make_unique<WcsphGpuBackend>(device, info);
+  if (solver == "dfsph") return std::make_unique<DfsphGpuBackend>(device, info);
   throw ConfigError("device", "the solver \"" + std::string(solver) +
-                                  "\" has no CUDA backend yet (GPU solvers: seed, wcsph); run "
-                                  "it with --device cpu");
+                                  "\" has no CUDA backend (GPU solvers: seed, wcsph, dfsph); "
+                                  "run it with --device cpu");
 }
 
 }  // namespace dysa

@@ -74,22 +74,190 @@ __device__ float LaneSum(const float v[kLanes]) {
   return s;
 }
 
+// The neighbour list (runs without periodic axes): the density pass scans the 27 cells once and
+// keeps, per particle, the candidates within h (those at distance 0 included); the pressure and
+// viscosity passes, which would scan the same candidates around the same predicted positions
+// (about 5 per neighbour), read the list instead.
+//
+// The list is lane-major: lane 0's neighbours in candidate order, then lane 1's, and so on, so a
+// thread adds each lane's terms into one register and the lane into the total when the next lane
+// starts. That is LaneSum's order (lanes without neighbours add +0 to a sum that is never -0, as
+// above: skipping them changes nothing), with no indexing into the 8 partial sums. An entry is
+// 16 bits, the run (0..8, of NeighbourRuns) and the offset in it, whose low 3 bits are the lane;
+// a thread keeps its runs' starts in shared memory to turn it back into a particle index.
+// Entries go 8 to a 16-byte chunk, chunk c of particle i at c * stride + i: a thread writes a
+// chunk with one store, and a warp reads its chunk c in one coalesced load.
+//
+// A particle with more neighbours than the capacity, or a run too long for an entry, is left to
+// the grid kernels (Overflow); the step reports the largest count, and the host grows the list.
+constexpr int kRuns = 9;
+constexpr uint32_t kOffsetBits = 12;
+constexpr uint32_t kMaxRunLength = 1u << kOffsetBits;
+constexpr uint32_t kEntriesPerChunk = 8;
+constexpr uint32_t kUnlisted = 0xFFFFFFFFu;  // the count of a particle with a run too long
+
+struct NeighbourList {
+  uint4* chunk;     // chunk c of particle i at c * stride + i
+  uint32_t* count;  // neighbours of each particle; above capacity: the grid kernels compute it
+  uint64_t stride;
+  uint32_t capacity;  // entries per particle, a multiple of kEntriesPerChunk
+};
+
+// The particles the grid kernels compute: all of them without a list (count null), otherwise
+// those the list kernels left (more neighbours than the capacity).
+struct Overflow {
+  const uint32_t* count;
+  uint32_t capacity;
+  __device__ bool Skip(uint32_t i) const { return count != nullptr && count[i] <= capacity; }
+};
+
+struct Densities {
+  float *density, *near_density, *pressure, *near_pressure;
+};
+
+// The runs of DeviceGrid::ForEachNeighborRun without periodic axes, in its order: run
+// 3 (dz + 1) + (dy + 1) is the row (y + dy, z + dz), empty where that row lies outside the grid.
+__device__ void NeighbourRuns(const DeviceGrid& grid, int3 cell, uint32_t begin[kRuns],
+                              uint32_t end[kRuns]) {
+  const int nx = grid.layout.dims[0], ny = grid.layout.dims[1], nz = grid.layout.dims[2];
+  const int x0 = cell.x > 0 ? cell.x - 1 : 0;
+  const int x1 = cell.x + 1 < nx ? cell.x + 1 : nx - 1;
+#pragma unroll
+  for (int r = 0; r < kRuns; ++r) {
+    const int z = cell.z + r / 3 - 1, y = cell.y + r % 3 - 1;
+    begin[r] = end[r] = 0;
+    if (z >= 0 && z < nz && y >= 0 && y < ny) {
+      const uint32_t row = uint32_t(nx) * (y + uint32_t(ny) * z);
+      begin[r] = grid.cell_start[row + x0];
+      end[r] = grid.cell_start[row + x1 + 1];
+    }
+  }
+}
+
+// Shifts an entry into the top of a chunk; after 8, the first is in the low half of c.x.
+__device__ void ShiftIn(uint4& c, uint32_t entry) {
+  c.x = __funnelshift_r(c.x, c.y, 16);
+  c.y = __funnelshift_r(c.y, c.z, 16);
+  c.z = __funnelshift_r(c.z, c.w, 16);
+  c.w = __funnelshift_r(c.w, entry, 16);
+}
+
+// Calls next_lane() where a lane's neighbours end and another's begin, and visit(j) for each of
+// particle i's `count` neighbours in list order; run_begin holds the thread's run starts.
+// kWritten: the list was written by this kernel (plain loads, not the read-only cache's).
+template <bool kWritten, class NextLane, class Visit>
+__device__ void ForEachListed(const NeighbourList& list, uint32_t i, uint32_t count,
+                              const uint32_t (*run_begin)[kBlock], NextLane&& next_lane,
+                              Visit&& visit) {
+  const uint4* in = list.chunk + i;
+  uint32_t lane = 0;
+  for (uint32_t base = 0; base < count; base += kEntriesPerChunk) {
+    const uint4* at = in + uint64_t(base / kEntriesPerChunk) * list.stride;
+    const uint4 c = kWritten ? *at : __ldg(at);
+#pragma unroll
+    for (uint32_t s = 0; s < kEntriesPerChunk; ++s) {
+      if (base + s >= count) break;
+      const uint32_t word = s < 2 ? c.x : s < 4 ? c.y : s < 6 ? c.z : c.w;
+      const uint32_t e = (word >> (16 * (s & 1))) & 0xFFFF;
+      const uint32_t offset = e & (kMaxRunLength - 1);
+      if ((offset & (kLanes - 1)) != lane) {
+        next_lane();
+        lane = offset & (kLanes - 1);
+      }
+      visit(run_begin[e >> kOffsetBits][threadIdx.x] + offset);
+    }
+  }
+}
+
+__device__ float SquaredDistance(float4 pj, float qx, float qy, float qz, float& dx, float& dy,
+                                 float& dz) {
+  dx = pj.x - qx, dy = pj.y - qy, dz = pj.z - qz;
+  return dx * dx + dy * dy + dz * dz;
+}
+
 template <bool kNear>
-__global__ void DensityKernel(DeviceGrid grid, Particles p, float* density, float* near_density,
-                              float* pressure, float* near_pressure, SeedConstants c, uint32_t n) {
+__device__ void StoreDensity(const Densities& d, const SeedConstants& c, uint32_t i, float sum2,
+                             float sum3) {
+  const float rho = c.mass_spiky2 * sum2;
+  d.density[i] = rho;
+  d.pressure[i] = (rho - c.rho0) * c.stiffness;
+  if (kNear) {
+    const float rho_near = c.mass_spiky3 * sum3;
+    d.near_density[i] = rho_near;
+    d.near_pressure[i] = rho_near * c.near_stiffness;
+  }
+}
+
+// The pressure force's pair term for 0 < r2 < h2: the pair adds -(dx, dy, dz) times it. f holds
+// the neighbour's factors (PressureFactorsKernel).
+template <bool kNear>
+__device__ float PressureScale(const SeedConstants& c, float r2, float pi, float pni, float4 f) {
+  const float r = sqrtf(r2);
+  const float q = c.h - r;
+  const float inv_r = 1.0f / r;
+  float magnitude = c.spiky2_grad * q * (pi * f.x + f.y);
+  if (kNear) magnitude += c.spiky3_grad * q * q * (pni * f.x + f.z);
+  return magnitude * inv_r;
+}
+
+// The rare pairs at distance 0, i itself excluded: a direction from the ids (CoincidentDirection).
+template <bool kNear>
+__device__ void AddCoincidentForces(const DeviceGrid& grid, const float4* pos, const uint32_t* id,
+                                    const float4* factor, const SeedConstants& c, uint32_t i,
+                                    float4 xi, float pi, float pni, float force[3]) {
+  grid.ForEachNeighborRun(
+      grid.SortedCell(i), [&](uint32_t begin, uint32_t end, float sx, float sy, float sz) {
+        for (uint32_t j = begin; j < end; ++j) {
+          const float4 pj = pos[j];
+          if (j == i || pj.x - (xi.x + sx) != 0 || pj.y - (xi.y + sy) != 0 ||
+              pj.z - (xi.z + sz) != 0) {
+            continue;
+          }
+          const float4 f = factor[j];
+          float magnitude = c.spiky2_grad * c.h * (pi * f.x + f.y);
+          if (kNear) magnitude += c.spiky3_grad * c.h * c.h * (pni * f.x + f.z);
+          float d[3];
+          CoincidentDirection(id[i], id[j], d);
+          for (int a = 0; a < 3; ++a) force[a] -= d[a] * magnitude;
+        }
+      });
+}
+
+__device__ void ApplyPressureForce(Particles p, const float4* factor, const SeedConstants& c,
+                                   uint32_t i, const float force[3]) {
+  const float scale = c.mass_dt * 2 * factor[i].x;
+  p.vx[i] += force[0] * scale;
+  p.vy[i] += force[1] * scale;
+  p.vz[i] += force[2] * scale;
+}
+
+__device__ void ApplyViscosity(Particles p, const SeedConstants& c, uint32_t i, float ax, float ay,
+                               float az, float total) {
+  const float gain = total * c.viscosity_scale > 1 ? 1 / total : c.viscosity_scale;
+  p.vx[i] += ax * gain;
+  p.vy[i] += ay * gain;
+  p.vz[i] += az * gain;
+}
+
+// The grid kernels: each particle scans the candidates of its 27 cells in 8 register lanes.
+
+template <bool kNear>
+__global__ void __launch_bounds__(kBlock)
+    DensityKernel(DeviceGrid grid, const float4* __restrict__ pos, Densities d, SeedConstants c,
+                  Overflow overflow, uint32_t n) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
-  if (i >= n) return;
-  const float xi = p.px[i], yi = p.py[i], zi = p.pz[i];
+  if (i >= n || overflow.Skip(i)) return;
+  const float4 xi = pos[i];
   float sum2[kLanes] = {}, sum3[kLanes] = {};
   grid.ForEachNeighborRun(
       grid.SortedCell(i), [&](uint32_t begin, uint32_t end, float sx, float sy, float sz) {
-        const float qx = xi + sx, qy = yi + sy, qz = zi + sz;
+        const float qx = xi.x + sx, qy = xi.y + sy, qz = xi.z + sz;
         for (uint32_t j = begin; j < end; j += kLanes) {
 #pragma unroll
           for (int l = 0; l < kLanes; ++l) {
             if (j + l >= end) break;
-            const float dx = p.px[j + l] - qx, dy = p.py[j + l] - qy, dz = p.pz[j + l] - qz;
-            const float r2 = dx * dx + dy * dy + dz * dz;
+            float dx, dy, dz;
+            const float r2 = SquaredDistance(__ldg(pos + j + l), qx, qy, qz, dx, dy, dz);
             if (!(r2 < c.h2)) continue;
             const float q = c.h - sqrtf(r2);
             sum2[l] += q * q;
@@ -97,123 +265,273 @@ __global__ void DensityKernel(DeviceGrid grid, Particles p, float* density, floa
           }
         }
       });
-  const float rho = c.mass_spiky2 * LaneSum(sum2);
-  density[i] = rho;
-  pressure[i] = (rho - c.rho0) * c.stiffness;
-  if (kNear) {
-    const float rho_near = c.mass_spiky3 * LaneSum(sum3);
-    near_density[i] = rho_near;
-    near_pressure[i] = rho_near * c.near_stiffness;
-  }
+  StoreDensity<kNear>(d, c, i, LaneSum(sum2), LaneSum(sum3));
 }
 
-// The per-neighbour factors of the pressure force (PaddedArray in the CPU pass).
+// The per-neighbour factors of the pressure force (PaddedArray in the CPU pass), one float4 per
+// particle for one load: 0.5 / rho, 0.5 p / rho, 0.5 pn / rho.
 __global__ void PressureFactorsKernel(const float* density, const float* pressure,
-                                      const float* near_pressure, float* half_inv_rho,
-                                      float* half_p_over_rho, float* half_pn_over_rho, uint32_t n,
+                                      const float* near_pressure, float4* factor, uint32_t n,
                                       bool near) {
   const uint32_t j = blockIdx.x * blockDim.x + threadIdx.x;
   if (j >= n) return;
-  half_inv_rho[j] = 0.5f / density[j];
-  half_p_over_rho[j] = 0.5f * pressure[j] / density[j];
-  if (near) half_pn_over_rho[j] = 0.5f * near_pressure[j] / density[j];
+  factor[j] = make_float4(0.5f / density[j], 0.5f * pressure[j] / density[j],
+                          near ? 0.5f * near_pressure[j] / density[j] : 0.0f, 0.0f);
 }
 
 template <bool kNear>
-__global__ void PressureForceKernel(DeviceGrid grid, Particles p, const float* pressure,
-                                    const float* near_pressure, const float* half_inv_rho,
-                                    const float* half_p_over_rho, const float* half_pn_over_rho,
-                                    SeedConstants c, uint32_t n) {
+__global__ void __launch_bounds__(kBlock)
+    PressureForceKernel(DeviceGrid grid, Particles p, const float4* __restrict__ pos,
+                        const float* pressure, const float* near_pressure,
+                        const float4* __restrict__ factor, SeedConstants c, Overflow overflow,
+                        uint32_t n) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
-  if (i >= n) return;
-  const float xi = p.px[i], yi = p.py[i], zi = p.pz[i];
+  if (i >= n || overflow.Skip(i)) return;
+  const float4 xi = pos[i];
   const float pi = pressure[i];
   const float pni = kNear ? near_pressure[i] : 0.0f;
   float fx[kLanes] = {}, fy[kLanes] = {}, fz[kLanes] = {};
   int coincident = 0;  // candidates at distance 0, i itself included
-  const int3 cell = grid.SortedCell(i);
-  grid.ForEachNeighborRun(cell, [&](uint32_t begin, uint32_t end, float sx, float sy, float sz) {
-    const float qx = xi + sx, qy = yi + sy, qz = zi + sz;
-    for (uint32_t j = begin; j < end; j += kLanes) {
+  grid.ForEachNeighborRun(
+      grid.SortedCell(i), [&](uint32_t begin, uint32_t end, float sx, float sy, float sz) {
+        const float qx = xi.x + sx, qy = xi.y + sy, qz = xi.z + sz;
+        for (uint32_t j = begin; j < end; j += kLanes) {
 #pragma unroll
-      for (int l = 0; l < kLanes; ++l) {
-        if (j + l >= end) break;
-        const uint32_t k = j + l;
-        const float dx = p.px[k] - qx, dy = p.py[k] - qy, dz = p.pz[k] - qz;
-        const float r2 = dx * dx + dy * dy + dz * dz;
-        if (r2 == 0) ++coincident;
-        if (!(r2 < c.h2 && r2 > 0)) continue;
-        const float r = sqrtf(r2);
-        const float q = c.h - r;
-        const float inv_r = 1.0f / r;
-        float magnitude = c.spiky2_grad * q * (pi * half_inv_rho[k] + half_p_over_rho[k]);
-        if (kNear) {
-          magnitude += c.spiky3_grad * q * q * (pni * half_inv_rho[k] + half_pn_over_rho[k]);
+          for (int l = 0; l < kLanes; ++l) {
+            if (j + l >= end) break;
+            const uint32_t k = j + l;
+            float dx, dy, dz;
+            const float r2 = SquaredDistance(__ldg(pos + k), qx, qy, qz, dx, dy, dz);
+            if (r2 == 0) ++coincident;
+            if (!(r2 < c.h2 && r2 > 0)) continue;
+            const float s = PressureScale<kNear>(c, r2, pi, pni, __ldg(factor + k));
+            fx[l] -= dx * s;
+            fy[l] -= dy * s;
+            fz[l] -= dz * s;
+          }
         }
-        const float s = magnitude * inv_r;
-        fx[l] -= dx * s;
-        fy[l] -= dy * s;
-        fz[l] -= dz * s;
-      }
-    }
-  });
+      });
   float force[3] = {LaneSum(fx), LaneSum(fy), LaneSum(fz)};
   if (coincident > 1) {
-    grid.ForEachNeighborRun(cell, [&](uint32_t begin, uint32_t end, float sx, float sy, float sz) {
-      for (uint32_t j = begin; j < end; ++j) {
-        if (j == i || p.px[j] - (xi + sx) != 0 || p.py[j] - (yi + sy) != 0 ||
-            p.pz[j] - (zi + sz) != 0) {
-          continue;
-        }
-        float magnitude = c.spiky2_grad * c.h * (pi * half_inv_rho[j] + half_p_over_rho[j]);
-        if (kNear) {
-          magnitude += c.spiky3_grad * c.h * c.h * (pni * half_inv_rho[j] + half_pn_over_rho[j]);
-        }
-        float d[3];
-        CoincidentDirection(p.id[i], p.id[j], d);
-        for (int a = 0; a < 3; ++a) force[a] -= d[a] * magnitude;
-      }
-    });
+    AddCoincidentForces<kNear>(grid, pos, p.id, factor, c, i, xi, pi, pni, force);
   }
-  const float scale = c.mass_dt * 2 * half_inv_rho[i];
-  p.vx[i] += force[0] * scale;
-  p.vy[i] += force[1] * scale;
-  p.vz[i] += force[2] * scale;
+  ApplyPressureForce(p, factor, c, i, force);
 }
 
-// Reads the velocities from the copy (vx0, vy0, vz0) made before the pass, as the CPU does.
-__global__ void ViscosityKernel(DeviceGrid grid, Particles p, const float* vx0, const float* vy0,
-                                const float* vz0, SeedConstants c, uint32_t n) {
+// Reads the velocities from the copy made before the pass (vel: vx, vy, vz), as the CPU does.
+__global__ void __launch_bounds__(kBlock)
+    ViscosityKernel(DeviceGrid grid, Particles p, const float4* __restrict__ pos,
+                    const float4* __restrict__ vel, SeedConstants c, Overflow overflow,
+                    uint32_t n) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= n || overflow.Skip(i)) return;
+  const float4 xi = pos[i];
+  const float4 vi = vel[i];
+  float ax[kLanes] = {}, ay[kLanes] = {}, az[kLanes] = {}, wsum[kLanes] = {};
+  grid.ForEachNeighborRun(
+      grid.SortedCell(i), [&](uint32_t begin, uint32_t end, float sx, float sy, float sz) {
+        const float qx = xi.x + sx, qy = xi.y + sy, qz = xi.z + sz;
+        for (uint32_t j = begin; j < end; j += kLanes) {
+#pragma unroll
+          for (int l = 0; l < kLanes; ++l) {
+            if (j + l >= end) break;
+            const uint32_t k = j + l;
+            float dx, dy, dz;
+            const float r2 = SquaredDistance(__ldg(pos + k), qx, qy, qz, dx, dy, dz);
+            if (!(r2 < c.h2)) continue;
+            const float w = c.h2 - r2;
+            const float w3 = w * w * w;
+            const float4 vj = __ldg(vel + k);
+            ax[l] += (vj.x - vi.x) * w3;
+            ay[l] += (vj.y - vi.y) * w3;
+            az[l] += (vj.z - vi.z) * w3;
+            wsum[l] += w3;
+          }
+        }
+      });
+  ApplyViscosity(p, c, i, LaneSum(ax), LaneSum(ay), LaneSum(az), LaneSum(wsum));
+}
+
+// The list kernels. Each starts from ForEachNeighborRun's query point: the position + a zero
+// shift (which turns -0 into +0).
+
+// Builds particle i's list, then computes its density from it: the scan only tests the
+// candidates, and the square roots wait for a loop over the neighbours. In the scan about 1
+// candidate in 5 is a neighbour, and a warp would run the square root of every candidate some
+// thread keeps.
+template <bool kNear>
+__global__ void __launch_bounds__(kBlock)
+    DensityListKernel(DeviceGrid grid, const float4* __restrict__ pos, NeighbourList list,
+                      Densities d, SeedConstants c, unsigned long long* most_neighbours,
+                      uint32_t n) {
+  __shared__ uint32_t run_begin[kRuns][kBlock];
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= n) return;
-  const float xi = p.px[i], yi = p.py[i], zi = p.pz[i];
-  const float vxi = vx0[i], vyi = vy0[i], vzi = vz0[i];
-  float ax[kLanes] = {}, ay[kLanes] = {}, az[kLanes] = {}, wsum[kLanes] = {};
-  grid.ForEachNeighborRun(grid.SortedCell(i),
-                          [&](uint32_t begin, uint32_t end, float sx, float sy, float sz) {
-                            const float qx = xi + sx, qy = yi + sy, qz = zi + sz;
-                            for (uint32_t j = begin; j < end; j += kLanes) {
+  const float4 xi = pos[i];
+  const float qx = xi.x + 0.0f, qy = xi.y + 0.0f, qz = xi.z + 0.0f;
+  uint32_t begin[kRuns], end[kRuns];
+  NeighbourRuns(grid, grid.SortedCell(i), begin, end);
+  bool listable = true;
 #pragma unroll
-                              for (int l = 0; l < kLanes; ++l) {
-                                if (j + l >= end) break;
-                                const uint32_t k = j + l;
-                                const float dx = p.px[k] - qx, dy = p.py[k] - qy, dz = p.pz[k] - qz;
-                                const float r2 = dx * dx + dy * dy + dz * dz;
-                                if (!(r2 < c.h2)) continue;
-                                const float w = c.h2 - r2;
-                                const float w3 = w * w * w;
-                                ax[l] += (vx0[k] - vxi) * w3;
-                                ay[l] += (vy0[k] - vyi) * w3;
-                                az[l] += (vz0[k] - vzi) * w3;
-                                wsum[l] += w3;
-                              }
-                            }
-                          });
-  const float total = LaneSum(wsum);
-  const float gain = total * c.viscosity_scale > 1 ? 1 / total : c.viscosity_scale;
-  p.vx[i] += LaneSum(ax) * gain;
-  p.vy[i] += LaneSum(ay) * gain;
-  p.vz[i] += LaneSum(az) * gain;
+  for (int r = 0; r < kRuns; ++r) listable = listable && end[r] - begin[r] <= kMaxRunLength;
+  if (!listable) {
+    list.count[i] = kUnlisted;
+    return;
+  }
+  uint32_t count = 0;  // counts on past the capacity: the host grows the list to the largest
+  uint4 chunk = make_uint4(0, 0, 0, 0);
+  uint4* out = list.chunk + i;
+#pragma unroll 1
+  for (uint32_t l = 0; l < kLanes; ++l) {
+#pragma unroll
+    for (int r = 0; r < kRuns; ++r) {
+      for (uint32_t j = begin[r] + l; j < end[r]; j += kLanes) {
+        float dx, dy, dz;
+        if (!(SquaredDistance(__ldg(pos + j), qx, qy, qz, dx, dy, dz) < c.h2)) continue;
+        if (++count > list.capacity) continue;
+        ShiftIn(chunk, uint32_t(r) << kOffsetBits | (j - begin[r]));
+        if (count % kEntriesPerChunk == 0) {
+          out[uint64_t(count / kEntriesPerChunk - 1) * list.stride] = chunk;
+        }
+      }
+    }
+  }
+  list.count[i] = count;
+  if (count > list.capacity) {
+    atomicMax(most_neighbours, count);  // rare: one atomic per overflowing particle
+    return;
+  }
+  if (count % kEntriesPerChunk != 0) {
+    for (uint32_t s = count % kEntriesPerChunk; s < kEntriesPerChunk; ++s) ShiftIn(chunk, 0);
+    out[uint64_t(count / kEntriesPerChunk) * list.stride] = chunk;
+  }
+#pragma unroll
+  for (int r = 0; r < kRuns; ++r) run_begin[r][threadIdx.x] = begin[r];
+  float sum2 = 0, sum3 = 0;    // LaneSum's running totals
+  float lane2 = 0, lane3 = 0;  // the current lane's
+  ForEachListed<true>(
+      list, i, count, run_begin,
+      [&] {
+        sum2 += lane2, sum3 += lane3;
+        lane2 = 0, lane3 = 0;
+      },
+      [&](uint32_t j) {
+        float dx, dy, dz;
+        const float q = c.h - sqrtf(SquaredDistance(__ldg(pos + j), qx, qy, qz, dx, dy, dz));
+        lane2 += q * q;
+        if (kNear) lane3 += q * q * q;
+      });
+  sum2 += lane2, sum3 += lane3;
+  StoreDensity<kNear>(d, c, i, sum2, sum3);
+}
+
+// Particle i's neighbour count; when the list holds them, also writes its run starts to
+// run_begin.
+__device__ uint32_t ListedCount(const DeviceGrid& grid, const NeighbourList& list, uint32_t i,
+                                uint32_t (*run_begin)[kBlock]) {
+  const uint32_t count = list.count[i];
+  if (count > list.capacity) return count;
+  uint32_t begin[kRuns], end[kRuns];
+  NeighbourRuns(grid, grid.SortedCell(i), begin, end);
+#pragma unroll
+  for (int r = 0; r < kRuns; ++r) run_begin[r][threadIdx.x] = begin[r];
+  return count;
+}
+
+template <bool kNear>
+__global__ void __launch_bounds__(kBlock)
+    PressureForceListKernel(DeviceGrid grid, Particles p, const float4* __restrict__ pos,
+                            const float* pressure, const float* near_pressure,
+                            const float4* __restrict__ factor, NeighbourList list,
+                            SeedConstants c, uint32_t n) {
+  __shared__ uint32_t run_begin[kRuns][kBlock];
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= n) return;
+  const uint32_t count = ListedCount(grid, list, i, run_begin);
+  if (count > list.capacity) return;
+  const float4 xi = pos[i];
+  const float qx = xi.x + 0.0f, qy = xi.y + 0.0f, qz = xi.z + 0.0f;
+  const float pi = pressure[i];
+  const float pni = kNear ? near_pressure[i] : 0.0f;
+  float force[3] = {0, 0, 0};  // LaneSum's running totals
+  float fx = 0, fy = 0, fz = 0;
+  int coincident = 0;  // neighbours at distance 0, i itself included
+  ForEachListed<false>(
+      list, i, count, run_begin,
+      [&] {
+        force[0] += fx, force[1] += fy, force[2] += fz;
+        fx = 0, fy = 0, fz = 0;
+      },
+      [&](uint32_t j) {
+        float dx, dy, dz;
+        const float r2 = SquaredDistance(__ldg(pos + j), qx, qy, qz, dx, dy, dz);
+        if (r2 == 0) {
+          ++coincident;
+          return;
+        }
+        const float s = PressureScale<kNear>(c, r2, pi, pni, __ldg(factor + j));
+        fx -= dx * s;
+        fy -= dy * s;
+        fz -= dz * s;
+      });
+  force[0] += fx, force[1] += fy, force[2] += fz;
+  if (coincident > 1) {
+    AddCoincidentForces<kNear>(grid, pos, p.id, factor, c, i, xi, pi, pni, force);
+  }
+  ApplyPressureForce(p, factor, c, i, force);
+}
+
+__global__ void __launch_bounds__(kBlock)
+    ViscosityListKernel(DeviceGrid grid, Particles p, const float4* __restrict__ pos,
+                        const float4* __restrict__ vel, NeighbourList list, SeedConstants c,
+                        uint32_t n) {
+  __shared__ uint32_t run_begin[kRuns][kBlock];
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= n) return;
+  const uint32_t count = ListedCount(grid, list, i, run_begin);
+  if (count > list.capacity) return;
+  const float4 xi = pos[i];
+  const float qx = xi.x + 0.0f, qy = xi.y + 0.0f, qz = xi.z + 0.0f;
+  const float4 vi = vel[i];
+  float sum_x = 0, sum_y = 0, sum_z = 0, sum_w = 0;  // LaneSum's running totals
+  float ax = 0, ay = 0, az = 0, wsum = 0;
+  ForEachListed<false>(
+      list, i, count, run_begin,
+      [&] {
+        sum_x += ax, sum_y += ay, sum_z += az, sum_w += wsum;
+        ax = 0, ay = 0, az = 0, wsum = 0;
+      },
+      [&](uint32_t j) {
+        float dx, dy, dz;
+        const float w = c.h2 - SquaredDistance(__ldg(pos + j), qx, qy, qz, dx, dy, dz);
+        const float w3 = w * w * w;
+        const float4 vj = __ldg(vel + j);
+        ax += (vj.x - vi.x) * w3;
+        ay += (vj.y - vi.y) * w3;
+        az += (vj.z - vi.z) * w3;
+        wsum += w3;
+      });
+  sum_x += ax, sum_y += ay, sum_z += az, sum_w += wsum;
+  ApplyViscosity(p, c, i, sum_x, sum_y, sum_z, sum_w);
+}
+
+// The sort's gather of the predicted positions, which also packs them as float4 for the
+// neighbour kernels (one load per candidate instead of three).
+__global__ void GatherPredictedKernel(const uint32_t* order, const float* px, const float* py,
+                                      const float* pz, float* px2, float* py2, float* pz2,
+                                      float4* pos, uint32_t n) {
+  const uint32_t k = blockIdx.x * blockDim.x + threadIdx.x;
+  if (k >= n) return;
+  const uint32_t from = order[k];
+  const float x = px[from], y = py[from], z = pz[from];
+  px2[k] = x, py2[k] = y, pz2[k] = z;
+  pos[k] = make_float4(x, y, z, 0.0f);
+}
+
+// The viscosity pass's copy of the velocities, packed as float4.
+__global__ void PackVelocityKernel(Particles p, float4* vel, uint32_t n) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i < n) vel[i] = make_float4(p.vx[i], p.vy[i], p.vz[i], 0.0f);
 }
 
 // CollideWithDomainWalls (common_passes.h) for one axis.
@@ -299,7 +617,22 @@ __global__ void ObstaclesKernel(Particles p, Obstacles o, float damping, uint32_
 }  // namespace
 
 struct SeedPipeline::Impl {
-  explicit Impl(int device_index) : device(device_index), stream(device_index) {}
+  explicit Impl(int device_index) : device(device_index), stream(device_index) {
+    // DYSA_CUDA_SEED_LIST=K fixes the neighbour list's capacity at K entries per particle (0:
+    // no list, the grid kernels only), for tests of the grid kernels and the overflow path.
+    if (const char* value = std::getenv("DYSA_CUDA_SEED_LIST")) {
+      const unsigned long k = std::strtoul(value, nullptr, 10);
+      list_want = uint32_t(RoundUp(std::min<unsigned long>(k, kMaxListCapacity), kEntriesPerChunk));
+      list_fixed = true;
+    }
+  }
+
+  // The neighbour list's capacity, entries per particle: the first, enough for the thesis
+  // fluid's ~97 neighbours (and a 100M-particle list in 26 GB); the most it grows to.
+  static constexpr uint32_t kListCapacity = 128;
+  static constexpr uint32_t kMaxListCapacity = 1024;
+
+  static uint64_t RoundUp(uint64_t x, uint64_t to) { return (x + to - 1) / to * to; }
 
   int device;
   Stream stream;
@@ -311,11 +644,19 @@ struct SeedPipeline::Impl {
   DeviceBuffer<float> x2, y2, z2, vx2, vy2, vz2, px2, py2, pz2;
   DeviceBuffer<uint32_t> id, id2;
   DeviceBuffer<float> density, near_density, pressure, near_pressure;
-  DeviceBuffer<float> scratch0, scratch1, scratch2;  // the pressure factors; velocity copies
+  DeviceBuffer<float4> pos4;      // the grid's points (px, py, pz), for the neighbour kernels
+  DeviceBuffer<float4> scratch4;  // the pressure factors; the velocity copy
+  DeviceBuffer<uint4> list_chunks;
+  DeviceBuffer<uint32_t> list_count;
+  uint32_t list_want = kListCapacity;  // the capacity the next step asks for
+  bool list_fixed = false;             // DYSA_CUDA_SEED_LIST: no growth
+  bool list_refused = false;           // no room for list_want; not asked again until Upload
   GridSorter sorter;
   DeviceBuffer<SphereObstacle> spheres;
   DeviceBuffer<BoxObstacle> boxes;
-  PinnedBuffer<unsigned long long> flags;  // [0] limited, [1] non-finite (copied back per step)
+  // Copied back per step: [0] limited, [1] non-finite, [2] the most neighbours of a particle
+  // the list could not hold.
+  PinnedBuffer<unsigned long long> flags;
   DeviceBuffer<unsigned long long> device_flags;
   EventTimer timer;
 
@@ -325,23 +666,17 @@ struct SeedPipeline::Impl {
   }
 
   void Allocate(uint32_t count) {
-    for (DeviceBuffer<float>* b : {&x,        &y,
-                                   &z,        &vx,
-                                   &vy,       &vz,
-                                   &px,       &py,
-                                   &pz,       &x2,
-                                   &y2,       &z2,
-                                   &vx2,      &vy2,
-                                   &vz2,      &px2,
-                                   &py2,      &pz2,
-                                   &density,  &near_density,
-                                   &pressure, &near_pressure,
-                                   &scratch0, &scratch1,
-                                   &scratch2}) {
+    for (DeviceBuffer<float>* b : {&x,       &y,           &z,        &vx,           &vy,  &vz,
+                                   &px,      &py,          &pz,       &x2,           &y2,  &z2,
+                                   &vx2,     &vy2,         &vz2,      &px2,          &py2, &pz2,
+                                   &density, &near_density, &pressure, &near_pressure}) {
       b->Resize(count);
     }
     id.Resize(count);
     id2.Resize(count);
+    pos4.Resize(count);
+    scratch4.Resize(count);
+    list_count.Resize(count);
     sorter.Reserve(count);
     n = count;
   }
@@ -352,7 +687,12 @@ struct SeedPipeline::Impl {
     const uint32_t* order = sorter.order();
     Gather(order, x, x2), Gather(order, y, y2), Gather(order, z, z2);
     Gather(order, vx, vx2), Gather(order, vy, vy2), Gather(order, vz, vz2);
-    Gather(order, px, px2), Gather(order, py, py2), Gather(order, pz, pz2);
+    if (n > 0) {
+      GatherPredictedKernel<<<(n + kBlock - 1) / kBlock, kBlock, 0, stream.get()>>>(
+          order, px.data(), py.data(), pz.data(), px2.data(), py2.data(), pz2.data(), pos4.data(),
+          n);
+    }
+    px.swap(px2), py.swap(py2), pz.swap(pz2);
     Gather(order, id, id2);
   }
 
@@ -360,6 +700,47 @@ struct SeedPipeline::Impl {
   void Gather(const uint32_t* order, DeviceBuffer<T>& data, DeviceBuffer<T>& target) {
     GatherByOrder(order, data.data(), target.data(), n, stream.get());
     data.swap(target);
+  }
+
+  // Chunk c of a particle's list lies c * ListStride() chunks after chunk 0; rounded up so that
+  // a warp's chunks start on a 128-byte line.
+  uint64_t ListStride() const { return RoundUp(n, 8); }
+
+  // The list's capacity for this step, 0 for the grid kernels: periodic axes (the list does not
+  // carry the runs' shifts), or no room. The list takes at most half the GPU memory free besides
+  // it, so that a 100M-particle run on a 141 GB GPU keeps it and a larger one does without.
+  uint32_t PrepareList() {
+    const GridLayout& g = config.grid;
+    if (n == 0 || list_want == 0 || g.periodic[0] || g.periodic[1] || g.periodic[2] ||
+        !(config.constants.h2 > 0)) {
+      return 0;
+    }
+    const uint64_t stride = ListStride();
+    const uint64_t chunks = stride * (list_want / kEntriesPerChunk);
+    if (list_chunks.capacity() < chunks && !list_refused) {
+      size_t free = 0, total = 0;
+      CheckCuda(cudaMemGetInfo(&free, &total), "reading the free GPU memory");
+      const uint64_t own = list_chunks.capacity() * sizeof(uint4);
+      if (chunks * sizeof(uint4) <= (free + own) / 2) {
+        try {
+          list_chunks.Resize(chunks);
+        } catch (const std::runtime_error&) {
+          cudaGetLastError();  // clears the failed allocation's error: the grid kernels go on
+        }
+      }
+      list_refused = list_chunks.capacity() < chunks;
+    }
+    // Without room for list_want, the capacity the list has (if any near it).
+    const uint32_t k =
+        uint32_t(std::min<uint64_t>(list_want, list_chunks.capacity() / stride * kEntriesPerChunk));
+    return k >= std::min(list_want, kListCapacity) ? k : 0;
+  }
+
+  // After a step in which some particle had more neighbours than the list holds: a quarter more
+  // than that for the next steps.
+  void GrowList(uint32_t capacity, uint64_t most) {
+    if (capacity == 0 || most <= capacity || list_fixed || list_refused) return;
+    list_want = uint32_t(std::min<uint64_t>(RoundUp(most + most / 4, 32), kMaxListCapacity));
   }
 };
 

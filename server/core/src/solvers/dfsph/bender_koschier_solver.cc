@@ -250,19 +250,6 @@ double MaxSpeed(const ParticleArrays& p) {
   return std::sqrt(double(v2));
 }
 
-// The diagnostic of a solve that stopped at its iteration cap: the error it could not bring
-// under the tolerance is then carried into the step, instead of passing as converged.
-std::string CapWarning(const char* solve, int iterations, double error, double tolerance,
-                       uint64_t step) {
-  char text[320];
-  std::snprintf(text, sizeof text,
-                "dfsph: the %s solve stopped at max_iterations = %d with a mean error of %.3g%% "
-                "(tolerance %.3g%%) at step %llu; lower cfl_factor or max_time_step, or raise "
-                "max_iterations",
-                solve, iterations, 100 * error, 100 * tolerance, (unsigned long long)step);
-  return text;
-}
-
 void DivergenceSolve(const Model& model, const BoundaryParticles& boundary, State& state) {
   ParticleArrays& p = state.particles;
   const Work w = Arrays(state);
@@ -390,13 +377,7 @@ void IntegratePositions(const Model& model, State& state) {
     p.position[i] += p.velocity[i] * dt;
     CollideWithDomainWalls(model.domain, model.periodic, Real(0), p.position[i], p.velocity[i]);
   }
-  if (limited > 0) {
-    state.warning = "dfsph: " + std::to_string(limited) +
-                    " particles would have moved more than particle_spacing in step " +
-                    std::to_string(state.step + 1) +
-                    " and were slowed to it; the step is beyond the solver's stability limit "
-                    "(lower cfl_factor or max_time_step, or raise max_iterations)";
-  }
+  if (limited > 0) state.warning = SpeedLimitWarning(uint64_t(limited), state.step + 1);
 }
 
 // The neighbour sort, which also carries the warm start along with the particles.
@@ -413,6 +394,26 @@ void SortIntoGrid(const Model& model, State& state) {
 }
 
 }  // namespace
+
+// The diagnostic of a solve that stopped at its iteration cap: the error it could not bring
+// under the tolerance is then carried into the step, instead of passing as converged.
+std::string CapWarning(const char* solve, int iterations, double error, double tolerance,
+                       uint64_t step) {
+  char text[320];
+  std::snprintf(text, sizeof text,
+                "dfsph: the %s solve stopped at max_iterations = %d with a mean error of %.3g%% "
+                "(tolerance %.3g%%) at step %llu; lower cfl_factor or max_time_step, or raise "
+                "max_iterations",
+                solve, iterations, 100 * error, 100 * tolerance, (unsigned long long)step);
+  return text;
+}
+
+std::string SpeedLimitWarning(uint64_t limited, uint64_t step) {
+  return "dfsph: " + std::to_string(limited) +
+         " particles would have moved more than particle_spacing in step " + std::to_string(step) +
+         " and were slowed to it; the step is beyond the solver's stability limit (lower "
+         "cfl_factor or max_time_step, or raise max_iterations)";
+}
 
 void BenderKoschierSolver::InitState(State& state) const {
   const size_t n = state.particles.size();

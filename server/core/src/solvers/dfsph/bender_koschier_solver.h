@@ -46,7 +46,9 @@
 // order, so the iteration counts do not depend on the thread count.
 #pragma once
 
+#include <cstdint>
 #include <memory>
+#include <string>
 
 #include "boundary_particles.h"
 #include "dysa/core/solver.h"
@@ -60,5 +62,11 @@ class BenderKoschierSolver final : public Solver {
 };
 
 std::unique_ptr<Solver> CreateBenderKoschierSolver();
+
+// The step's warnings, shared with the GPU backend: a solve that stopped at its iteration cap
+// (`error` and `tolerance` as fractions), and `limited` particles slowed to particle_spacing / dt.
+std::string CapWarning(const char* solve, int iterations, double error, double tolerance,
+                       uint64_t step);
+std::string SpeedLimitWarning(uint64_t limited, uint64_t step);
 
 }  // namespace dysa::dfsph
