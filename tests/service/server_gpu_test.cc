@@ -25,7 +25,6 @@
 #include "dysa/service/server.h"
 #include "dysa/service/simulation_host.h"
 #include "dysa/v1/simulation.grpc.pb.h"
-#include "gpu_backend.h"  // GpuSolvers(): server/core/src
 
 namespace dysa::service {
 namespace {
@@ -63,8 +62,7 @@ Scene WcsphScene() {
   })");
 }
 
-// The dam as dfsph would run it: its solver has no GPU backend (as long as GpuSolvers() does
-// not list it).
+// The dam as dfsph runs it.
 constexpr const char* kDfsphScene = R"({
   "name": "dfsph_dam",
   "domain": {"min": [0, 0, 0], "max": [0.6, 0.4, 0.08]},
@@ -273,43 +271,21 @@ TEST(ServerGpuTest, FramesStreamTheGpuStateInIdOrder) {
   }
 }
 
-TEST(ServerGpuTest, ASceneWhoseSolverHasNoGpuBackendIsRefusedAndTheOldSceneRunsOn) {
+TEST(ServerGpuTest, DfsphLoadedIntoAGpuServerStepsBackBitForBit) {
   SKIP_WITHOUT_GPU();
-  const std::vector<std::string> gpu_solvers = GpuSolvers();
-  if (std::find(gpu_solvers.begin(), gpu_solvers.end(), "dfsph") != gpu_solvers.end()) {
-    GTEST_SKIP() << "dfsph has a CUDA backend in this build: no built-in solver for a GPU server "
-                    "to refuse";
-  }
   auto log = std::make_shared<LogLines>();
   Fixture fx(SeedScene(), GpuOptions(log));
   Step(fx.stub(), 2);
   v1::LoadSceneRequest load;
   load.set_json_text(kDfsphScene);
   v1::ControlReply reply;
-  const grpc::Status s = fx.stub().LoadScene(Context().get(), load, &reply);
-  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
-  EXPECT_NE(s.error_message().find("device"), std::string::npos) << s.error_message();
-  EXPECT_NE(s.error_message().find("dfsph"), std::string::npos) << s.error_message();
-
-  // The old scene runs on, on the GPU, from where it was.
-  v1::Status status = GetStatus(fx.stub());
-  EXPECT_EQ(status.scene(), "seed_basic");
-  EXPECT_EQ(status.solver(), "seed");
-  EXPECT_EQ(status.particles(), 1000u);
-  EXPECT_EQ(status.frame(), 2u);
+  ASSERT_TRUE(fx.stub().LoadScene(Context().get(), load, &reply).ok());
+  const v1::Status status = GetStatus(fx.stub());
+  EXPECT_EQ(status.solver(), "dfsph");
+  EXPECT_EQ(status.frame(), 0u);
   EXPECT_EQ(status.device().rfind("cuda:0 ", 0), 0u) << status.device();
-  reply = Step(fx.stub(), 3);
-  EXPECT_EQ(reply.frames_moved(), 3u);
-  EXPECT_EQ(reply.status().frame(), 5u);
-  ASSERT_TRUE(fx.stub().Resume(Context().get(), {}, &reply).ok());
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
-  while (GetStatus(fx.stub()).frame() < 10 && std::chrono::steady_clock::now() < deadline) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  }
-  status = GetStatus(fx.stub());
-  EXPECT_GE(status.frame(), 10u);
-  EXPECT_EQ(status.alarm(), "");
-  EXPECT_EQ(status.scene(), "seed_basic");
+  // The checkpoints carry dfsph's warm start: re-simulated frames match the first pass.
+  ExpectStepBackReplaysTheFirstPass(fx.stub());
 }
 
 }  // namespace
