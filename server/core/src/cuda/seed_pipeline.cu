@@ -3,6 +3,8 @@
 // comments here say only where the GPU differs in how, never in what, it computes.
 #include <cuda_runtime.h>
 
+#include <algorithm>
+#include <cstdlib>
 #include <cub/device/device_radix_sort.cuh>
 #include <cub/device/device_scan.cuh>
 #include <stdexcept>
@@ -81,8 +83,9 @@ __device__ float LaneSum(const float v[kLanes]) {
 //
 // The list is lane-major: lane 0's neighbours in candidate order, then lane 1's, and so on, so a
 // thread adds each lane's terms into one register and the lane into the total when the next lane
-// starts. That is LaneSum's order (lanes without neighbours add +0 to a sum that is never -0, as
-// above: skipping them changes nothing), with no indexing into the 8 partial sums. An entry is
+// starts. That is LaneSum's order (lanes without neighbours would add +0 to a sum that is never
+// -0: skipping them changes nothing, as in seed_pipeline.h), with no indexing into the 8 partial
+// sums. An entry is
 // 16 bits, the run (0..8, of NeighbourRuns) and the offset in it, whose low 3 bits are the lane;
 // a thread keeps its runs' starts in shared memory to turn it back into a particle index.
 // Entries go 8 to a 16-byte chunk, chunk c of particle i at c * stride + i: a thread writes a
@@ -205,22 +208,21 @@ template <bool kNear>
 __device__ void AddCoincidentForces(const DeviceGrid& grid, const float4* pos, const uint32_t* id,
                                     const float4* factor, const SeedConstants& c, uint32_t i,
                                     float4 xi, float pi, float pni, float force[3]) {
-  grid.ForEachNeighborRun(
-      grid.SortedCell(i), [&](uint32_t begin, uint32_t end, float sx, float sy, float sz) {
-        for (uint32_t j = begin; j < end; ++j) {
-          const float4 pj = pos[j];
-          if (j == i || pj.x - (xi.x + sx) != 0 || pj.y - (xi.y + sy) != 0 ||
-              pj.z - (xi.z + sz) != 0) {
-            continue;
-          }
-          const float4 f = factor[j];
-          float magnitude = c.spiky2_grad * c.h * (pi * f.x + f.y);
-          if (kNear) magnitude += c.spiky3_grad * c.h * c.h * (pni * f.x + f.z);
-          float d[3];
-          CoincidentDirection(id[i], id[j], d);
-          for (int a = 0; a < 3; ++a) force[a] -= d[a] * magnitude;
-        }
-      });
+  grid.ForEachNeighborRun(grid.SortedCell(i), [&](uint32_t begin, uint32_t end, float sx, float sy,
+                                                  float sz) {
+    for (uint32_t j = begin; j < end; ++j) {
+      const float4 pj = pos[j];
+      if (j == i || pj.x - (xi.x + sx) != 0 || pj.y - (xi.y + sy) != 0 || pj.z - (xi.z + sz) != 0) {
+        continue;
+      }
+      const float4 f = factor[j];
+      float magnitude = c.spiky2_grad * c.h * (pi * f.x + f.y);
+      if (kNear) magnitude += c.spiky3_grad * c.h * c.h * (pni * f.x + f.z);
+      float d[3];
+      CoincidentDirection(id[i], id[j], d);
+      for (int a = 0; a < 3; ++a) force[a] -= d[a] * magnitude;
+    }
+  });
 }
 
 __device__ void ApplyPressureForce(Particles p, const float4* factor, const SeedConstants& c,
@@ -242,9 +244,8 @@ __device__ void ApplyViscosity(Particles p, const SeedConstants& c, uint32_t i, 
 // The grid kernels: each particle scans the candidates of its 27 cells in 8 register lanes.
 
 template <bool kNear>
-__global__ void __launch_bounds__(kBlock)
-    DensityKernel(DeviceGrid grid, const float4* __restrict__ pos, Densities d, SeedConstants c,
-                  Overflow overflow, uint32_t n) {
+__global__ void DensityKernel(DeviceGrid grid, const float4* __restrict__ pos, Densities d,
+                              SeedConstants c, Overflow overflow, uint32_t n) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= n || overflow.Skip(i)) return;
   const float4 xi = pos[i];
@@ -280,11 +281,10 @@ __global__ void PressureFactorsKernel(const float* density, const float* pressur
 }
 
 template <bool kNear>
-__global__ void __launch_bounds__(kBlock)
-    PressureForceKernel(DeviceGrid grid, Particles p, const float4* __restrict__ pos,
-                        const float* pressure, const float* near_pressure,
-                        const float4* __restrict__ factor, SeedConstants c, Overflow overflow,
-                        uint32_t n) {
+__global__ void PressureForceKernel(DeviceGrid grid, Particles p, const float4* __restrict__ pos,
+                                    const float* pressure, const float* near_pressure,
+                                    const float4* __restrict__ factor, SeedConstants c,
+                                    Overflow overflow, uint32_t n) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= n || overflow.Skip(i)) return;
   const float4 xi = pos[i];
@@ -319,10 +319,9 @@ __global__ void __launch_bounds__(kBlock)
 }
 
 // Reads the velocities from the copy made before the pass (vel: vx, vy, vz), as the CPU does.
-__global__ void __launch_bounds__(kBlock)
-    ViscosityKernel(DeviceGrid grid, Particles p, const float4* __restrict__ pos,
-                    const float4* __restrict__ vel, SeedConstants c, Overflow overflow,
-                    uint32_t n) {
+__global__ void ViscosityKernel(DeviceGrid grid, Particles p, const float4* __restrict__ pos,
+                                const float4* __restrict__ vel, SeedConstants c, Overflow overflow,
+                                uint32_t n) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= n || overflow.Skip(i)) return;
   const float4 xi = pos[i];
@@ -352,18 +351,17 @@ __global__ void __launch_bounds__(kBlock)
   ApplyViscosity(p, c, i, LaneSum(ax), LaneSum(ay), LaneSum(az), LaneSum(wsum));
 }
 
-// The list kernels. Each starts from ForEachNeighborRun's query point: the position + a zero
-// shift (which turns -0 into +0).
+// The list kernels, launched with kBlock threads (the shared run starts). Each measures from
+// ForEachNeighborRun's query point: the position plus a zero shift (which turns -0 into +0).
 
 // Builds particle i's list, then computes its density from it: the scan only tests the
 // candidates, and the square roots wait for a loop over the neighbours. In the scan about 1
 // candidate in 5 is a neighbour, and a warp would run the square root of every candidate some
 // thread keeps.
 template <bool kNear>
-__global__ void __launch_bounds__(kBlock)
-    DensityListKernel(DeviceGrid grid, const float4* __restrict__ pos, NeighbourList list,
-                      Densities d, SeedConstants c, unsigned long long* most_neighbours,
-                      uint32_t n) {
+__global__ void DensityListKernel(DeviceGrid grid, const float4* __restrict__ pos,
+                                  NeighbourList list, Densities d, SeedConstants c,
+                                  unsigned long long* most_neighbours, uint32_t n) {
   __shared__ uint32_t run_begin[kRuns][kBlock];
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= n) return;
@@ -439,11 +437,11 @@ __device__ uint32_t ListedCount(const DeviceGrid& grid, const NeighbourList& lis
 }
 
 template <bool kNear>
-__global__ void __launch_bounds__(kBlock)
-    PressureForceListKernel(DeviceGrid grid, Particles p, const float4* __restrict__ pos,
-                            const float* pressure, const float* near_pressure,
-                            const float4* __restrict__ factor, NeighbourList list,
-                            SeedConstants c, uint32_t n) {
+__global__ void PressureForceListKernel(DeviceGrid grid, Particles p,
+                                        const float4* __restrict__ pos, const float* pressure,
+                                        const float* near_pressure,
+                                        const float4* __restrict__ factor, NeighbourList list,
+                                        SeedConstants c, uint32_t n) {
   __shared__ uint32_t run_begin[kRuns][kBlock];
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= n) return;
@@ -481,10 +479,9 @@ __global__ void __launch_bounds__(kBlock)
   ApplyPressureForce(p, factor, c, i, force);
 }
 
-__global__ void __launch_bounds__(kBlock)
-    ViscosityListKernel(DeviceGrid grid, Particles p, const float4* __restrict__ pos,
-                        const float4* __restrict__ vel, NeighbourList list, SeedConstants c,
-                        uint32_t n) {
+__global__ void ViscosityListKernel(DeviceGrid grid, Particles p, const float4* __restrict__ pos,
+                                    const float4* __restrict__ vel, NeighbourList list,
+                                    SeedConstants c, uint32_t n) {
   __shared__ uint32_t run_begin[kRuns][kBlock];
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= n) return;
@@ -666,10 +663,10 @@ struct SeedPipeline::Impl {
   }
 
   void Allocate(uint32_t count) {
-    for (DeviceBuffer<float>* b : {&x,       &y,           &z,        &vx,           &vy,  &vz,
-                                   &px,      &py,          &pz,       &x2,           &y2,  &z2,
-                                   &vx2,     &vy2,         &vz2,      &px2,          &py2, &pz2,
-                                   &density, &near_density, &pressure, &near_pressure}) {
+    for (DeviceBuffer<float>* b :
+         {&x,   &y,   &z,       &vx,           &vy,       &vz,           &px,  &py,
+          &pz,  &x2,  &y2,      &z2,           &vx2,      &vy2,          &vz2, &px2,
+          &py2, &pz2, &density, &near_density, &pressure, &near_pressure}) {
       b->Resize(count);
     }
     id.Resize(count);
@@ -761,8 +758,8 @@ std::vector<std::string> SeedPipeline::Configure(const SeedStepConfig& config) {
   if (!config.spheres.empty() || !config.boxes.empty()) m.passes.push_back("obstacles");
   m.timer.Resize(m.passes.size() + 1);
   m.sorter.Configure(config.grid);
-  m.flags.Resize(2);
-  m.device_flags.Resize(2);
+  m.flags.Resize(3);
+  m.device_flags.Resize(3);
   CheckCuda(cudaStreamSynchronize(m.stream.get()), "configuring the seed step");
   return m.passes;
 }
@@ -773,6 +770,7 @@ void SeedPipeline::Upload(size_t n, const uint32_t* id, const float* position,
   DeviceScope scope(m.device);
   if (n > uint64_t(UINT32_MAX) / 2) throw std::length_error("too many particles for the GPU");
   m.Allocate(uint32_t(n));
+  m.list_refused = false;
   UploadInterleaved(position, n, m.x, m.y, m.z, m.stream.get());
   UploadInterleaved(velocity, n, m.vx, m.vy, m.vz, m.stream.get());
   CheckCuda(cudaMemcpyAsync(m.id.data(), id, n * sizeof(uint32_t), cudaMemcpyHostToDevice,
@@ -814,9 +812,17 @@ StepOutcome SeedPipeline::Step() {
   const unsigned blocks = unsigned((n + kBlock - 1) / kBlock);
   const bool launch = n > 0;
   size_t pass = 0;
-  CheckCuda(cudaMemsetAsync(m.device_flags.data(), 0, 2 * sizeof(unsigned long long), s),
+  CheckCuda(cudaMemsetAsync(m.device_flags.data(), 0, 3 * sizeof(unsigned long long), s),
             "clearing the step's flags");
   auto begin_pass = [&] { m.timer.Record(pass++, s); };
+  const uint32_t capacity = launch ? m.PrepareList() : 0;
+  const NeighbourList list{m.list_chunks.data(), m.list_count.data(), m.ListStride(), capacity};
+  // With a list, the grid kernels compute only the particles it could not hold.
+  const Overflow overflow{capacity > 0 ? m.list_count.data() : nullptr, capacity};
+  const Densities densities{m.density.data(), m.near_density.data(), m.pressure.data(),
+                            m.near_pressure.data()};
+  const float4* pos = m.pos4.data();
+  float4* scratch = m.scratch4.data();
 
   begin_pass();  // external_forces
   if (launch) {
@@ -827,39 +833,50 @@ StepOutcome SeedPipeline::Step() {
   const DeviceGrid grid = m.sorter.View();
   begin_pass();  // density
   if (launch) {
+    unsigned long long* most = m.device_flags.data() + 2;
     if (cfg.near) {
-      DensityKernel<true><<<blocks, kBlock, 0, s>>>(grid, m.View(), m.density.data(),
-                                                    m.near_density.data(), m.pressure.data(),
-                                                    m.near_pressure.data(), c, n);
+      if (capacity > 0) {
+        DensityListKernel<true><<<blocks, kBlock, 0, s>>>(grid, pos, list, densities, c, most, n);
+      }
+      DensityKernel<true><<<blocks, kBlock, 0, s>>>(grid, pos, densities, c, overflow, n);
     } else {
-      DensityKernel<false><<<blocks, kBlock, 0, s>>>(grid, m.View(), m.density.data(),
-                                                     m.near_density.data(), m.pressure.data(),
-                                                     m.near_pressure.data(), c, n);
+      if (capacity > 0) {
+        DensityListKernel<false><<<blocks, kBlock, 0, s>>>(grid, pos, list, densities, c, most, n);
+      }
+      DensityKernel<false><<<blocks, kBlock, 0, s>>>(grid, pos, densities, c, overflow, n);
     }
   }
   begin_pass();  // pressure_force
   if (launch) {
-    PressureFactorsKernel<<<blocks, kBlock, 0, s>>>(
-        m.density.data(), m.pressure.data(), m.near_pressure.data(), m.scratch0.data(),
-        m.scratch1.data(), m.scratch2.data(), n, cfg.near);
+    PressureFactorsKernel<<<blocks, kBlock, 0, s>>>(m.density.data(), m.pressure.data(),
+                                                    m.near_pressure.data(), scratch, n, cfg.near);
+    const Particles p = m.View();
+    const float* pr = m.pressure.data();
+    const float* near_pr = m.near_pressure.data();
     if (cfg.near) {
+      if (capacity > 0) {
+        PressureForceListKernel<true>
+            <<<blocks, kBlock, 0, s>>>(grid, p, pos, pr, near_pr, scratch, list, c, n);
+      }
       PressureForceKernel<true>
-          <<<blocks, kBlock, 0, s>>>(grid, m.View(), m.pressure.data(), m.near_pressure.data(),
-                                     m.scratch0.data(), m.scratch1.data(), m.scratch2.data(), c, n);
+          <<<blocks, kBlock, 0, s>>>(grid, p, pos, pr, near_pr, scratch, c, overflow, n);
     } else {
+      if (capacity > 0) {
+        PressureForceListKernel<false>
+            <<<blocks, kBlock, 0, s>>>(grid, p, pos, pr, near_pr, scratch, list, c, n);
+      }
       PressureForceKernel<false>
-          <<<blocks, kBlock, 0, s>>>(grid, m.View(), m.pressure.data(), m.near_pressure.data(),
-                                     m.scratch0.data(), m.scratch1.data(), m.scratch2.data(), c, n);
+          <<<blocks, kBlock, 0, s>>>(grid, p, pos, pr, near_pr, scratch, c, overflow, n);
     }
   }
   if (cfg.viscosity) {
     begin_pass();  // viscosity
     if (launch) {
-      m.vx.CopyToDevice(m.scratch0, n, s);
-      m.vy.CopyToDevice(m.scratch1, n, s);
-      m.vz.CopyToDevice(m.scratch2, n, s);
-      ViscosityKernel<<<blocks, kBlock, 0, s>>>(grid, m.View(), m.scratch0.data(),
-                                                m.scratch1.data(), m.scratch2.data(), c, n);
+      PackVelocityKernel<<<blocks, kBlock, 0, s>>>(m.View(), scratch, n);
+      if (capacity > 0) {
+        ViscosityListKernel<<<blocks, kBlock, 0, s>>>(grid, m.View(), pos, scratch, list, c, n);
+      }
+      ViscosityKernel<<<blocks, kBlock, 0, s>>>(grid, m.View(), pos, scratch, c, overflow, n);
     }
   }
   begin_pass();  // integrate
@@ -876,8 +893,9 @@ StepOutcome SeedPipeline::Step() {
   const Particles p = m.View();
   CheckFinite(p.x, p.y, p.z, p.vx, p.vy, p.vz, n, m.device_flags.data() + 1, s);
   CheckCuda(cudaGetLastError(), "launching the seed step");
-  m.flags.CopyFrom(m.device_flags, 2, s);
+  m.flags.CopyFrom(m.device_flags, 3, s);
   CheckCuda(cudaStreamSynchronize(s), "running the seed step");
+  m.GrowList(capacity, m.flags.data()[2]);
 
   StepOutcome outcome;
   outcome.pass_ms = m.timer.ElapsedMs(pass);
@@ -889,9 +907,12 @@ StepOutcome SeedPipeline::Step() {
 uint64_t SeedPipeline::DeviceBytes() const {
   const Impl& m = *impl_;
   // 22 float arrays (positions, velocities, predictions, their permutation targets, densities,
-  // pressures, scratch), two id arrays, and the grid's keys, order and cell starts.
+  // pressures), two id arrays, the packed positions and the scratch (float4), the neighbour
+  // counts, the neighbour list, and the grid's keys, order and cell starts.
   return uint64_t(m.x.capacity()) * (22 * sizeof(float) + 2 * sizeof(uint32_t)) +
-         m.sorter.DeviceBytes();
+         uint64_t(m.pos4.capacity() + m.scratch4.capacity()) * sizeof(float4) +
+         uint64_t(m.list_count.capacity()) * sizeof(uint32_t) +
+         uint64_t(m.list_chunks.capacity()) * sizeof(uint4) + m.sorter.DeviceBytes();
 }
 
 }  // namespace dysa::cuda
