@@ -12,6 +12,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -328,6 +329,28 @@ TEST(SimulationTest, SetParamsRejectsAParticleCountOverTheLimit) {
   EXPECT_THROW(sim.SetParam("particle_quantity", 500), ConfigError);
   EXPECT_EQ(sim.params().particle_quantity, 3);
   EXPECT_EQ(sim.state().particles.size(), 116u);
+}
+
+TEST(SimulationTest, ReadParticlesByIdOrdersByIdAndChecksSizes) {
+  Simulation sim(BasicScene(6));
+  for (int i = 0; i < 10; ++i) sim.Step();
+  const ParticleArrays& p = sim.state().particles;
+  const size_t n = sim.particle_count();
+  std::vector<float> position(3 * n), velocity(3 * n), density(n);
+  sim.ReadParticlesById({position, velocity, density});
+  for (size_t i = 0; i < n; ++i) {
+    const size_t k = p.id[i];
+    for (int a = 0; a < 3; ++a) {
+      ASSERT_EQ(position[3 * k + a], p.position[i][a]);
+      ASSERT_EQ(velocity[3 * k + a], p.velocity[i][a]);
+    }
+    ASSERT_EQ(density[k], p.density[i]);
+  }
+  std::vector<float> wrong(n);
+  EXPECT_THROW(sim.ReadParticlesById({wrong, {}, {}}), std::invalid_argument);
+  std::vector<float> positions_only(3 * n);
+  sim.ReadParticlesById({positions_only, {}, {}});
+  EXPECT_EQ(positions_only, position);
 }
 
 TEST(SimulationTest, SpawnIsDeterministicAndIdsAreAPermutation) {

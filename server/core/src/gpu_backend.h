@@ -27,6 +27,10 @@ class GpuBackend {
   virtual void Upload(const ParticleArrays& particles) = 0;
   // Copies every per-particle array the CPU solver keeps back into `particles` (resized).
   virtual void Download(ParticleArrays& particles) const = 0;
+  // Only what a checkpoint holds: ids, positions, velocities and the solver's warm start.
+  virtual void DownloadCheckpointArrays(ParticleArrays& particles) const = 0;
+  // Positions, velocities (xyz triples) and densities in particle-id order; null: not copied.
+  virtual void DownloadById(float* position, float* velocity, float* density) const = 0;
 
   struct StepReport {
     std::vector<double> pass_ms;  // per pass, from CUDA events

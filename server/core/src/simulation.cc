@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <stdexcept>
 #include <string>
 
 #include "gpu_backend.h"
@@ -29,6 +30,37 @@ const State& Simulation::state() const {
     host_stale_ = false;
   }
   return state_;
+}
+
+void Simulation::ReadParticlesById(const ParticlesById& out) const {
+  const size_t n = particle_count_;
+  const auto check = [](std::span<float> span, size_t size, const char* what) {
+    if (!span.empty() && span.size() != size) {
+      throw std::invalid_argument(std::string("ReadParticlesById: ") + what + " holds " +
+                                  std::to_string(span.size()) + " floats, not " +
+                                  std::to_string(size));
+    }
+  };
+  check(out.position, 3 * n, "position");
+  check(out.velocity, 3 * n, "velocity");
+  check(out.density, n, "density");
+  float* position = out.position.empty() ? nullptr : out.position.data();
+  float* velocity = out.velocity.empty() ? nullptr : out.velocity.data();
+  float* density = out.density.empty() ? nullptr : out.density.data();
+  if (gpu_ && host_stale_) {
+    gpu_->DownloadById(position, velocity, density);
+    return;
+  }
+  const ParticleArrays& p = state_.particles;
+#pragma omp parallel for schedule(static)
+  for (size_t i = 0; i < n; ++i) {
+    const size_t k = p.id[i];
+    for (int a = 0; a < 3; ++a) {
+      if (position) position[3 * k + a] = p.position[i][a];
+      if (velocity) velocity[3 * k + a] = p.velocity[i][a];
+    }
+    if (density) density[k] = p.density[i];
+  }
 }
 
 std::string Simulation::DeviceDescription() const {
@@ -136,7 +168,15 @@ size_t Checkpoint::bytes() const {
 }
 
 Checkpoint Simulation::SaveCheckpoint() const {
-  const ParticleArrays& p = state().particles;
+  if (gpu_ && host_stale_) {
+    // Only what the checkpoint holds crosses from the GPU; the host copy stays as it was.
+    ParticleArrays p;
+    gpu_->DownloadCheckpointArrays(p);
+    return Checkpoint{model_.params,        state_.time,          state_.step, state_.frame,
+                      std::move(p.id),      std::move(p.position), std::move(p.velocity),
+                      std::move(p.density_stiffness), std::move(p.divergence_stiffness)};
+  }
+  const ParticleArrays& p = state_.particles;
   return Checkpoint{model_.params, state_.time, state_.step,         state_.frame,          p.id,
                     p.position,    p.velocity,  p.density_stiffness, p.divergence_stiffness};
 }

@@ -331,33 +331,24 @@ void SimulationHost::DescribeScene() {
 }
 
 void GatherSnapshot(const Simulation& sim, uint32_t fields, FrameSnapshot& s) {
-  const State& state = sim.state();
-  const ParticleArrays& p = state.particles;
-  const size_t n = p.size();
-  s.frame = state.frame;
-  s.step = state.step;
-  s.time = state.time;
+  const size_t n = sim.particle_count();
+  s.frame = sim.frame();
+  s.step = sim.step();
+  s.time = sim.time();
   const Aabb& domain = sim.model().domain;
   for (int a = 0; a < 3; ++a) {
     s.domain_min[a] = domain.min[a];
     s.domain_max[a] = domain.max[a];
   }
   s.produced_unix_us = UnixMicros();
-  // Storage order is cell order and changes every step; subscribers index by id.
+  // Storage order is cell order and changes every step; subscribers index by id. On a GPU only
+  // the fields asked for cross to the host, already in id order.
   const bool velocities = fields & (codec::kSpeed | codec::kVelocity);
   const bool densities = fields & codec::kDensity;
   s.positions.resize(3 * n);
   s.velocities.resize(velocities ? 3 * n : 0);
   s.densities.resize(densities ? n : 0);
-#pragma omp parallel for schedule(static)
-  for (size_t i = 0; i < n; ++i) {
-    const size_t k = p.id[i];
-    for (int a = 0; a < 3; ++a) s.positions[3 * k + a] = p.position[i][a];
-    if (velocities) {
-      for (int a = 0; a < 3; ++a) s.velocities[3 * k + a] = p.velocity[i][a];
-    }
-    if (densities) s.densities[k] = p.density[i];
-  }
+  sim.ReadParticlesById({s.positions, s.velocities, s.densities});
 }
 
 void SimulationHost::Publish(bool force, bool discontinuity) {

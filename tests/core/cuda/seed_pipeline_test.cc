@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <limits>
 #include <string>
+#include <vector>
 
 #include "dysa/core/device.h"
 #include "dysa/core/probes.h"
@@ -208,6 +209,30 @@ TEST(SeedGpuTest, ProbesReadTheDevicesState) {
   for (int i = 0; i < 30; ++i) cpu.StepFrame(), gpu.StepFrame();
   EXPECT_EQ(EvaluateProbes(scene.probes, gpu.model(), gpu.state()),
             EvaluateProbes(scene.probes, cpu.model(), cpu.state()));
+}
+
+TEST(SeedGpuTest, FramesAndCheckpointsReadOnlyWhatTheyNeedInIdOrder) {
+  SKIP_WITHOUT_GPU();
+  const Scene scene = BasicScene(10);
+  Simulation cpu(scene);
+  Simulation gpu(scene, kGpu);
+  for (int i = 0; i < 20; ++i) cpu.Step(), gpu.Step();
+  const size_t n = cpu.particle_count();
+  std::vector<float> pc(3 * n), vc(3 * n), dc(n), pg(3 * n), vg(3 * n), dg(n);
+  cpu.ReadParticlesById({pc, vc, dc});
+  gpu.ReadParticlesById({pg, vg, dg});  // from device memory, without state()
+  EXPECT_EQ(pg, pc);
+  EXPECT_EQ(vg, vc);
+  EXPECT_EQ(dg, dc);
+  std::vector<float> positions_only(3 * n);
+  gpu.ReadParticlesById({positions_only, {}, {}});
+  EXPECT_EQ(positions_only, pc);
+  // A checkpoint of the device's state restores on the CPU and carries on identically.
+  const Checkpoint saved = gpu.SaveCheckpoint();
+  Simulation resumed(scene);
+  resumed.RestoreCheckpoint(saved);
+  for (int i = 0; i < 10; ++i) resumed.Step(), gpu.Step();
+  EXPECT_EQ(StateHash(resumed.state()), StateHash(gpu.state()));
 }
 
 }  // namespace

@@ -93,6 +93,17 @@ class SeedGpuBackend final : public GpuBackend {
                        p.near_pressure.data());
   }
 
+  void DownloadCheckpointArrays(ParticleArrays& p) const override {
+    const size_t n = pipeline_.size();
+    p.id.resize(n), p.position.resize(n), p.velocity.resize(n);
+    pipeline_.Download(p.id.data(), Floats(p.position), Floats(p.velocity), nullptr, nullptr,
+                       nullptr, nullptr, nullptr);
+  }
+
+  void DownloadById(float* position, float* velocity, float* density) const override {
+    pipeline_.DownloadById(position, velocity, density);
+  }
+
   StepReport Step(const Model&, State&) override {
     cuda::StepOutcome outcome = pipeline_.Step();
     return StepReport{std::move(outcome.pass_ms), outcome.finite, outcome.limited};
@@ -190,6 +201,16 @@ class WcsphGpuBackend final : public GpuBackend {
                        p.pressure.data());
   }
 
+  void DownloadCheckpointArrays(ParticleArrays& p) const override {
+    const size_t n = pipeline_.size();
+    p.id.resize(n), p.position.resize(n), p.velocity.resize(n);
+    pipeline_.Download(p.id.data(), Floats(p.position), Floats(p.velocity), nullptr, nullptr);
+  }
+
+  void DownloadById(float* position, float* velocity, float* density) const override {
+    pipeline_.DownloadById(position, velocity, density);
+  }
+
   StepReport Step(const Model& model, State& state) override {
     const Real gravity = Real(wcsph::GravityAt(model.params, state.time));
     const cuda::StepMaxima maxima = pipeline_.Forces(gravity);
@@ -249,6 +270,18 @@ class DfsphGpuBackend final : public GpuBackend {
     pipeline_.Download(p.id.data(), Floats(p.position), Floats(p.velocity), p.density.data(),
                        p.pressure.data(), p.density_stiffness.data(),
                        p.divergence_stiffness.data());
+  }
+
+  void DownloadCheckpointArrays(ParticleArrays& p) const override {
+    const size_t n = pipeline_.size();
+    p.id.resize(n), p.position.resize(n), p.velocity.resize(n);
+    p.density_stiffness.resize(n), p.divergence_stiffness.resize(n);
+    pipeline_.Download(p.id.data(), Floats(p.position), Floats(p.velocity), nullptr, nullptr,
+                       p.density_stiffness.data(), p.divergence_stiffness.data());
+  }
+
+  void DownloadById(float* position, float* velocity, float* density) const override {
+    pipeline_.DownloadById(position, velocity, density);
   }
 
   StepReport Step(const Model& model, State& state) override {

@@ -221,6 +221,37 @@ inline void DownloadInterleaved(const DeviceBuffer<float>& x, const DeviceBuffer
   CheckCuda(cudaStreamSynchronize(stream), "downloading particles");
 }
 
+// out[3 id[i] + a] = (x, y, z)[a][i], or out[id[i]] = x[i] when y and z are null.
+template <class Unused = void>
+__global__ void ScatterByIdKernel(const uint32_t* id, const float* x, const float* y,
+                                  const float* z, float* out, uint32_t n) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= n) return;
+  const size_t k = id[i];
+  if (y == nullptr) {
+    out[k] = x[i];
+    return;
+  }
+  out[3 * k] = x[i];
+  out[3 * k + 1] = y[i];
+  out[3 * k + 2] = z[i];
+}
+
+// Copies n values (y, z null) or xyz triples to `host` in particle-id order, through `staging`
+// (kept by the caller, so a frame allocates nothing on the GPU). Returns once they are there.
+inline void DownloadById(const uint32_t* id, const float* x, const float* y, const float* z,
+                         size_t n, float* host, DeviceBuffer<float>& staging, cudaStream_t stream) {
+  if (n == 0) return;
+  const size_t count = y ? 3 * n : n;
+  staging.Resize(count);
+  ScatterByIdKernel<<<unsigned((n + kBlock - 1) / kBlock), kBlock, 0, stream>>>(
+      id, x, y, z, staging.data(), uint32_t(n));
+  CheckCuda(
+      cudaMemcpyAsync(host, staging.data(), count * sizeof(float), cudaMemcpyDeviceToHost, stream),
+      "downloading a frame");
+  CheckCuda(cudaStreamSynchronize(stream), "downloading a frame");
+}
+
 // flag stays 0 while every value is finite (x - x is NaN exactly when x is not finite).
 static __global__ void FiniteKernel(const float* a, const float* b, const float* c, const float* d,
                                     const float* e, const float* f, uint32_t n,

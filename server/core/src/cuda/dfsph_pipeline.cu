@@ -359,6 +359,7 @@ struct DfsphPipeline::Impl {
   GridSorter boundary_sorter;
   DeviceBuffer<uint32_t> bn_count, bn_begin;
   DeviceBuffer<float> bn_weight, hydrostatic, kappa_b;
+  mutable DeviceBuffer<float> frame_staging;  // DownloadById's
   DeviceBuffer<SphereObstacle> spheres;
   DeviceBuffer<BoxObstacle> boxes;
   DeviceBuffer<float> device_maxima;
@@ -517,6 +518,21 @@ DfsphPipeline::DfsphPipeline(int device) : impl_(std::make_unique<Impl>(device))
 DfsphPipeline::~DfsphPipeline() = default;
 
 size_t DfsphPipeline::size() const { return impl_->n; }
+
+void DfsphPipeline::DownloadById(float* position, float* velocity, float* density) const {
+  Impl& m = *impl_;
+  DeviceScope scope(m.device);
+  const uint32_t* id = m.id.data();
+  if (position)
+    cuda::DownloadById(id, m.x.data(), m.y.data(), m.z.data(), m.n, position, m.frame_staging,
+                       m.s());
+  if (velocity)
+    cuda::DownloadById(id, m.vx.data(), m.vy.data(), m.vz.data(), m.n, velocity, m.frame_staging,
+                       m.s());
+  if (density)
+    cuda::DownloadById(id, m.density.data(), nullptr, nullptr, m.n, density, m.frame_staging,
+                       m.s());
+}
 
 std::vector<std::string> DfsphPipeline::Configure(const DfsphStepConfig& config,
                                                   const BoundaryCloud& boundary) {

@@ -72,6 +72,9 @@ class DfsphPipeline {
   // integrate: x += v dt with the speed limit (m/s) and the wall contact. Returns every pass's
   // time and the count of particles the limit slowed.
   StepOutcome Integrate(float dt, float speed_limit);
+  // Positions and velocities (xyz triples) and densities in particle-id order (id k at k);
+  // any pointer may be null (not copied).
+  void DownloadById(float* position, float* velocity, float* density) const;
   size_t size() const;
   uint64_t DeviceBytes() const;
 

@@ -640,6 +640,7 @@ struct SeedPipeline::Impl {
   DeviceBuffer<float> x, y, z, vx, vy, vz, px, py, pz;
   DeviceBuffer<float> x2, y2, z2, vx2, vy2, vz2, px2, py2, pz2;
   DeviceBuffer<uint32_t> id, id2;
+  mutable DeviceBuffer<float> frame_staging;  // DownloadById's
   DeviceBuffer<float> density, near_density, pressure, near_pressure;
   DeviceBuffer<float4> pos4;      // the grid's points (px, py, pz), for the neighbour kernels
   DeviceBuffer<float4> scratch4;  // the pressure factors; the velocity copy
@@ -902,6 +903,23 @@ StepOutcome SeedPipeline::Step() {
   outcome.limited = m.flags.data()[0];
   outcome.finite = m.flags.data()[1] == 0;
   return outcome;
+}
+
+void SeedPipeline::DownloadById(float* position, float* velocity, float* density) const {
+  Impl& m = *impl_;
+  DeviceScope scope(m.device);
+  cudaStream_t s = m.stream.get();
+  const uint32_t* id = m.id.data();
+  if (position) {
+    cuda::DownloadById(id, m.x.data(), m.y.data(), m.z.data(), m.n, position, m.frame_staging, s);
+  }
+  if (velocity) {
+    cuda::DownloadById(id, m.vx.data(), m.vy.data(), m.vz.data(), m.n, velocity, m.frame_staging,
+                       s);
+  }
+  if (density) {
+    cuda::DownloadById(id, m.density.data(), nullptr, nullptr, m.n, density, m.frame_staging, s);
+  }
 }
 
 uint64_t SeedPipeline::DeviceBytes() const {

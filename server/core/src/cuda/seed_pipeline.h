@@ -71,6 +71,9 @@ class SeedPipeline {
   void Download(uint32_t* id, float* position, float* velocity, float* predicted, float* density,
                 float* near_density, float* pressure, float* near_pressure) const;
   StepOutcome Step();
+  // Positions and velocities (xyz triples) and densities in particle-id order (id k at k);
+  // any pointer may be null (not copied).
+  void DownloadById(float* position, float* velocity, float* density) const;
   size_t size() const;
   // Device memory held, bytes (particles, the grid, the neighbour list, scratch).
   uint64_t DeviceBytes() const;

@@ -120,6 +120,7 @@ struct WcsphPipeline::Impl {
   DeviceBuffer<float> bx, by, bz, bvolume, bpressure, bp_over_rho2, bvx, bvy, bvz;
   DeviceBuffer<uint8_t> bno_slip;
   GridSorter boundary_sorter;
+  mutable DeviceBuffer<float> frame_staging;  // DownloadById's
   DeviceBuffer<SphereObstacle> spheres;
   DeviceBuffer<BoxObstacle> boxes;
   DeviceBuffer<float> device_maxima;              // [0] |v|^2, [1] |a|^2, [2] density
@@ -190,6 +191,21 @@ WcsphPipeline::WcsphPipeline(int device) : impl_(std::make_unique<Impl>(device))
 WcsphPipeline::~WcsphPipeline() = default;
 
 size_t WcsphPipeline::size() const { return impl_->n; }
+
+void WcsphPipeline::DownloadById(float* position, float* velocity, float* density) const {
+  Impl& m = *impl_;
+  DeviceScope scope(m.device);
+  const uint32_t* id = m.id.data();
+  if (position)
+    cuda::DownloadById(id, m.x.data(), m.y.data(), m.z.data(), m.n, position, m.frame_staging,
+                       m.stream.get());
+  if (velocity)
+    cuda::DownloadById(id, m.vx.data(), m.vy.data(), m.vz.data(), m.n, velocity, m.frame_staging,
+                       m.stream.get());
+  if (density)
+    cuda::DownloadById(id, m.density.data(), nullptr, nullptr, m.n, density, m.frame_staging,
+                       m.stream.get());
+}
 
 std::vector<std::string> WcsphPipeline::Configure(const WcsphStepConfig& config,
                                                   const BoundaryCloud& boundary) {

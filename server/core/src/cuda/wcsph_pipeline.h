@@ -60,6 +60,9 @@ class WcsphPipeline {
   StepMaxima Forces(float gravity);
   // The integrate pass with the step dt; the outcome holds every pass's time.
   StepOutcome Integrate(float dt);
+  // Positions and velocities (xyz triples) and densities in particle-id order (id k at k);
+  // any pointer may be null (not copied).
+  void DownloadById(float* position, float* velocity, float* density) const;
   size_t size() const;
   uint64_t DeviceBytes() const;
 

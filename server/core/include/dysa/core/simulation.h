@@ -70,6 +70,20 @@ class Simulation {
   std::span<const PassProfile> profile() const { return profile_; }
   std::vector<std::string> PassNames() const;
 
+  // Per-particle arrays in particle-id order (id k at index k): each span is empty (not read),
+  // or 3 * particle_count() floats (positions, velocities: x, y, z interleaved), or
+  // particle_count() floats (densities).
+  struct ParticlesById {
+    std::span<float> position;  // m
+    std::span<float> velocity;  // m/s
+    std::span<float> density;   // kg/m^3
+  };
+  // Copies the asked arrays of the current state into `out`, in id order: what a frame needs.
+  // On a GPU only those arrays cross to the host, ordered by id there; the host copy behind
+  // state() is neither read nor refreshed. Throws std::invalid_argument for a span of the wrong
+  // size.
+  void ReadParticlesById(const ParticlesById& out) const;
+
   const Device& device() const { return device_; }
   // "cpu", or the GPU: "cuda:0 NVIDIA H200, 139.8 GiB, sm_90".
   std::string DeviceDescription() const;
