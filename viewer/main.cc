@@ -17,9 +17,9 @@
 
 #include "backends/imgui_impl_glfw.h"
 #include "backends/imgui_impl_opengl3.h"
+#include "dysa/client/frame_receiver.h"
 #include "src/control_panel.h"
 #include "src/fluid_renderer.h"
-#include "src/frame_receiver.h"
 #include "src/gl.h"
 #include "src/orbit_camera.h"
 #include "src/render_target.h"
@@ -218,12 +218,12 @@ int Run(const Options& options) {
     // A screenshot shows what the server sends, not where the pointer happens to hover.
     if (screenshot) ImGui::GetIO().ConfigFlags |= ImGuiConfigFlags_NoMouse;
     ServerLink link(options.connect);
-    FrameReceiver receiver(options.connect, settings.stream);
+    dysa::remote::FrameReceiver receiver(options.connect, settings.stream);
     link.Start();
     receiver.Start();
 
     ControlPanel panel;
-    ReceivedFrame frame;
+    dysa::remote::ReceivedFrame frame;
     uint64_t scene_revision = 0;
     std::string fitted_scene;
     int captures = 0;  // F12 presses saved
@@ -240,7 +240,7 @@ int Run(const Options& options) {
     while (!glfwWindowShouldClose(window) && quit_requested == 0) {
       glfwPollEvents();
       const ServerView view = link.View();
-      const ReceiverStats receiver_stats = receiver.Stats();
+      const dysa::remote::ReceiverStats receiver_stats = receiver.Stats();
 
       if (view.scene && view.scene_revision != scene_revision) {
         scene_renderer.SetScene(*view.scene);

@@ -22,7 +22,7 @@
 #include <utility>
 #include <vector>
 
-#include "remote_client.h"
+#include "dysa/client/client.h"
 #include "remote_commands.h"
 #endif
 

@@ -20,6 +20,7 @@
 #include <sstream>
 #include <thread>
 
+#include "dysa/client/frame_assembler.h"
 #include "npz_writer.h"
 #include "vtk_writer.h"
 
@@ -253,12 +254,6 @@ class StreamWatchdog {
   std::thread thread_;  // last: starts once the members above exist
 };
 
-int64_t NowUnixMicros() {
-  return std::chrono::duration_cast<std::chrono::microseconds>(
-             std::chrono::system_clock::now().time_since_epoch())
-      .count();
-}
-
 // What `watch` shows, updated by the reading thread and printed by the watchdog's.
 struct WatchStats {
   std::mutex mutex;
@@ -305,12 +300,6 @@ struct WatchStats {
     return line;
   }
 };
-
-uint64_t ChunkBytes(const FrameMessage& message) {
-  uint64_t bytes = 0;
-  for (const codec::Chunk& chunk : message.chunks) bytes += chunk.size();
-  return bytes;
-}
 
 }  // namespace
 
@@ -594,28 +583,21 @@ void Watch(Client& client, const WatchOptions& options, std::ostream& out) {
                           options.live ? std::chrono::milliseconds(250) : std::chrono::seconds(1),
                           tick);
 
-  codec::FrameDecoder decoder;
+  FrameAssembler assembler;
   codec::Frame frame;
   FrameMessage message;
-  uint64_t pending_bytes = 0;  // chunk bytes of the frame being assembled
   uint64_t message_skips = 0;
   while (stream->Next(message)) {
-    pending_bytes += ChunkBytes(message);
     message_skips += message.frames_skipped;
-    bool complete = false;
-    try {
-      complete = decoder.AddChunks(message.chunks, frame);
-    } catch (const codec::DecodeError&) {
+    const FrameProgress progress = assembler.Add(message, frame);
+    if (progress.decode_error) {
       std::lock_guard lock(stats.mutex);
       ++stats.decode_errors;
     }
-    if (!message.last_of_frame) continue;
-    const uint64_t bytes = message.frame_bytes ? message.frame_bytes : pending_bytes;
-    pending_bytes = 0;
-    if (!complete) continue;
+    if (!progress.complete) continue;
     std::lock_guard lock(stats.mutex);
     ++stats.frames;
-    stats.bytes += bytes;
+    stats.bytes += progress.frame_bytes;
     stats.frames_skipped = message_skips;
     const Clock::time_point now = Clock::now();
     stats.recent.push_back(now);
@@ -624,9 +606,8 @@ void Watch(Client& client, const WatchOptions& options, std::ostream& out) {
     stats.frame = message.frame;
     stats.time = frame.time;
     stats.particles = frame.count;
-    stats.frame_bytes = bytes;
-    stats.latency_ms =
-        message.produced_unix_us ? double(NowUnixMicros() - message.produced_unix_us) / 1e3 : 0;
+    stats.frame_bytes = progress.frame_bytes;
+    stats.latency_ms = progress.latency_ms;
   }
   watchdog.Stop();
   stream->Finish();  // throws unless the stream was ours to end
@@ -785,20 +766,16 @@ void Record(Client& client, const RecordOptions& options, std::ostream& out, std
   }
   StreamWatchdog watchdog(*stream, options.interrupted, 0, std::chrono::milliseconds(250), tick);
 
-  codec::FrameDecoder decoder;
+  FrameAssembler assembler;
   codec::Frame frame;
   FrameMessage message;
   uint64_t decode_errors = 0;
   std::string stop_reason;
   uint32_t first_count = 0, fields = 0;
   while (got < options.frames && stream->Next(message)) {
-    bool complete = false;
-    try {
-      complete = decoder.AddChunks(message.chunks, frame);
-    } catch (const codec::DecodeError&) {
-      ++decode_errors;  // the decoder waits for the next keyframe
-    }
-    if (!complete) continue;
+    const FrameProgress progress = assembler.Add(message, frame);
+    if (progress.decode_error) ++decode_errors;  // the decoder waits for the next keyframe
+    if (!progress.complete) continue;
     if (got == 0) first_count = frame.count, fields = frame.fields;
     if (vtk) {
       vtk->WriteFrame(ToVtp(frame), frame.time);

@@ -1,6 +1,7 @@
 // The network verbs of `dysa` (status, pause, ..., watch, record): each calls the server through
-// a remote::Client and prints to an ostream, human-readable or as one JSON object, so tests
-// capture what the command line prints. Errors are thrown, main.cc prints them.
+// a remote::Client (dysa_client, clients/cpp) and prints to an ostream, human-readable or as one
+// JSON object, so tests capture what the command line prints. Errors are thrown, main.cc prints
+// them.
 #pragma once
 
 #include <atomic>
@@ -11,7 +12,7 @@
 #include <utility>
 #include <vector>
 
-#include "remote_client.h"
+#include "dysa/client/client.h"
 
 namespace dysa::remote {
 

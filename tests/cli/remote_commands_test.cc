@@ -1,4 +1,4 @@
-// Tests of clients/cli/remote_commands.h and remote_client.h: the network verbs of `dysa`
+// Tests of clients/cli/remote_commands.h and dysa/client/client.h: the network verbs of `dysa`
 // against a real dysa-server started for each test (on a free port, announced through
 // --port-file), through the real `dysa` executable (exit codes, stdout, stderr) and in-process.
 #include "remote_commands.h"
@@ -19,7 +19,7 @@
 #include <thread>
 #include <vector>
 
-#include "remote_client.h"
+#include "dysa/client/client.h"
 #include "support/server_process.h"
 #include "support/temp_dir.h"
 

@@ -15,7 +15,7 @@
 #include <thread>
 #include <vector>
 
-#include "remote_client.h"
+#include "dysa/client/client.h"
 #include "support/server_process.h"
 #include "support/temp_dir.h"
 #include "support/wait_for.h"

@@ -33,7 +33,7 @@ std::string SliderLabel(const remote::ParamInfo& p) {
 
 }  // namespace
 
-bool ControlPanel::Draw(const ServerView& view, const ReceiverStats& receiver,
+bool ControlPanel::Draw(const ServerView& view, const remote::ReceiverStats& receiver,
                         const RenderStats& render, ServerLink& link, ViewerSettings& settings) {
   DrawOverlay(view, receiver, render, link);
   if (!settings.show_panel) return false;
@@ -188,7 +188,7 @@ bool ControlPanel::DrawRendering(ViewerSettings& settings) {
   return stream_changed;
 }
 
-void ControlPanel::DrawOverlay(const ServerView& view, const ReceiverStats& receiver,
+void ControlPanel::DrawOverlay(const ServerView& view, const remote::ReceiverStats& receiver,
                                const RenderStats& render, ServerLink& link) {
   ImGui::SetNextWindowPos(ImVec2(10, 10), ImGuiCond_Always);
   ImGui::SetNextWindowBgAlpha(0.55f);

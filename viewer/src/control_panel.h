@@ -5,9 +5,9 @@
 #include <map>
 #include <string>
 
+#include "dysa/client/frame_receiver.h"
+#include "dysa/client/types.h"
 #include "fluid_renderer.h"
-#include "frame_receiver.h"
-#include "remote_client.h"
 #include "scene_renderer.h"
 #include "server_link.h"
 
@@ -36,16 +36,16 @@ class ControlPanel {
  public:
   // Draws the panel and overlay for this frame; user actions go to `link`. Returns true when
   // the stream options changed (the caller restarts the stream).
-  bool Draw(const ServerView& view, const ReceiverStats& receiver, const RenderStats& render,
-            ServerLink& link, ViewerSettings& settings);
+  bool Draw(const ServerView& view, const remote::ReceiverStats& receiver,
+            const RenderStats& render, ServerLink& link, ViewerSettings& settings);
 
  private:
   void DrawControls(const ServerView& view, ServerLink& link);
   void DrawScenePickers(const ServerView& view, ServerLink& link);
   void DrawParams(const ServerView& view, ServerLink& link);
   bool DrawRendering(ViewerSettings& settings);
-  void DrawOverlay(const ServerView& view, const ReceiverStats& receiver, const RenderStats& render,
-                   ServerLink& link);
+  void DrawOverlay(const ServerView& view, const remote::ReceiverStats& receiver,
+                   const RenderStats& render, ServerLink& link);
 
   // Values being edited, by parameter name: shown instead of the server's value from the first
   // drag until the server's reply to the change arrives (params_revision moves on).

@@ -6,9 +6,9 @@
 #include <array>
 #include <vector>
 
+#include "dysa/client/types.h"
 #include "dysa/codec/frame_codec.h"
 #include "gl_util.h"
-#include "remote_client.h"
 #include "render_types.h"
 
 namespace dysa::viewer {

@@ -16,7 +16,7 @@
 #include <utility>
 #include <vector>
 
-#include "remote_client.h"
+#include "dysa/client/client.h"
 
 namespace dysa::viewer {
 

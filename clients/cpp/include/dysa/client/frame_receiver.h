@@ -1,7 +1,8 @@
 // Receives the particle stream on a background thread: one StreamFrames call at a time,
-// decoded as it arrives, the newest complete frame kept for the render thread. The render
-// thread never waits on the network: TakeLatest() only swaps buffers under a short lock.
-// When the stream ends (server restart, network loss) it reconnects with a growing pause.
+// decoded as it arrives (FrameAssembler), the newest complete frame kept for the caller (the
+// viewer's render thread), who never waits on the network: TakeLatest() only swaps buffers under
+// a short lock. When the stream ends (server restart, network loss) it reconnects with a growing
+// pause.
 #pragma once
 
 #include <atomic>
@@ -14,10 +15,10 @@
 #include <string>
 #include <thread>
 
+#include "dysa/client/client.h"
 #include "dysa/codec/frame_codec.h"
-#include "remote_client.h"
 
-namespace dysa::viewer {
+namespace dysa::remote {
 
 struct ReceivedFrame {
   codec::Frame frame;      // decoded, in id order
@@ -42,7 +43,7 @@ struct ReceiverStats {
 class FrameReceiver {
  public:
   // Throws std::runtime_error when the TLS CA file cannot be read.
-  FrameReceiver(const remote::ConnectOptions& connect, const remote::StreamOptions& stream);
+  FrameReceiver(const ConnectOptions& connect, const StreamOptions& stream);
   ~FrameReceiver();  // Stop()
   FrameReceiver(const FrameReceiver&) = delete;
   FrameReceiver& operator=(const FrameReceiver&) = delete;
@@ -51,7 +52,7 @@ class FrameReceiver {
   void Stop();
 
   // Restarts the stream with new options (fields, frame-rate cap, stride, bits).
-  void SetStreamOptions(const remote::StreamOptions& stream);
+  void SetStreamOptions(const StreamOptions& stream);
 
   // When a frame arrived since the previous call, swaps it into `out` (whose buffers are
   // recycled) and returns true.
@@ -62,17 +63,17 @@ class FrameReceiver {
  private:
   void Loop();
   // One StreamFrames call until it ends; returns why ("" when stopped or restarted by us).
-  std::string RunStream(const remote::StreamOptions& options);
+  std::string RunStream(const StreamOptions& options);
   void Publish(ReceivedFrame& decoded);
 
-  remote::Client client_;
+  Client client_;
 
   mutable std::mutex mu_;
   std::condition_variable wake_;
-  remote::StreamOptions options_;
+  StreamOptions options_;
   bool restart_ = false;
   bool stop_ = false;
-  remote::FrameStream* open_stream_ = nullptr;  // to cancel it from Stop/SetStreamOptions
+  FrameStream* open_stream_ = nullptr;  // to cancel it from Stop/SetStreamOptions
   ReceivedFrame latest_;
   bool have_latest_ = false;
   ReceiverStats stats_;
@@ -82,4 +83,4 @@ class FrameReceiver {
   std::thread thread_;
 };
 
-}  // namespace dysa::viewer
+}  // namespace dysa::remote

@@ -1,25 +1,17 @@
-#include "frame_receiver.h"
+#include "dysa/client/frame_receiver.h"
 
 #include <algorithm>
 #include <utility>
-#include <vector>
 
-namespace dysa::viewer {
+#include "dysa/client/frame_assembler.h"
+
+namespace dysa::remote {
 
 namespace {
-
 using Clock = std::chrono::steady_clock;
-
-int64_t NowUnixMicros() {
-  return std::chrono::duration_cast<std::chrono::microseconds>(
-             std::chrono::system_clock::now().time_since_epoch())
-      .count();
-}
-
 }  // namespace
 
-FrameReceiver::FrameReceiver(const remote::ConnectOptions& connect,
-                             const remote::StreamOptions& stream)
+FrameReceiver::FrameReceiver(const ConnectOptions& connect, const StreamOptions& stream)
     : client_(connect), options_(stream) {}
 
 FrameReceiver::~FrameReceiver() { Stop(); }
@@ -41,7 +33,7 @@ void FrameReceiver::Stop() {
   if (thread_.joinable()) thread_.join();
 }
 
-void FrameReceiver::SetStreamOptions(const remote::StreamOptions& stream) {
+void FrameReceiver::SetStreamOptions(const StreamOptions& stream) {
   {
     std::lock_guard lock(mu_);
     options_ = stream;
@@ -74,7 +66,7 @@ void FrameReceiver::Loop() {
   // so a restarted server is found again within 2 s without a busy loop meanwhile.
   std::chrono::milliseconds pause(250);
   for (;;) {
-    remote::StreamOptions options;
+    StreamOptions options;
     {
       std::lock_guard lock(mu_);
       if (stop_) return;
@@ -95,8 +87,8 @@ void FrameReceiver::Loop() {
   }
 }
 
-std::string FrameReceiver::RunStream(const remote::StreamOptions& options) {
-  std::unique_ptr<remote::FrameStream> stream;
+std::string FrameReceiver::RunStream(const StreamOptions& options) {
+  std::unique_ptr<FrameStream> stream;
   try {
     stream = client_.StreamFrames(options);
   } catch (const std::exception& e) {
@@ -109,31 +101,20 @@ std::string FrameReceiver::RunStream(const remote::StreamOptions& options) {
     ++stream_id_;
   }
 
-  codec::FrameDecoder decoder;
+  FrameAssembler assembler;
   ReceivedFrame decoded;
-  remote::FrameMessage message;
-  uint64_t pending_bytes = 0;
+  FrameMessage message;
   while (stream->Next(message)) {
-    for (const codec::Chunk& chunk : message.chunks) pending_bytes += chunk.size();
-    bool complete = false;
-    try {
-      complete = decoder.AddChunks(message.chunks, decoded.frame);
-    } catch (const codec::DecodeError&) {
-      // The decoder waits for the next keyframe, which the server sends after a gap.
-      std::lock_guard lock(mu_);
-      ++stats_.decode_errors;
-    }
+    const FrameProgress progress = assembler.Add(message, decoded.frame);
     {
       std::lock_guard lock(mu_);
+      if (progress.decode_error) ++stats_.decode_errors;
       stats_.frames_skipped += message.frames_skipped;
     }
-    if (!message.last_of_frame) continue;
-    decoded.bytes = message.frame_bytes ? message.frame_bytes : pending_bytes;
-    pending_bytes = 0;
-    if (!complete) continue;
+    if (!progress.complete) continue;
+    decoded.bytes = progress.frame_bytes;
     decoded.sim_frame = message.frame;
-    decoded.latency_ms =
-        message.produced_unix_us ? double(NowUnixMicros() - message.produced_unix_us) / 1e3 : 0.0;
+    decoded.latency_ms = progress.latency_ms;
     Publish(decoded);
   }
 
@@ -166,4 +147,4 @@ void FrameReceiver::Publish(ReceivedFrame& decoded) {
   while (!recent_.empty() && now - recent_.front() > std::chrono::seconds(1)) recent_.pop_front();
 }
 
-}  // namespace dysa::viewer
+}  // namespace dysa::remote

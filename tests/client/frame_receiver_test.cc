@@ -1,6 +1,6 @@
-// Tests of viewer/src/frame_receiver.cc against a real dysa-server: frames arrive decoded on
-// the background thread, stream options apply, and the receiver finds a restarted server.
-#include "frame_receiver.h"
+// Tests of clients/cpp/src/frame_receiver.cc against a real dysa-server: frames arrive decoded
+// on the background thread, stream options apply, and the receiver finds a restarted server.
+#include "dysa/client/frame_receiver.h"
 
 #include <gtest/gtest.h>
 
@@ -17,7 +17,7 @@
 #error "tests/CMakeLists.txt defines DYSA_SERVER_BINARY"
 #endif
 
-namespace dysa::viewer {
+namespace dysa::remote {
 namespace {
 
 using dysa::testing::ServerProcess;
@@ -31,9 +31,9 @@ class FrameReceiverTest : public ::testing::Test {
  protected:
   // A started receiver of `server`'s stream with the default options.
   static std::unique_ptr<FrameReceiver> Receive(const ServerProcess& server) {
-    remote::ConnectOptions connect;
+    ConnectOptions connect;
     connect.address = server.address();
-    auto receiver = std::make_unique<FrameReceiver>(connect, remote::StreamOptions{});
+    auto receiver = std::make_unique<FrameReceiver>(connect, StreamOptions{});
     receiver->Start();
     return receiver;
   }
@@ -74,7 +74,7 @@ TEST_F(FrameReceiverTest, NewStreamOptionsRestartTheStream) {
   ASSERT_TRUE(WaitFor([&] { return receiver->TakeLatest(frame); }));
   const uint64_t first_stream = frame.stream_id;
 
-  remote::StreamOptions options;
+  StreamOptions options;
   options.stride = 4;  // every 4th particle
   options.fields = codec::kPositions;
   receiver->SetStreamOptions(options);
@@ -111,9 +111,9 @@ TEST_F(FrameReceiverTest, ReportsALostServerAndReconnectsWhenItReturns) {
 }
 
 TEST_F(FrameReceiverTest, StopReturnsPromptlyWithoutAServer) {
-  remote::ConnectOptions connect;
+  ConnectOptions connect;
   connect.address = "127.0.0.1:1";  // nothing listens there
-  FrameReceiver receiver(connect, remote::StreamOptions{});
+  FrameReceiver receiver(connect, StreamOptions{});
   receiver.Start();
   ASSERT_TRUE(WaitFor([&] { return !receiver.Stats().error.empty(); }, 30));
   EXPECT_FALSE(receiver.Stats().streaming);
@@ -123,4 +123,4 @@ TEST_F(FrameReceiverTest, StopReturnsPromptlyWithoutAServer) {
 }
 
 }  // namespace
-}  // namespace dysa::viewer
+}  // namespace dysa::remote

@@ -1,0 +1,131 @@
+// The plain C++ view of the dysa.v1 messages a client receives and sends: status, parameters,
+// scenes, stream options and frame messages. No generated protobuf types: code that includes
+// this (the CLI's verbs, the viewer's panel and renderers) builds without the generated headers.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "dysa/codec/frame_codec.h"
+
+namespace dysa::remote {
+
+struct PassTiming {
+  std::string name;
+  double last_ms = 0;
+  double mean_ms = 0;
+  uint64_t calls = 0;
+};
+
+// dysa.v1.Status.
+struct ServerStatus {
+  std::string state;  // "running", "paused" or "unspecified"
+  uint64_t step = 0;
+  uint64_t frame = 0;
+  double time = 0;  // s
+  uint32_t particles = 0;
+  std::string solver;
+  std::string scene;
+  double frames_per_second = 0;
+  double target_frame_rate = 0;
+  std::vector<PassTiming> passes;
+  uint32_t subscribers = 0;
+  std::string alarm;
+  std::string warning;  // the solver's latest accuracy warning; empty when none
+  uint64_t history_frames = 0;
+  uint64_t history_bytes = 0;
+  uint64_t frames_encoded = 0;
+  uint64_t state_hash = 0;      // while paused: equal hashes mean bit-identical states; 0 running
+  uint64_t scene_version = 0;   // changes whenever GetScene() would answer differently
+  uint32_t solver_threads = 0;  // OpenMP threads the solver steps with
+  // "cpu", or e.g. "cuda:0 NVIDIA H200, 139.8 GiB, sm_90"; empty from a server that predates it.
+  std::string device;
+  uint64_t device_memory_bytes = 0;  // bytes of GPU memory the simulation holds; 0 on the CPU
+};
+
+struct ControlResult {
+  ServerStatus status;
+  bool reset = false;
+  uint32_t frames_moved = 0;
+};
+
+struct ParamInfo {
+  std::string name;
+  double value = 0;
+  std::string unit;
+  double min = 0;
+  double max = 0;
+  double default_value = 0;
+  bool integer = false;
+  bool needs_reset = false;
+  std::string description;
+};
+
+struct UpdateResult {
+  bool reset = false;
+  std::vector<ParamInfo> params;
+  ServerStatus status;
+};
+
+struct SceneInfo {
+  std::string name;
+  std::string description;
+  uint32_t particles = 0;
+  std::string solver;
+};
+
+struct SceneList {
+  std::vector<SceneInfo> scenes;
+  std::string current;
+};
+
+struct SphereObstacle {
+  std::array<double, 3> center{};  // m
+  double radius = 0;               // m
+};
+
+struct BoxObstacle {
+  std::array<double, 3> min{};  // m
+  std::array<double, 3> max{};  // m
+};
+
+// dysa.v1.SceneDescription: the running scene's geometry and the registered solvers.
+struct SceneDescription {
+  std::string name;
+  std::string description;
+  std::string solver;                  // the running solver
+  std::vector<std::string> solvers;    // every registered solver name
+  std::array<double, 3> domain_min{};  // m
+  std::array<double, 3> domain_max{};  // m
+  std::vector<SphereObstacle> spheres;
+  std::vector<BoxObstacle> boxes;
+  double particle_radius = 0;  // m, half the smallest rest spacing of the spawned particles
+  uint64_t scene_version = 0;  // as ServerStatus::scene_version
+};
+
+// dysa.v1.StreamFramesRequest; 0 keeps the server's default.
+struct StreamOptions {
+  uint32_t fields = codec::kPositions | codec::kSpeed;  // dysa::codec::Field bits
+  double max_fps = 0;
+  uint32_t stride = 0;
+  uint32_t position_bits = 0;
+  uint32_t speed_bits = 0;
+  uint32_t velocity_bits = 0;
+  uint32_t density_bits = 0;
+  uint32_t keyframe_interval = 0;
+  codec::VelocityEncoding velocity_encoding = codec::VelocityEncoding::kComponents;
+};
+
+// dysa.v1.FrameMessage.
+struct FrameMessage {
+  std::vector<codec::Chunk> chunks;
+  uint64_t frame = 0;
+  bool last_of_frame = false;
+  uint64_t frame_bytes = 0;
+  int64_t produced_unix_us = 0;
+  uint32_t frames_skipped = 0;
+};
+
+}  // namespace dysa::remote
