@@ -1,11 +1,13 @@
 #!/usr/bin/env bash
 # On a machine with an NVIDIA GPU: builds with the CUDA backend, runs the GPU tests
-# (ctest -L gpu, which must run there, not skip) and the GPU benchmarks, and writes their output
-# under OUT_DIR, each file named after the GPU.
+# (ctest -L gpu, which must run there, not skip), the GPU benchmarks (gpu_bench for the three
+# solvers, server_bench --part gpu), and `dysa validate --quick` on the CPU and on the GPU,
+# whose errors must agree within 0.2 points (scripts/compare-validation.py). Everything is
+# written under OUT_DIR, each file named after the GPU.
 #
 #   scripts/test-gpu.sh [OUT_DIR] [--quick]        (default OUT_DIR: bench/results)
 #
-#   --quick   the tests and the benchmarks at 91,125 and 1 M particles only
+#   --quick   the benchmarks at 91,125 and 1 M particles only
 #
 # On Debian 12 it installs the packages first (scripts/setup.sh). Elsewhere (a GPU machine
 # without Debian's packages, bench/README.md "GPU") set DYSA_DEPS to a prefix holding them
@@ -67,10 +69,28 @@ if grep -q "Skipped" "$tests_log" || grep -q "\[  SKIPPED \]" "$tests_log"; then
   status=1
 fi
 
+# The benchmarks: every solver from 91,125 particles up (the CPU in the same run up to 1 M),
+# and the server streaming from the GPU to a subscriber on this machine.
 sizes="91125,1000000,10000000,100000000"
-[[ $quick -eq 1 ]] && sizes="91125,1000000"
-"$build/bench/gpu_bench" --sizes "$sizes" --out "$out" 2>&1 | tee "$out/gpu_bench_$gpu.txt" ||
+physical_sizes="91125,1000000,10000000"
+server_sizes="1000000,10000000"
+if [[ $quick -eq 1 ]]; then
+  sizes="91125,1000000" physical_sizes="91125,1000000" server_sizes="1000000"
+fi
+export OMP_WAIT_POLICY=PASSIVE
+"$build/bench/gpu_bench" --sizes "$sizes" --physical-sizes "$physical_sizes" --cpu-max 1000000 \
+  --out "$out" 2>&1 | tee "$out/gpu_bench_$gpu.txt" || status=1
+"$build/bench/server_bench" --part gpu --gpu-sizes "$server_sizes" --seconds 5 --out "$out" 2>&1 |
+  tee "$out/server_gpu_$gpu.txt" || status=1
+
+# The validation cases on both devices: the same errors within 0.2 points.
+"$build/clients/cli/dysa" validate --quick --device cpu > "$out/validate_quick_cpu_$gpu.txt" 2>&1 ||
   status=1
+"$build/clients/cli/dysa" validate --quick --device cuda > "$out/validate_quick_cuda_$gpu.txt" 2>&1 ||
+  status=1
+python3 scripts/compare-validation.py "$out/validate_quick_cpu_$gpu.txt" \
+  "$out/validate_quick_cuda_$gpu.txt" --max-points 0.2 2>&1 |
+  tee "$out/validate_quick_cpu_vs_cuda_$gpu.txt" || status=1
 
 if [[ $status -eq 0 ]]; then
   echo "test-gpu.sh: PASSED ($gpu)"
