@@ -126,6 +126,9 @@ class DecodeError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+// A chunk's parsed header (src/chunk_header.h), for FrameDecoder's private stages.
+struct ChunkHeader;
+
 class FrameDecoder {
  public:
   // Adds one chunk. Returns the frame once all its chunks have arrived. Throws DecodeError with
@@ -141,6 +144,17 @@ class FrameDecoder {
   bool waiting_for_keyframe() const { return !have_previous_; }
 
  private:
+  // The stages of AddChunks, in order. StartFrame begins the frame of `h` (false, and waiting
+  // for a keyframe, when it is a delta frame without its reference); AcceptGroup checks the
+  // chunks of that frame from `begin` on and marks them received, returning the end of the
+  // group; DecodeGroup decodes them in parallel; FinishFrame completes the frame into `out`.
+  bool StartFrame(const ChunkHeader& h, std::span<const uint8_t> chunk);
+  size_t AcceptGroup(const ChunkHeader& first, const std::vector<ChunkHeader>& headers,
+                     size_t begin);
+  void DecodeGroup(const ChunkHeader& first, std::span<const Chunk> chunks,
+                   const std::vector<ChunkHeader>& headers, size_t begin, size_t end);
+  void FinishFrame(const ChunkHeader& first, Frame& out);
+
   // The frame being assembled from its chunks.
   std::optional<uint32_t> pending_seq_;
   std::vector<uint8_t> pending_header_;  // its first chunk's header

@@ -1,0 +1,196 @@
+// FrameDecoder: chunks are grouped into frames (chunking), and each chunk goes back through the
+// encoder's stages in reverse (zstd, bit planes, prediction, quantisation), each in a file of its
+// own.
+#include <algorithm>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "bit_planes.h"
+#include "byte_io.h"
+#include "chunk_header.h"
+#include "chunking.h"
+#include "components.h"
+#include "dysa/codec/frame_codec.h"
+#include "octahedral_velocity.h"
+#include "prediction.h"
+#include "quantisation.h"
+#include "zstd_payload.h"
+
+namespace dysa::codec {
+namespace {
+
+std::vector<ChunkHeader> ReadHeaders(std::span<const Chunk> chunks) {
+  std::vector<ChunkHeader> headers;
+  headers.reserve(chunks.size());
+  for (const Chunk& chunk : chunks) headers.push_back(ReadHeader(chunk));
+  return headers;
+}
+
+// The frame's metadata from its header, and its arrays sized for it: without zeroing when the
+// size is unchanged, as every value is overwritten.
+void StartFrameOutput(const ChunkHeader& h, Frame& frame) {
+  frame.frame_seq = h.frame_seq;
+  frame.step = h.step;
+  frame.time = h.time;
+  frame.keyframe = h.keyframe();
+  frame.count = h.count;
+  frame.stride = h.stride;
+  frame.fields = h.fields;
+  frame.velocity_encoding =
+      h.octahedral() ? VelocityEncoding::kOctahedral : VelocityEncoding::kComponents;
+  frame.positions.resize(3 * size_t(h.count));
+  frame.speed.resize((h.fields & kSpeed) ? h.count : 0);
+  frame.velocities.resize((h.fields & kVelocity) ? 3 * size_t(h.count) : 0);
+  frame.densities.resize((h.fields & kDensity) ? h.count : 0);
+}
+
+// Decodes one chunk into q (quantised values, per component, frame-sized) and the frame's float
+// arrays. Chunks of a frame write disjoint ranges, so they run in parallel. Returns an error
+// message, empty on success (no exceptions inside parallel loops).
+std::string DecodeChunk(const ChunkHeader& h, const Chunk& chunk, Values& q, const History& history,
+                        Frame& frame) {
+  const std::span<const uint8_t> payload(chunk.data() + kHeaderSize, h.payload_size);
+  const std::span<const uint8_t> bits(payload.data() + payload.size(), h.bits_size);
+  const int n = ComponentCount(h);
+  const uint32_t m = h.chunk_particles;
+  // Per-thread scratch, kept between calls.
+  thread_local std::vector<uint8_t> raw;
+  thread_local std::vector<uint32_t> z;
+  if (std::string error = Decompress(payload, h.raw_size, MaxRawSize(n, m), raw); !error.empty()) {
+    return error;
+  }
+  PlaneLayout layout;
+  if (std::string error = ReadPlaneLayout(raw, bits.size(), n, m, layout); !error.empty()) {
+    return error;
+  }
+  z.resize(m);
+  int slot = 0;
+  for (int ci = 0; ci < kComponents; ++ci) {
+    const auto c = Component(ci);
+    if (!h.Has(c)) continue;
+    if (std::string error = ReadResiduals(raw, bits, layout, slot++, m, z.data()); !error.empty()) {
+      return error;
+    }
+    if (!UndoResiduals(h, c, z.data(), history, q)) return "decoded value outside its range";
+    // The octahedral velocity needs all three of its components: below.
+    if (!(h.octahedral() && IsVelocity(c))) DequantizeComponent(h, c, q, frame);
+  }
+  if (h.octahedral()) DequantizeOctahedral(h, q, frame);
+  return {};
+}
+
+}  // namespace
+
+std::optional<Frame> FrameDecoder::AddChunk(std::span<const uint8_t> chunk) {
+  const Chunk copy(chunk.begin(), chunk.end());
+  return AddChunks(std::span<const Chunk>(&copy, 1));
+}
+
+std::optional<Frame> FrameDecoder::AddChunks(std::span<const Chunk> chunks) {
+  Frame frame;
+  if (!AddChunks(chunks, frame)) return std::nullopt;
+  return frame;
+}
+
+bool FrameDecoder::AddChunks(std::span<const Chunk> chunks, Frame& out) {
+  const std::vector<ChunkHeader> headers = ReadHeaders(chunks);
+  bool done = false;
+  // Chunks are taken in order; each group of consecutive chunks of one frame decodes in
+  // parallel. A frame left incomplete when the next one starts is dropped.
+  size_t begin = 0;
+  while (begin < chunks.size()) {
+    const ChunkHeader& h = headers[begin];
+    if ((!pending_seq_ || *pending_seq_ != h.frame_seq) && !StartFrame(h, chunks[begin])) {
+      ++begin;
+      continue;
+    }
+    const ChunkHeader first = ReadHeader(pending_header_);
+    const size_t end = AcceptGroup(first, headers, begin);
+    DecodeGroup(first, chunks, headers, begin, end);
+    begin = end;
+    if (std::find(received_.begin(), received_.end(), false) != received_.end()) continue;
+    FinishFrame(first, out);
+    done = true;
+  }
+  return done;
+}
+
+bool FrameDecoder::StartFrame(const ChunkHeader& h, std::span<const uint8_t> chunk) {
+  if (pending_seq_) have_previous_ = false;  // the incomplete frame is lost
+  pending_seq_.reset();
+  if (!h.keyframe()) {
+    bool reference_ok = have_previous_;
+    if (reference_ok) {
+      const ChunkHeader previous = ReadHeader(previous_header_);
+      reference_ok = previous.frame_seq + 1 == h.frame_seq && previous.SameLayout(h);
+    }
+    if (!reference_ok) {
+      have_previous_ = false;  // wait for a keyframe
+      return false;
+    }
+  }
+  pending_seq_ = h.frame_seq;
+  pending_header_.assign(chunk.begin(), chunk.begin() + kHeaderSize);
+  Put<uint32_t>(pending_header_.data() + 140, 0);  // a header alone: no payload
+  Put<uint32_t>(pending_header_.data() + 144, 0);
+  received_.assign(h.chunk_count, false);
+  chunk_size_ = 0;
+  StartFrameOutput(h, pending_);
+  if (!current_.empty()) spare_.push_back(std::move(current_));
+  current_ = TakeValues(spare_, h.count, h);
+  return true;
+}
+
+size_t FrameDecoder::AcceptGroup(const ChunkHeader& first, const std::vector<ChunkHeader>& headers,
+                                 size_t begin) {
+  // Check the whole group before marking anything received, so a bad chunk leaves the pending
+  // frame as it was.
+  std::vector<uint16_t> group;
+  size_t end = begin;
+  while (end < headers.size() && headers[end].frame_seq == first.frame_seq) {
+    const ChunkHeader& h = headers[end];
+    CheckChunkRange(h, chunk_size_);
+    CheckSameFrame(h, first);
+    if (received_[h.chunk_index] ||
+        std::find(group.begin(), group.end(), h.chunk_index) != group.end()) {
+      throw DecodeError("chunk " + std::to_string(h.chunk_index) + " of frame " +
+                        std::to_string(h.frame_seq) + " received twice");
+    }
+    group.push_back(h.chunk_index);
+    ++end;
+  }
+  for (uint16_t index : group) received_[index] = true;
+  return end;
+}
+
+void FrameDecoder::DecodeGroup(const ChunkHeader& first, std::span<const Chunk> chunks,
+                               const std::vector<ChunkHeader>& headers, size_t begin, size_t end) {
+  std::vector<std::string> errors(end - begin);
+#pragma omp parallel for schedule(dynamic, 1)
+  for (int64_t k = int64_t(begin); k < int64_t(end); ++k) {
+    errors[k - begin] = DecodeChunk(headers[k], chunks[k], current_, history_, pending_);
+  }
+  for (size_t k = 0; k < errors.size(); ++k) {
+    if (!errors[k].empty()) {
+      pending_seq_.reset();
+      have_previous_ = false;
+      throw DecodeError("corrupt chunk " + std::to_string(headers[begin + k].chunk_index) +
+                        " of frame " + std::to_string(first.frame_seq) + ": " + errors[k]);
+    }
+  }
+}
+
+// Complete: the frame becomes the reference of the next delta frame.
+void FrameDecoder::FinishFrame(const ChunkHeader& first, Frame& out) {
+  SetErrorBounds(first, pending_);
+  PushHistory(history_, std::move(current_), first.keyframe(), spare_);
+  current_.clear();
+  previous_header_ = pending_header_;
+  have_previous_ = true;
+  pending_seq_.reset();
+  // Hand the frame over and keep the caller's old buffers for the next one.
+  std::swap(pending_, out);
+}
+
+}  // namespace dysa::codec

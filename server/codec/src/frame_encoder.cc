@@ -1,0 +1,136 @@
+// FrameEncoder: a frame goes through the stages of FORMAT.md in order, each in a file of its own
+// (gather, quantisation, chunking; then per chunk prediction, bit planes, zstd and the header).
+#include <span>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "bit_planes.h"
+#include "chunk_header.h"
+#include "chunking.h"
+#include "components.h"
+#include "dysa/codec/frame_codec.h"
+#include "prediction.h"
+#include "quantisation.h"
+#include "zstd_payload.h"
+
+namespace dysa::codec {
+namespace {
+
+// What the chunks of one frame share beyond the stream's header fields and ranges.
+void SetFrame(uint32_t frame_seq, bool keyframe, const FrameInput& f, uint32_t stride,
+              const ChunkLayout& layout, ChunkHeader& h) {
+  h.flags |= keyframe ? kKeyframeFlag : 0;
+  h.frame_seq = frame_seq;
+  h.count = layout.count;
+  h.step = f.step;
+  h.time = f.time;
+  h.stride = stride;
+  h.chunk_count = uint16_t(layout.chunk_count);
+}
+
+// The chunk on the wire: its header, the zstd payload, then the packed low bits.
+Chunk AssembleChunk(ChunkHeader h, size_t raw_size, std::span<const uint8_t> payload,
+                    std::span<const uint8_t> low_bits) {
+  h.raw_size = uint32_t(raw_size);
+  h.payload_size = uint32_t(payload.size());
+  h.bits_size = uint32_t(low_bits.size());
+  Chunk chunk;
+  chunk.reserve(kHeaderSize + payload.size() + low_bits.size());
+  chunk.resize(kHeaderSize);
+  chunk.insert(chunk.end(), payload.begin(), payload.end());
+  chunk.insert(chunk.end(), low_bits.begin(), low_bits.end());
+  WriteHeader(h, chunk.data());
+  return chunk;
+}
+
+// Chunk `index` of the frame, from its quantised values q. Returns an error message, empty on
+// success (no exceptions inside the parallel loop over chunks).
+std::string EncodeChunk(const ChunkHeader& frame, const ChunkLayout& layout, uint32_t index,
+                        std::span<const Component> comps, const Values& q, const History& history,
+                        int zstd_level, Chunk& chunk) {
+  const ChunkHeader h = ChunkHeaderOf(frame, layout, index);
+  const uint32_t m = h.chunk_particles;
+  // Per-thread scratch, kept between calls.
+  thread_local std::vector<uint32_t> z;
+  thread_local std::vector<uint8_t> raw, low_bits, compressed;
+  z.resize(size_t(m) * comps.size());
+  for (size_t slot = 0; slot < comps.size(); ++slot) {
+    Residuals(h, comps[slot], q, history, z.data() + slot * m);
+  }
+  WritePlanes(z.data(), comps.size(), m, raw, low_bits);
+  size_t payload = 0;
+  if (std::string error = Compress(raw, zstd_level, compressed, payload); !error.empty()) {
+    return error;
+  }
+  chunk = AssembleChunk(h, raw.size(), std::span(compressed).first(payload), low_bits);
+  return {};
+}
+
+// Every chunk of the frame, in parallel.
+std::vector<Chunk> EncodeChunks(const ChunkHeader& frame, const ChunkLayout& layout,
+                                std::span<const Component> comps, const Values& q,
+                                const History& history, int zstd_level) {
+  std::vector<Chunk> chunks(layout.chunk_count);
+  std::vector<std::string> errors(layout.chunk_count);
+#pragma omp parallel for schedule(dynamic, 1)
+  for (int64_t i = 0; i < int64_t(layout.chunk_count); ++i) {
+    errors[i] = EncodeChunk(frame, layout, uint32_t(i), comps, q, history, zstd_level, chunks[i]);
+  }
+  for (const std::string& error : errors) {
+    if (!error.empty()) throw std::runtime_error(error);
+  }
+  return chunks;
+}
+
+}  // namespace
+
+void StreamConfig::Validate() const {
+  auto check = [](bool ok, const std::string& field, const std::string& range) {
+    if (!ok) throw std::invalid_argument(field + ": allowed range " + range);
+  };
+  check((fields & kPositions) && (fields & ~0xFu) == 0, "fields",
+        "positions plus any of speed, velocity, density");
+  check(position_bits >= 1 && position_bits <= 24, "position_bits", "[1, 24]");
+  check(speed_bits >= 1 && speed_bits <= 16, "speed_bits", "[1, 16]");
+  check(velocity_bits >= 1 && velocity_bits <= 16, "velocity_bits", "[1, 16]");
+  check(density_bits >= 1 && density_bits <= 16, "density_bits", "[1, 16]");
+  check(keyframe_interval >= 1 && keyframe_interval <= 1000000, "keyframe_interval",
+        "[1, 1000000]");
+  check(stride >= 1, "stride", "[1, 2^32 - 1]");
+  check(chunk_particles >= 1 && chunk_particles <= (1u << 20), "chunk_particles", "[1, 2^20]");
+  check(zstd_level >= -7 && zstd_level <= 22, "zstd_level", "[-7, 22]");
+  check(velocity_encoding == VelocityEncoding::kComponents ||
+            velocity_encoding == VelocityEncoding::kOctahedral,
+        "velocity_encoding", "components or octahedral");
+}
+
+FrameEncoder::FrameEncoder(StreamConfig config) : config_(config) { config_.Validate(); }
+
+std::vector<Chunk> FrameEncoder::Encode(const FrameInput& f) {
+  const size_t ids = CheckInput(f, config_.fields);
+  const ChunkLayout layout = LayOutChunks(ids, config_);
+  ChunkHeader h = StreamHeader(config_);
+  const std::vector<Component> comps = PresentComponents(h);
+  const Extremes extremes =
+      GatherComponents(f, comps, config_.stride, layout.count, h.octahedral(), values_);
+  const bool keyframe = keyframe_requested_ || frame_seq_ == 0 || layout.count != count_ ||
+                        frames_since_keyframe_ >= uint32_t(config_.keyframe_interval) ||
+                        LeavesRanges(extremes, comps, layout.count, lo_, hi_);
+  if (keyframe) ChooseRanges(f, comps, h.octahedral(), layout.count, extremes, lo_, hi_);
+  SetRanges(lo_, hi_, h);
+  // The decoder will hold these same values, so prediction from them never drifts.
+  Values q = TakeValues(spare_, layout.count, h);
+  QuantizeComponents(h, comps, values_, layout.count, q);
+  SetFrame(frame_seq_, keyframe, f, config_.stride, layout, h);
+  std::vector<Chunk> chunks = EncodeChunks(h, layout, comps, q, history_, config_.zstd_level);
+  PushHistory(history_, std::move(q), keyframe, spare_);
+  frames_since_keyframe_ = keyframe ? 1 : frames_since_keyframe_ + 1;
+  keyframe_requested_ = false;
+  last_was_keyframe_ = keyframe;
+  count_ = layout.count;
+  ++frame_seq_;
+  return chunks;
+}
+
+}  // namespace dysa::codec
