@@ -1,7 +1,9 @@
 // The network verbs of `dysa` (status, pause, ..., watch, record): each calls the server through
 // a remote::Client (dysa_client, clients/cpp) and prints to an ostream, human-readable or as one
 // JSON object, so tests capture what the command line prints. Errors are thrown, main.cc prints
-// them.
+// them. One file per group of verbs: remote_status.cc, remote_control.cc (pause, resume, step,
+// back, reset), remote_params.cc (params, set), remote_scenes.cc (load, scenes, scene),
+// remote_watch.cc, remote_record.cc; remote_format.h and stream_watchdog.h are what they share.
 #pragma once
 
 #include <atomic>
