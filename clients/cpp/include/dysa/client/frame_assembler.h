@@ -1,7 +1,7 @@
 // Frames from the messages of a StreamFrames call: each message's chunks go to a
 // codec::FrameDecoder, and the message that ends a frame hands it over decoded, with its size on
-// the wire and its latency. Shared by every reader of the stream (dysa watch, dysa record, the
-// FrameReceiver of the viewer), which differ only in what they do with a frame.
+// the wire and its latency. Shared by every reader of the stream (dysa watch, dysa record and
+// FrameReceiver, the viewer's), which differ only in what they do with a frame.
 #pragma once
 
 #include <cstdint>
