@@ -1,6 +1,7 @@
 // The gRPC adapter of dysa.v1.Simulation (callback API): checks credentials, converts requests
-// into SimulationHost controls and hub subscriptions, and results back into replies. No
-// simulation logic lives here.
+// into SimulationHost controls and hub subscriptions, and results back into replies
+// (proto_conversions.h); StreamFrames hands its call to a FrameStreamReactor
+// (frame_stream_reactor.h). No simulation logic lives here.
 #pragma once
 
 #include <string>

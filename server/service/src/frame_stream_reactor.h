@@ -1,0 +1,68 @@
+// The transport side of StreamFrames: each encoded frame serialised once as FrameMessages shared
+// by every subscriber of its stream configuration (a reference-counted slice each), and the
+// reactor of one StreamFrames call, which sends them. A subscriber costs the server no copy and
+// no serialisation of its own.
+#pragma once
+
+#include <grpcpp/support/byte_buffer.h>
+#include <grpcpp/support/server_callback.h>
+#include <grpcpp/support/status.h>
+
+#include <cstddef>
+#include <memory>
+#include <mutex>
+
+#include "dysa/service/frame_hub.h"
+#include "dysa/service/write_starter.h"
+
+namespace dysa::service {
+
+// The hub's transport builder (FrameHub::set_transport_builder): a frame as serialised
+// FrameMessages, each at most a few MiB of chunks, in EncodedFrame::transport.
+std::shared_ptr<const void> BuildWireFrame(const EncodedFrame& frame);
+
+struct WireFrame;
+
+// One StreamFrames call: takes the newest decodable frame from its subscription whenever no
+// write is in flight, and sends its messages one after the other. A new frame's first write is
+// started on the WriteStarter's thread, the others on gRPC's (OnWriteDone). Deletes itself in
+// OnDone.
+class FrameStreamReactor final : public grpc::ServerWriteReactor<grpc::ByteBuffer>,
+                                 public FrameListener,
+                                 private WriteStarter::Writer {
+ public:
+  FrameStreamReactor(FrameHub& hub, WriteStarter& starter) : hub_(hub), starter_(starter) {}
+
+  // Subscribes, or finishes the call with the reason it cannot.
+  void Begin(const SubscriptionOptions& options);
+  void FinishNow(const grpc::Status& status);
+
+  // On the simulation's thread: no lock of ours (a gRPC thread may hold it inside StartWrite).
+  void OnFrameReady() override { starter_.Schedule(this); }
+  void OnHubClosed() override;
+
+  void OnWriteDone(bool ok) override;
+  void OnCancel() override;
+  void OnDone() override;
+
+ private:
+  void StartNextWrite() override;
+  void FinishLocked(const grpc::Status& status);
+  // The next message of the current frame, or the first of the next frame.
+  void WriteNextLocked();
+
+  FrameHub& hub_;
+  WriteStarter& starter_;
+  std::shared_ptr<Subscription> subscription_;
+  std::mutex mu_;
+  bool writing_ = false;
+  bool finished_ = false;
+  bool closing_ = false;
+  bool cancelled_ = false;
+  std::shared_ptr<const EncodedFrame> frame_;  // being sent; owns wire_
+  const WireFrame* wire_ = nullptr;
+  size_t next_message_ = 0;
+  grpc::ByteBuffer message_;  // the write in flight
+};
+
+}  // namespace dysa::service
