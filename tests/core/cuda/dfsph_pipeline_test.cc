@@ -1,8 +1,8 @@
 // Tests of the dfsph solver's CUDA backend (server/core/src/cuda/dfsph_pipeline.cu) through
 // Simulation: the GPU follows the CPU (kinetic energy, mean density, centre of mass, probes
-// within stated tolerances after hundreds of steps), two GPU runs are bit-identical, checkpoints
-// (with the warm start) round-trip, the solves report their iterations. ctest label `gpu`: the
-// tests skip, printing why, where no CUDA GPU can run.
+// within stated tolerances after hundreds of steps), the solves report their iterations.
+// Determinism and checkpoints (with the warm start) on the GPU: solver_conformance_gpu_test.
+// ctest label `gpu`: the tests skip, printing why, where no CUDA GPU can run.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -148,26 +148,6 @@ TEST(DfsphGpuTest, TheFirstStepsMatchTheCpusSolves) {
     worst = std::max(worst, double((by_id_gpu[k] - by_id_cpu[k]).norm()));
   }
   EXPECT_LT(worst, 1e-6) << "m, the largest distance between a particle on the CPU and the GPU";
-}
-
-TEST(DfsphGpuTest, TwoRunsAreBitIdentical) {
-  SKIP_WITHOUT_GPU();
-  const Summary first = RunFor(DamScene(), kGpu, 0.2);
-  const Summary second = RunFor(DamScene(), kGpu, 0.2);
-  EXPECT_EQ(first.hash, second.hash);
-  EXPECT_EQ(first.steps, second.steps);
-}
-
-TEST(DfsphGpuTest, CheckpointsRoundTripThroughDeviceMemory) {
-  SKIP_WITHOUT_GPU();
-  Simulation sim(DamScene(), kGpu);
-  for (int i = 0; i < 5; ++i) sim.StepFrame();
-  const Checkpoint saved = sim.SaveCheckpoint();
-  for (int i = 0; i < 5; ++i) sim.StepFrame();
-  const uint64_t after = StateHash(sim.state());
-  sim.RestoreCheckpoint(saved);
-  for (int i = 0; i < 5; ++i) sim.StepFrame();
-  EXPECT_EQ(StateHash(sim.state()), after);
 }
 
 TEST(DfsphGpuTest, EveryPassIsTimed) {
