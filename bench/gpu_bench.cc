@@ -11,7 +11,7 @@
 // and its particle spacing 5 / 44 m, so the same density and neighbours per particle) in a box
 // --domain-ratio times its edge. wcsph, dfsph: a 3D dam break, a water column 0.5 x 1 x 0.5 m
 // against the wall of a 2 x 1.25 x 0.5 m tank with a no-slip floor, at the particle spacing that
-// gives the size, measured from t = --warmup-time (0.05 s: the column falling) for --seconds of
+// gives the size, measured from t = --warmup-time (0.02 s: the column falling) for --seconds of
 // wall time. The
 // CPU starts from the GPU's state at the start of its timed steps.
 // Writes gpu_<solver>_<gpu>.csv (one row per size and device) and gpu_<solver>_passes_<gpu>.csv
@@ -163,7 +163,7 @@ int main(int argc, char** argv) {
   long long cpu_max = 10000000;
   int threads = omp_get_num_procs();
   int warmup = 20;
-  double physical_warmup = 0.05;
+  double physical_warmup = 0.02;
   double budget_s = 3.0;
   int max_steps = 500;
   double domain_ratio = 1.4;
