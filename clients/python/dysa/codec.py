@@ -1,7 +1,7 @@
 """Decoder of DySAQUASIMs particle frames, format versions 1 and 2.
 
 The wire format is server/codec/FORMAT.md. This decoder gives the same floats, bit for bit, as
-the C++ one (dysa::codec::FrameDecoder in server/codec/src/frame_codec.cc) and follows the same
+the C++ one (dysa::codec::FrameDecoder in server/codec/src/frame_decoder.cc) and follows the same
 state machine: chunks of one frame are collected until the frame is complete, a delta frame is
 predicted from up to three frames since the last keyframe, and after a lost chunk, a corrupt
 chunk or a late join the decoder waits for the next keyframe.
@@ -127,7 +127,7 @@ def _error_bound(lo: float, hi: float, bits: int) -> float:
 
 def _octahedral_error_bound(velocity_max: float, bits: int) -> float:
     """The bound on each component of an octahedral velocity (derived in FORMAT.md and beside
-    OctahedralErrorBound in frame_codec.cc)."""
+    OctahedralErrorBound in server/codec/src/octahedral_velocity.cc)."""
     levels = float(_levels(bits))
     return velocity_max * ((0.5 + 6.0 * math.sqrt(2.0)) / levels + 8 * _FLOAT_EPSILON)
 
