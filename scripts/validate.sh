@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The full validation run whose output the README quotes: scripts/validate.sh [--quick] [--out DIR]
+# The full validation run whose output docs/validation.md quotes: scripts/validate.sh [--quick] [--out DIR]
 #
 #   scripts/validate.sh           builds (release), then `dysa validate` at the scenes' own
 #                                 resolutions (about 4 minutes on 2 cores) and `dysa validate
@@ -9,7 +9,7 @@
 #                                 validate_default.txt, validate_quick.txt
 #
 # Each output is printed as it is written. Exits 1 when a run misses a target (at the scenes'
-# resolutions the dam break's front does, README "Validation"), 2 for a usage error.
+# resolutions the dam break's front does, docs/validation.md), 2 for a usage error.
 set -euo pipefail
 
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
