@@ -6,11 +6,15 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdlib>
+#include <fstream>
 #include <limits>
 #include <set>
+#include <sstream>
 #include <string>
 #include <vector>
 
+#include "dysa/core/solver.h"
 #include "dysa/core/types.h"
 
 namespace dysa {
@@ -239,6 +243,109 @@ TEST(SetParamFromStringTest, RejectsOutOfRangeNonIntegerAndUnknown) {
   ExpectFromStringRejected("particle_quantity=12.5", "particle_quantity");
   ExpectFromStringRejected("particle_quantity=0", "particle_quantity");
   ExpectFromStringRejected("viscocity=0.1", "viscocity");
+}
+
+TEST(ParamTableTest, EverySolverNameIsRegistered) {
+  std::set<std::string> registered;
+  for (const SolverInfo& info : SolverRegistry()) registered.insert(std::string(info.name));
+  std::set<std::string> listed;  // solvers some parameter names
+  for (const ParamDecl& decl : ParamTable()) {
+    SCOPED_TRACE(std::string(decl.name));
+    std::set<std::string> names;
+    for (std::string_view solver : decl.solvers) {
+      EXPECT_TRUE(registered.count(std::string(solver))) << "unknown solver " << solver;
+      EXPECT_TRUE(names.insert(std::string(solver)).second) << "listed twice: " << solver;
+      EXPECT_TRUE(decl.ReadBy(solver));
+      listed.insert(std::string(solver));
+    }
+    // Every solver is spelt as the empty list ("all"), so a new solver is not left out.
+    EXPECT_LT(names.size(), registered.size());
+  }
+  // Every solver has parameters of its own (the viewer shows them).
+  EXPECT_EQ(listed, registered);
+}
+
+TEST(ParamTableTest, SolversTextNamesTheSolvers) {
+  EXPECT_EQ(FindParam("time_scale")->SolversText(), "all");
+  EXPECT_TRUE(FindParam("time_scale")->ReadBy("dfsph"));
+  EXPECT_EQ(FindParam("viscosity")->SolversText(), "seed");
+  EXPECT_FALSE(FindParam("viscosity")->ReadBy("dfsph"));
+  EXPECT_EQ(FindParam("gravity_ramp_time")->SolversText(), "wcsph, dfsph");
+  EXPECT_EQ(FindParam("speed_of_sound")->SolversText(), "wcsph");
+  EXPECT_EQ(FindParam("warm_start")->SolversText(), "dfsph");
+}
+
+// The cells of a Markdown table row "| a | b | ... |", trimmed; the last `columns`-th cell
+// keeps whatever follows (a description may hold a '|').
+std::vector<std::string> TableCells(const std::string& line, size_t columns) {
+  std::vector<std::string> cells;
+  size_t begin = 1;  // after the leading '|'
+  while (cells.size() + 1 < columns) {
+    const size_t bar = line.find('|', begin);
+    if (bar == std::string::npos) break;
+    cells.push_back(line.substr(begin, bar - begin));
+    begin = bar + 1;
+  }
+  std::string rest = line.substr(begin);
+  if (!rest.empty() && rest.back() == '|') rest.pop_back();
+  cells.push_back(rest);
+  for (std::string& cell : cells) {
+    cell.erase(0, cell.find_first_not_of(' '));
+    cell.erase(cell.find_last_not_of(' ') + 1);
+  }
+  return cells;
+}
+
+double Number(const std::string& text) {
+  char* end = nullptr;
+  const double value = std::strtod(text.c_str(), &end);
+  EXPECT_TRUE(!text.empty() && *end == '\0') << "not a number: '" << text << "'";
+  return value;
+}
+
+// scenes/README.md's parameter table is the declarations': the same names in the same order,
+// units, defaults, ranges, whether a change re-spawns and which solvers read each (the
+// "Meaning" column may say more than the description).
+TEST(ParamTableTest, ScenesReadmeTableMatchesTheDeclarations) {
+  const std::string path = std::string(DYSA_SCENES_DIR) + "/README.md";
+  std::ifstream in(path);
+  ASSERT_TRUE(in) << path;
+  std::string line;
+  while (std::getline(in, line) && line != "## Parameters") {
+  }
+  while (std::getline(in, line) && line.rfind("| Name |", 0) != 0) {
+  }
+  ASSERT_EQ(TableCells(line, 7), (std::vector<std::string>{"Name", "Unit", "Default", "Allowed",
+                                                           "Re-spawns", "Read by", "Meaning"}))
+      << path << ": no parameter table after \"## Parameters\"";
+  std::getline(in, line);  // | --- | ...
+  size_t row = 0;
+  const std::span<const ParamDecl> table = ParamTable();
+  while (std::getline(in, line) && line.rfind("|", 0) == 0) {
+    const std::vector<std::string> cells = TableCells(line, 7);
+    ASSERT_EQ(cells.size(), 7u) << line;
+    ASSERT_LT(row, table.size()) << "a row for an undeclared parameter: " << line;
+    const ParamDecl& decl = table[row++];
+    SCOPED_TRACE(std::string(decl.name));
+    EXPECT_EQ(cells[0], "`" + std::string(decl.name) + "`") << "declaration order";
+    EXPECT_EQ(cells[1], decl.unit);
+    EXPECT_EQ(Number(cells[2]), decl.DefaultValue()) << cells[2];
+    // "[min, max]" or "[min, max], integer"
+    const std::string integer_suffix = ", integer";
+    std::string range = cells[3];
+    const bool integer = range.size() > integer_suffix.size() && range.ends_with(integer_suffix);
+    if (integer) range.erase(range.size() - integer_suffix.size());
+    EXPECT_EQ(integer, decl.integer) << cells[3];
+    const size_t comma = range.find(", ");
+    ASSERT_TRUE(range.starts_with("[") && range.ends_with("]") && comma != std::string::npos)
+        << cells[3];
+    EXPECT_EQ(Number(range.substr(1, comma - 1)), decl.min) << cells[3];
+    EXPECT_EQ(Number(range.substr(comma + 2, range.size() - comma - 3)), decl.max) << cells[3];
+    EXPECT_EQ(cells[4], decl.needs_reset ? "yes" : "no");
+    EXPECT_EQ(cells[5], decl.SolversText());
+    EXPECT_FALSE(cells[6].empty());
+  }
+  EXPECT_EQ(row, table.size()) << "parameters missing from " << path;
 }
 
 }  // namespace

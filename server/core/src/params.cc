@@ -1,5 +1,6 @@
 #include "dysa/core/params.h"
 
+#include <algorithm>
 #include <array>
 #include <charconv>
 #include <cmath>
@@ -10,66 +11,77 @@
 namespace dysa {
 namespace {
 
-// The ParamDecl of member `member` of Params (a double or an int), named after it.
+// The ParamDecl of member `member` of Params (a double or an int), named after it, read by
+// the solvers `solvers` (one of the lists below).
 // clang-format off
-#define DYSA_PARAM(member, unit, min, max, reset, description)                         \
+#define DYSA_PARAM(member, unit, min, max, reset, solvers, description)                \
   ParamDecl{#member, unit, description, min, max,                                      \
             std::is_same_v<decltype(Params::member), int>, reset,                      \
             [](const Params& p) { return static_cast<double>(p.member); },             \
-            [](Params& p, double v) { p.member = static_cast<decltype(Params::member)>(v); }}
+            [](Params& p, double v) { p.member = static_cast<decltype(Params::member)>(v); }, \
+            solvers}
 // clang-format on
 
 constexpr bool kReset = true;
 constexpr bool kLive = false;
 
+// Which solvers read a parameter (SolverRegistry() names; params_test checks them against the
+// registry). Read from the solvers' passes, model.cc (dt, particle mass, kernel support),
+// simulation.cc (steps per frame), scene.cc and spawn.cc (fluid blocks) and cfl_time_step.cc.
+constexpr std::span<const std::string_view> kAll;  // every solver
+constexpr std::string_view kSeed[] = {"seed"};
+constexpr std::string_view kPhysical[] = {"wcsph", "dfsph"};
+constexpr std::string_view kWcsph[] = {"wcsph"};  // dfsph's step has no speed of sound
+constexpr std::string_view kDfsph[] = {"dfsph"};
+
 const std::array kParamTable = {
-    DYSA_PARAM(time_scale, "", 0.01, 10.0, kLive,
+    DYSA_PARAM(time_scale, "", 0.01, 10.0, kLive, kAll,
                "Simulation speed: simulated seconds per second of displayed frames"),
-    DYSA_PARAM(iterations_per_frame, "", 1, 100, kLive, "Solver steps per displayed frame"),
-    DYSA_PARAM(frame_rate, "Hz", 1.0, 1000.0, kLive, "Displayed frames per second"),
-    DYSA_PARAM(gravity, "m/s^2", -100.0, 100.0, kLive, "Gravity along +y"),
-    DYSA_PARAM(collision_damping, "", 0.0, 1.0, kLive,
+    DYSA_PARAM(iterations_per_frame, "", 1, 100, kLive, kSeed, "Solver steps per displayed frame"),
+    DYSA_PARAM(frame_rate, "Hz", 1.0, 1000.0, kLive, kAll, "Displayed frames per second"),
+    DYSA_PARAM(gravity, "m/s^2", -100.0, 100.0, kLive, kAll, "Gravity along +y"),
+    DYSA_PARAM(collision_damping, "", 0.0, 1.0, kLive, kSeed,
                "Fraction of the normal speed kept when a particle hits a wall or obstacle"),
-    DYSA_PARAM(smoothing_radius, "m", 0.01, 10.0, kLive,
+    DYSA_PARAM(smoothing_radius, "m", 0.01, 10.0, kLive, kSeed,
                "Kernel support h: particles closer than h interact"),
-    DYSA_PARAM(target_density, "kg/m^3", 0.001, 1e6, kLive,
+    DYSA_PARAM(target_density, "kg/m^3", 0.001, 1e6, kLive, kSeed,
                "Rest density of the equation of state"),
-    DYSA_PARAM(pressure_multiplier, "m^2/s^2", 0.0, 1e5, kLive,
+    DYSA_PARAM(pressure_multiplier, "m^2/s^2", 0.0, 1e5, kLive, kSeed,
                "Stiffness k of p = (rho - rho0) k"),
-    DYSA_PARAM(near_pressure_multiplier, "m^2/s^2", 0.0, 1e5, kLive,
+    DYSA_PARAM(near_pressure_multiplier, "m^2/s^2", 0.0, 1e5, kLive, kSeed,
                "Stiffness of the near pressure p_near = rho_near k_near (0 turns it off)"),
-    DYSA_PARAM(viscosity, "m^3/s", 0.0, 10.0, kLive,
+    DYSA_PARAM(viscosity, "m^3/s", 0.0, 10.0, kLive, kSeed,
                "Viscosity strength: dv_i = mu sum_j (v_j - v_i) W_poly6 dt (0 turns it off)"),
-    DYSA_PARAM(particle_mass, "kg", 1e-6, 1e6, kReset, "Mass of every particle"),
-    DYSA_PARAM(particle_quantity, "", 1, 500, kReset,
+    DYSA_PARAM(particle_mass, "kg", 1e-6, 1e6, kReset, kSeed, "Mass of every particle"),
+    DYSA_PARAM(particle_quantity, "", 1, 500, kReset, kSeed,
                "Particles per axis of each fluid block that does not set its own count"),
-    DYSA_PARAM(spawn_size, "m", 0.001, 1000.0, kReset,
+    DYSA_PARAM(spawn_size, "m", 0.001, 1000.0, kReset, kAll,
                "Edge of each fluid block that does not set its own size"),
-    DYSA_PARAM(spawn_jitter, "m", 0.0, 100.0, kReset,
+    DYSA_PARAM(spawn_jitter, "m", 0.0, 100.0, kReset, kSeed,
                "Random offset radius of each fluid block that does not set its own jitter"),
-    // Physical solvers (wcsph) only.
-    DYSA_PARAM(rest_density, "kg/m^3", 1.0, 1e5, kLive,
-               "wcsph: rest density rho0 of the Tait equation of state"),
-    DYSA_PARAM(particle_spacing, "m", 1e-4, 10.0, kReset,
-               "wcsph: lattice spacing d of the fluid; mass rho0 d^3, kernel support 2 d"),
-    DYSA_PARAM(speed_of_sound, "m/s", 0.1, 1e5, kLive,
-               "wcsph: speed of sound c0; stiffness B = rho0 c0^2 / 7"),
-    DYSA_PARAM(kinematic_viscosity, "m^2/s", 0.0, 10.0, kLive,
-               "wcsph: kinematic viscosity nu of the laminar viscosity (0 turns it off)"),
-    DYSA_PARAM(cfl_factor, "", 0.01, 1.0, kLive,
-               "wcsph: CFL number lambda of dt <= lambda d / (c0 + v_max)"),
-    DYSA_PARAM(max_time_step, "s", 1e-7, 1.0, kLive, "wcsph: upper bound of the adaptive step"),
-    DYSA_PARAM(density_tolerance, "", 1e-7, 0.1, kLive,
-               "dfsph: mean density error (rho - rho0) / rho0 the density solve stops at"),
-    DYSA_PARAM(divergence_tolerance, "", 1e-7, 0.1, kLive,
-               "dfsph: mean (D rho / Dt) dt / rho0 the divergence solve stops at"),
-    DYSA_PARAM(max_iterations, "", 1, 10000, kLive,
-               "dfsph: iteration cap of each solve (reaching it is counted in the solver stats)"),
-    DYSA_PARAM(warm_start, "", 0.0, 1.0, kLive,
-               "dfsph: fraction of the previous step's pressure impulse each solve starts from "
+    DYSA_PARAM(rest_density, "kg/m^3", 1.0, 1e5, kLive, kPhysical,
+               "Rest density rho0 of the fluid; particle mass rho0 d^3"),
+    DYSA_PARAM(particle_spacing, "m", 1e-4, 10.0, kReset, kPhysical,
+               "Lattice spacing d of the fluid; mass rho0 d^3, kernel support 2 d"),
+    DYSA_PARAM(speed_of_sound, "m/s", 0.1, 1e5, kLive, kWcsph,
+               "Speed of sound c0 of the Tait equation; stiffness B = rho0 c0^2 / 7"),
+    DYSA_PARAM(kinematic_viscosity, "m^2/s", 0.0, 10.0, kLive, kPhysical,
+               "Kinematic viscosity nu of the laminar viscosity (0 turns it off)"),
+    DYSA_PARAM(cfl_factor, "", 0.01, 1.0, kLive, kPhysical,
+               "CFL number lambda of dt <= lambda d / (c0 + v_max) (dfsph: lambda d / v_max, "
+               "lambda at most 0.3)"),
+    DYSA_PARAM(max_time_step, "s", 1e-7, 1.0, kLive, kPhysical, "Upper bound of the adaptive step"),
+    DYSA_PARAM(density_tolerance, "", 1e-7, 0.1, kLive, kDfsph,
+               "Mean density error (rho - rho0) / rho0 the density solve stops at"),
+    DYSA_PARAM(divergence_tolerance, "", 1e-7, 0.1, kLive, kDfsph,
+               "Mean (D rho / Dt) dt / rho0 the divergence solve stops at"),
+    DYSA_PARAM(max_iterations, "", 1, 10000, kLive, kDfsph,
+               "Iteration cap of each solve (reaching it is counted in the solver stats)"),
+    DYSA_PARAM(warm_start, "", 0.0, 1.0, kLive, kDfsph,
+               "Fraction of the previous step's pressure impulse each solve starts from "
                "(0 turns the warm start off)"),
-    DYSA_PARAM(gravity_ramp_time, "s", 0.0, 100.0, kLive,
-               "wcsph: gravity grows smoothly from 0 to its value over this time (0: at once)"),
+    DYSA_PARAM(gravity_ramp_time, "s", 0.0, 100.0, kLive, kPhysical,
+               "Gravity grows smoothly from 0 to its value over this time (0: at once)"),
 };
 #undef DYSA_PARAM
 
@@ -87,6 +99,17 @@ std::string ParamDecl::RangeText() const {
   if (!unit.empty()) text << ' ' << unit;
   if (integer) text << " (integer)";
   return text.str();
+}
+
+bool ParamDecl::ReadBy(std::string_view solver) const {
+  return solvers.empty() || std::find(solvers.begin(), solvers.end(), solver) != solvers.end();
+}
+
+std::string ParamDecl::SolversText() const {
+  if (solvers.empty()) return "all";
+  std::string text;
+  for (std::string_view s : solvers) text += (text.empty() ? "" : ", ") + std::string(s);
+  return text;
 }
 
 std::span<const ParamDecl> ParamTable() { return kParamTable; }

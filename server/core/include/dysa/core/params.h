@@ -1,8 +1,9 @@
 // The tunable parameters of a simulation and their single declaration table.
 //
-// Every parameter is declared once, in ParamTable(), with its name, unit, range, default and
-// whether changing it needs a reset. Scene parsing, `dysa run --set`, the RPC layer and the
-// viewer's sliders all read that table; nothing else lists parameters.
+// Every parameter is declared once, in ParamTable(), with its name, unit, range, default,
+// whether changing it needs a reset and which solvers read it. Scene parsing, `dysa run --set`,
+// the RPC layer and the viewer's sliders all read that table; nothing else lists parameters
+// (scenes/README.md's table is tested against it).
 #pragma once
 
 #include <span>
@@ -34,9 +35,9 @@ struct Params {
   double spawn_size = 5.0;      // m, edge of the spawn cube
   double spawn_jitter = 0.035;  // m, radius of the random offset added to each particle
 
-  // Physical (SI) solvers, wcsph: read only by them; the seed model ignores these, and they
-  // ignore the seed's smoothing_radius, target_density, pressure multipliers, viscosity,
-  // particle_mass, collision_damping, iterations_per_frame and particle_quantity.
+  // Physical (SI) solvers (wcsph, dfsph; speed_of_sound wcsph only): the seed model ignores
+  // these, and they ignore the seed's parameters above but for time_scale, frame_rate, gravity
+  // and spawn_size (ParamDecl::solvers says which solvers read each).
   double rest_density = 1000.0;       // kg/m^3, rho0 (water)
   double particle_spacing = 0.1;      // m, lattice spacing d; mass rho0 d^3, kernel support 2 d
   double speed_of_sound = 50.0;       // m/s, c0 of the Tait equation of state
@@ -68,8 +69,14 @@ struct ParamDecl {
   bool needs_reset;  // a change re-spawns the particles (the state cannot carry on)
   double (*get)(const Params&);
   void (*set)(Params&, double);
+  // The solvers that read it, by their SolverRegistry() names; empty: every solver. The others
+  // ignore it (it is still validated and kept).
+  std::span<const std::string_view> solvers;
 
   double DefaultValue() const { return get(Params{}); }
+  bool ReadBy(std::string_view solver) const;
+  // "all", or the names of `solvers` joined by ", " (help text, scenes/README.md's table).
+  std::string SolversText() const;
   // "[min, max] unit", for error messages and help text.
   std::string RangeText() const;
 };
