@@ -27,6 +27,13 @@ struct Particles {
   uint32_t* id;
 };
 
+// A particle's predicted position and a value its neighbours read in the same pass (the pressure
+// factors, then the velocity copy): the list kernels load both of a neighbour from one 32-byte
+// sector instead of two.
+struct alignas(32) PosValue {
+  float4 pos, value;
+};
+
 struct Obstacles {
   const SphereObstacle* spheres;
   int sphere_count;
@@ -76,99 +83,202 @@ __device__ float LaneSum(const float v[kLanes]) {
   return s;
 }
 
-// The neighbour list (runs without periodic axes): the density pass scans the 27 cells once and
-// keeps, per particle, the candidates within h (those at distance 0 included); the pressure and
-// viscosity passes, which would scan the same candidates around the same predicted positions
-// (about 5 per neighbour), read the list instead.
+// The neighbour list (runs without periodic axes): the density pass scans the 27 cells once, as
+// the grid kernel does, and records which candidates lie within h (those at distance 0
+// included); the pressure and viscosity passes, which would scan the same candidates around the
+// same predicted positions (about 5 per neighbour), visit only those.
 //
-// The list is lane-major: lane 0's neighbours in candidate order, then lane 1's, and so on, so a
-// thread adds each lane's terms into one register and the lane into the total when the next lane
-// starts. That is LaneSum's order (lanes without neighbours would add +0 to a sum that is never
-// -0: skipping them changes nothing, as in seed_pipeline.h), with no indexing into the 8 partial
-// sums. An entry is
-// 16 bits, the run (0..8, of NeighbourRuns) and the offset in it, whose low 3 bits are the lane;
-// a thread keeps its runs' starts in shared memory to turn it back into a particle index.
-// Entries go 8 to a 16-byte chunk, chunk c of particle i at c * stride + i: a thread writes a
-// chunk with one store, and a warp reads its chunk c in one coalesced load.
+// The record is a bit mask. A particle's candidates go in blocks of 8, the CPU's vectors: block
+// t counts on across its runs (NeighbourRun 0..8, empty ones skipped; run r's blocks are
+// begin_r + 8 b), and the candidate of lane l in block t is bit t of lane l's mask. A lane's mask
+// is stored in 32-bit words, word w holding blocks 32 w .. 32 w + 31: lane l's word w of particle
+// i at (8 w + l) * stride + i (8 coalesced stores for a warp's 32 blocks, one coalesced load per
+// word read). `units` says which words hold a neighbour (bit 4 l + w), so that a reader loads
+// only those, in the order of the bits: lane 0's words, then lane 1's, and so on. The list is
+// thus lane-major, each lane's neighbours in candidate order, and a thread adds each lane's terms
+// into one register and the lane into the total when the next lane starts. That is LaneSum's
+// order (lanes without neighbours would add +0 to a sum that is never -0: skipping them changes
+// nothing, as in seed_pipeline.h), with no indexing into 8 partial sums.
 //
-// A particle with more neighbours than the capacity, or a run too long for an entry, is left to
-// the grid kernels (Overflow); the step reports the largest count, and the host grows the list.
+// A bit turns back into a particle index through the run that holds its block: a reader keeps,
+// in shared memory, its runs' first particles less 8 times their first blocks (`base`, one per
+// non-empty run) and, per word, the blocks where runs start (`starts`); the run of block t is
+// the count of starts up to t, less one.
+//
+// A particle with more blocks than the capacity (at most kMaxListWords words per lane) is left
+// to the grid kernels (Overflow); the step reports how many there were, and the host grows the
+// list by a word per lane while more than one particle in 1,024 does not fit.
 constexpr int kRuns = 9;
-constexpr uint32_t kOffsetBits = 12;
-constexpr uint32_t kMaxRunLength = 1u << kOffsetBits;
-constexpr uint32_t kEntriesPerChunk = 8;
-constexpr uint32_t kUnlisted = 0xFFFFFFFFu;  // the count of a particle with a run too long
+constexpr uint32_t kMaxListWords = 4;  // words per lane: 128 blocks, 1,024 candidates
+constexpr uint32_t kBlocksPerWord = 32;
 
 struct NeighbourList {
-  uint4* chunk;     // chunk c of particle i at c * stride + i
-  uint32_t* count;  // neighbours of each particle; above capacity: the grid kernels compute it
+  uint32_t* word;   // lane l's word w of particle i at (8 w + l) * stride + i
+  uint32_t* units;  // per particle, bit 4 l + w: lane l's word w has a neighbour; 0: not listed
   uint64_t stride;
-  uint32_t capacity;  // entries per particle, a multiple of kEntriesPerChunk
+  uint32_t words;     // words per lane, 1..kMaxListWords
+  uint32_t capacity;  // the most blocks of a listed particle, at most 32 * words
+
+  __device__ uint64_t At(uint32_t lane, uint32_t w, uint32_t i) const {
+    return uint64_t(kLanes * w + lane) * stride + i;
+  }
 };
 
-// The particles the grid kernels compute: all of them without a list (count null), otherwise
-// those the list kernels left (more neighbours than the capacity).
+// The particles the grid kernels compute: all of them without a list (units null), otherwise
+// those the list kernels left (more blocks than the capacity).
 struct Overflow {
-  const uint32_t* count;
-  uint32_t capacity;
-  __device__ bool Skip(uint32_t i) const { return count != nullptr && count[i] <= capacity; }
+  const uint32_t* units;
+  __device__ bool Skip(uint32_t i) const { return units != nullptr && units[i] != 0; }
 };
 
 struct Densities {
   float *density, *near_density, *pressure, *near_pressure;
 };
 
-// The runs of DeviceGrid::ForEachNeighborRun without periodic axes, in its order: run
+// Run r (0..8) of DeviceGrid::ForEachNeighborRun without periodic axes, in its order: run
 // 3 (dz + 1) + (dy + 1) is the row (y + dy, z + dz), empty where that row lies outside the grid.
-__device__ void NeighbourRuns(const DeviceGrid& grid, int3 cell, uint32_t begin[kRuns],
-                              uint32_t end[kRuns]) {
+__device__ __forceinline__ void NeighbourRun(const DeviceGrid& grid, int3 cell, int r,
+                                             uint32_t& begin, uint32_t& end) {
   const int nx = grid.layout.dims[0], ny = grid.layout.dims[1], nz = grid.layout.dims[2];
-  const int x0 = cell.x > 0 ? cell.x - 1 : 0;
-  const int x1 = cell.x + 1 < nx ? cell.x + 1 : nx - 1;
-#pragma unroll
-  for (int r = 0; r < kRuns; ++r) {
-    const int z = cell.z + r / 3 - 1, y = cell.y + r % 3 - 1;
-    begin[r] = end[r] = 0;
-    if (z >= 0 && z < nz && y >= 0 && y < ny) {
-      const uint32_t row = uint32_t(nx) * (y + uint32_t(ny) * z);
-      begin[r] = grid.cell_start[row + x0];
-      end[r] = grid.cell_start[row + x1 + 1];
-    }
+  const int z = cell.z + r / 3 - 1, y = cell.y + r % 3 - 1;
+  begin = end = 0;
+  if (z >= 0 && z < nz && y >= 0 && y < ny) {
+    const int x0 = cell.x > 0 ? cell.x - 1 : 0;
+    const int x1 = cell.x + 1 < nx ? cell.x + 1 : nx - 1;
+    const uint32_t row = uint32_t(nx) * (y + uint32_t(ny) * z);
+    begin = grid.cell_start[row + x0];
+    end = grid.cell_start[row + x1 + 1];
   }
 }
 
-// Shifts an entry into the top of a chunk; after 8, the first is in the low half of c.x.
-__device__ void ShiftIn(uint4& c, uint32_t entry) {
-  c.x = __funnelshift_r(c.x, c.y, 16);
-  c.y = __funnelshift_r(c.y, c.z, 16);
-  c.z = __funnelshift_r(c.z, c.w, 16);
-  c.w = __funnelshift_r(c.w, entry, 16);
+// Stores lane_bits as the lanes' word w (those with a neighbour, if the list has a word w),
+// marks them in units, and clears lane_bits for the next word.
+__device__ __forceinline__ void StoreListWords(const NeighbourList& list, uint32_t i, uint32_t w,
+                                               uint32_t lane_bits[kLanes], uint32_t& units) {
+  if (w < list.words) {
+#pragma unroll
+    for (uint32_t l = 0; l < kLanes; ++l) {
+      if (lane_bits[l] == 0) continue;
+      list.word[list.At(l, w, i)] = lane_bits[l];
+      units |= 1u << (kMaxListWords * l + w);
+    }
+  }
+#pragma unroll
+  for (int l = 0; l < kLanes; ++l) lane_bits[l] = 0;
 }
 
-// Calls next_lane() where a lane's neighbours end and another's begin, and visit(j) for each of
-// particle i's `count` neighbours in list order; run_begin holds the thread's run starts.
-// kWritten: the list was written by this kernel (plain loads, not the read-only cache's).
-template <bool kWritten, class NextLane, class Visit>
-__device__ void ForEachListed(const NeighbourList& list, uint32_t i, uint32_t count,
-                              const uint32_t (*run_begin)[kBlock], NextLane&& next_lane,
-                              Visit&& visit) {
-  const uint4* in = list.chunk + i;
-  uint32_t lane = 0;
-  for (uint32_t base = 0; base < count; base += kEntriesPerChunk) {
-    const uint4* at = in + uint64_t(base / kEntriesPerChunk) * list.stride;
-    const uint4 c = kWritten ? *at : __ldg(at);
+// A listed particle's runs, for ForEachListed: fills base (the k-th non-empty run's first
+// particle less 8 times its first block) and starts (bit t % 32 of word t / 32: a run starts at
+// block t); returns nibble w: the count of runs that start before word w.
+__device__ uint32_t ListedRuns(const DeviceGrid& grid, uint32_t i, uint32_t (*base)[kBlock],
+                               uint32_t (*starts)[kBlock]) {
+  const int3 cell = grid.SortedCell(i);
 #pragma unroll
-    for (uint32_t s = 0; s < kEntriesPerChunk; ++s) {
-      if (base + s >= count) break;
-      const uint32_t word = s < 2 ? c.x : s < 4 ? c.y : s < 6 ? c.z : c.w;
-      const uint32_t e = (word >> (16 * (s & 1))) & 0xFFFF;
-      const uint32_t offset = e & (kMaxRunLength - 1);
-      if ((offset & (kLanes - 1)) != lane) {
-        next_lane();
-        lane = offset & (kLanes - 1);
-      }
-      visit(run_begin[e >> kOffsetBits][threadIdx.x] + offset);
+  for (uint32_t w = 0; w < kMaxListWords; ++w) starts[w][threadIdx.x] = 0;
+  uint32_t t = 0, k = 0, before = 0;
+#pragma unroll
+  for (int r = 0; r < kRuns; ++r) {
+    uint32_t begin, end;
+    NeighbourRun(grid, cell, r, begin, end);
+    const uint32_t blocks = (end - begin + kLanes - 1) / kLanes;
+    if (blocks == 0) continue;
+    // t < 32 * kMaxListWords: a listed particle has at most that many blocks.
+    const uint32_t w = t / kBlocksPerWord;
+    base[k++][threadIdx.x] = begin - kLanes * t;
+    starts[w][threadIdx.x] |= 1u << (t % kBlocksPerWord);
+    before += 0x1111u << (4 * (w + 1));  // one more run before each later word
+    t += blocks;
+  }
+  return before;
+}
+
+// Walks listed particle i's neighbours (units: list.units[i], not 0) in list order; base, starts
+// and before from ListedRuns. The word after the current one is loaded, and its run starts read,
+// one word ahead.
+class ListCursor {
+ public:
+  __device__ ListCursor(const NeighbourList& list, uint32_t i, uint32_t units,
+                        const uint32_t (*base)[kBlock], const uint32_t (*starts)[kBlock],
+                        uint32_t before)
+      : words_(list.word + i),
+        stride_(list.stride),
+        units_(units),
+        base_(base),
+        starts_(starts),
+        before_(before) {
+    Take(unit_, bits_, run_starts_);
+    Take(next_unit_, next_bits_, next_starts_);
+    lane_ = unit_ / kMaxListWords;
+    EnterWord();
+  }
+
+  // The next neighbour j, false after the last; new_lane: j is the first of a lane after another
+  // lane's.
+  __device__ bool Next(uint32_t& j, bool& new_lane) {
+    new_lane = false;
+    if (bits_ == 0) {
+      if (next_bits_ == 0) return false;
+      unit_ = next_unit_, bits_ = next_bits_, run_starts_ = next_starts_;
+      new_lane = unit_ / kMaxListWords != lane_;
+      lane_ = unit_ / kMaxListWords;
+      EnterWord();
+      Take(next_unit_, next_bits_, next_starts_);
     }
+    const uint32_t b = __ffs(bits_) - 1;  // block 32 w + b
+    bits_ &= bits_ - 1;
+    const uint32_t k = runs_before_ + __popc(run_starts_ & ((2u << b) - 1)) - 1;
+    j = base_[k][threadIdx.x] + first_ + kLanes * b;
+    return true;
+  }
+
+ private:
+  // Takes the next unit (lane, word) from units_; bits 0 when none is left.
+  __device__ void Take(uint32_t& unit, uint32_t& bits, uint32_t& run_starts) {
+    bits = 0;
+    if (units_ == 0) return;
+    unit = __ffs(units_) - 1;
+    units_ &= units_ - 1;
+    const uint32_t w = unit % kMaxListWords;
+    bits = __ldg(words_ + (kLanes * w + unit / kMaxListWords) * stride_);  // NeighbourList::At
+    run_starts = starts_[w][threadIdx.x];
+  }
+
+  __device__ void EnterWord() {
+    const uint32_t w = unit_ % kMaxListWords;
+    runs_before_ = (before_ >> (4 * w)) & 15;
+    first_ = kLanes * kBlocksPerWord * w + lane_;  // lane's candidate in block 32 w, less base
+  }
+
+  const uint32_t* words_;  // the particle's first word
+  uint64_t stride_;
+  uint32_t units_;
+  const uint32_t (*base_)[kBlock];
+  const uint32_t (*starts_)[kBlock];
+  uint32_t before_;
+  uint32_t unit_ = 0, bits_ = 0, run_starts_ = 0;
+  uint32_t next_unit_ = 0, next_bits_ = 0, next_starts_ = 0;
+  uint32_t lane_ = 0, runs_before_ = 0, first_ = 0;
+};
+
+// Visits a listed particle's neighbours in list order: use(load(j)) for each neighbour j, with
+// next_lane() where a lane's neighbours end and another's begin. One flat loop over the
+// neighbours, so that a warp's threads visit their k-th neighbours together (a loop per word
+// would wait, word by word, for the thread with the most), and load(j) one neighbour ahead, so
+// that a thread's loads of the next neighbour fly while it computes the current one.
+template <class Load, class NextLane, class Use>
+__device__ __forceinline__ void ForEachListed(ListCursor cursor, Load&& load, NextLane&& next_lane,
+                                              Use&& use) {
+  uint32_t j = 0, next_j = 0;
+  bool new_lane = false, next_new_lane = false;
+  cursor.Next(j, new_lane);  // a listed particle has a neighbour: itself
+  auto data = load(j);
+  for (;;) {
+    const bool more = cursor.Next(next_j, next_new_lane);
+    const auto next_data = load(more ? next_j : j);
+    if (new_lane) next_lane();
+    use(data);
+    if (!more) break;
+    data = next_data, new_lane = next_new_lane;
   }
 }
 
@@ -204,9 +314,10 @@ __device__ float PressureScale(const SeedConstants& c, float r2, float pi, float
 }
 
 // The rare pairs at distance 0, i itself excluded: a direction from the ids (CoincidentDirection).
+// pv: the pressure factors (PressureFactorsKernel).
 template <bool kNear>
 __device__ void AddCoincidentForces(const DeviceGrid& grid, const float4* pos, const uint32_t* id,
-                                    const float4* factor, const SeedConstants& c, uint32_t i,
+                                    const PosValue* pv, const SeedConstants& c, uint32_t i,
                                     float4 xi, float pi, float pni, float force[3]) {
   grid.ForEachNeighborRun(grid.SortedCell(i), [&](uint32_t begin, uint32_t end, float sx, float sy,
                                                   float sz) {
@@ -215,7 +326,7 @@ __device__ void AddCoincidentForces(const DeviceGrid& grid, const float4* pos, c
       if (j == i || pj.x - (xi.x + sx) != 0 || pj.y - (xi.y + sy) != 0 || pj.z - (xi.z + sz) != 0) {
         continue;
       }
-      const float4 f = factor[j];
+      const float4 f = pv[j].value;
       float magnitude = c.spiky2_grad * c.h * (pi * f.x + f.y);
       if (kNear) magnitude += c.spiky3_grad * c.h * c.h * (pni * f.x + f.z);
       float d[3];
@@ -225,9 +336,9 @@ __device__ void AddCoincidentForces(const DeviceGrid& grid, const float4* pos, c
   });
 }
 
-__device__ void ApplyPressureForce(Particles p, const float4* factor, const SeedConstants& c,
+__device__ void ApplyPressureForce(Particles p, const PosValue* pv, const SeedConstants& c,
                                    uint32_t i, const float force[3]) {
-  const float scale = c.mass_dt * 2 * factor[i].x;
+  const float scale = c.mass_dt * 2 * pv[i].value.x;
   p.vx[i] += force[0] * scale;
   p.vy[i] += force[1] * scale;
   p.vz[i] += force[2] * scale;
@@ -243,11 +354,12 @@ __device__ void ApplyViscosity(Particles p, const SeedConstants& c, uint32_t i, 
 
 // The grid kernels: each particle scans the candidates of its 27 cells in 8 register lanes.
 
+// The density without a list (DensityListKernel computes it with one).
 template <bool kNear>
 __global__ void DensityKernel(DeviceGrid grid, const float4* __restrict__ pos, Densities d,
-                              SeedConstants c, Overflow overflow, uint32_t n) {
+                              SeedConstants c, uint32_t n) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
-  if (i >= n || overflow.Skip(i)) return;
+  if (i >= n) return;
   const float4 xi = pos[i];
   float sum2[kLanes] = {}, sum3[kLanes] = {};
   grid.ForEachNeighborRun(
@@ -270,20 +382,21 @@ __global__ void DensityKernel(DeviceGrid grid, const float4* __restrict__ pos, D
 }
 
 // The per-neighbour factors of the pressure force (PaddedArray in the CPU pass), one float4 per
-// particle for one load: 0.5 / rho, 0.5 p / rho, 0.5 pn / rho.
-__global__ void PressureFactorsKernel(const float* density, const float* pressure,
-                                      const float* near_pressure, float4* factor, uint32_t n,
-                                      bool near) {
+// particle for one load, beside its position: 0.5 / rho, 0.5 p / rho, 0.5 pn / rho.
+__global__ void PressureFactorsKernel(const float4* pos, const float* density,
+                                      const float* pressure, const float* near_pressure,
+                                      PosValue* pv, uint32_t n, bool near) {
   const uint32_t j = blockIdx.x * blockDim.x + threadIdx.x;
   if (j >= n) return;
-  factor[j] = make_float4(0.5f / density[j], 0.5f * pressure[j] / density[j],
-                          near ? 0.5f * near_pressure[j] / density[j] : 0.0f, 0.0f);
+  pv[j].pos = pos[j];
+  pv[j].value = make_float4(0.5f / density[j], 0.5f * pressure[j] / density[j],
+                            near ? 0.5f * near_pressure[j] / density[j] : 0.0f, 0.0f);
 }
 
 template <bool kNear>
 __global__ void PressureForceKernel(DeviceGrid grid, Particles p, const float4* __restrict__ pos,
                                     const float* pressure, const float* near_pressure,
-                                    const float4* __restrict__ factor, SeedConstants c,
+                                    const PosValue* __restrict__ pv, SeedConstants c,
                                     Overflow overflow, uint32_t n) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= n || overflow.Skip(i)) return;
@@ -304,7 +417,7 @@ __global__ void PressureForceKernel(DeviceGrid grid, Particles p, const float4* 
             const float r2 = SquaredDistance(__ldg(pos + k), qx, qy, qz, dx, dy, dz);
             if (r2 == 0) ++coincident;
             if (!(r2 < c.h2 && r2 > 0)) continue;
-            const float s = PressureScale<kNear>(c, r2, pi, pni, __ldg(factor + k));
+            const float s = PressureScale<kNear>(c, r2, pi, pni, __ldg(&pv[k].value));
             fx[l] -= dx * s;
             fy[l] -= dy * s;
             fz[l] -= dz * s;
@@ -312,20 +425,19 @@ __global__ void PressureForceKernel(DeviceGrid grid, Particles p, const float4* 
         }
       });
   float force[3] = {LaneSum(fx), LaneSum(fy), LaneSum(fz)};
-  if (coincident > 1) {
-    AddCoincidentForces<kNear>(grid, pos, p.id, factor, c, i, xi, pi, pni, force);
-  }
-  ApplyPressureForce(p, factor, c, i, force);
+  if (coincident > 1) AddCoincidentForces<kNear>(grid, pos, p.id, pv, c, i, xi, pi, pni, force);
+  ApplyPressureForce(p, pv, c, i, force);
 }
 
-// Reads the velocities from the copy made before the pass (vel: vx, vy, vz), as the CPU does.
+// Reads the velocities from the copy made before the pass (pv's values: vx, vy, vz), as the CPU
+// does.
 __global__ void ViscosityKernel(DeviceGrid grid, Particles p, const float4* __restrict__ pos,
-                                const float4* __restrict__ vel, SeedConstants c, Overflow overflow,
+                                const PosValue* __restrict__ pv, SeedConstants c, Overflow overflow,
                                 uint32_t n) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= n || overflow.Skip(i)) return;
   const float4 xi = pos[i];
-  const float4 vi = vel[i];
+  const float4 vi = pv[i].value;
   float ax[kLanes] = {}, ay[kLanes] = {}, az[kLanes] = {}, wsum[kLanes] = {};
   grid.ForEachNeighborRun(
       grid.SortedCell(i), [&](uint32_t begin, uint32_t end, float sx, float sy, float sz) {
@@ -340,7 +452,7 @@ __global__ void ViscosityKernel(DeviceGrid grid, Particles p, const float4* __re
             if (!(r2 < c.h2)) continue;
             const float w = c.h2 - r2;
             const float w3 = w * w * w;
-            const float4 vj = __ldg(vel + k);
+            const float4 vj = __ldg(&pv[k].value);
             ax[l] += (vj.x - vi.x) * w3;
             ay[l] += (vj.y - vi.y) * w3;
             az[l] += (vj.z - vi.z) * w3;
@@ -351,102 +463,84 @@ __global__ void ViscosityKernel(DeviceGrid grid, Particles p, const float4* __re
   ApplyViscosity(p, c, i, LaneSum(ax), LaneSum(ay), LaneSum(az), LaneSum(wsum));
 }
 
-// The list kernels, launched with kBlock threads (the shared run starts). Each measures from
-// ForEachNeighborRun's query point: the position plus a zero shift (which turns -0 into +0).
+// The list kernels, launched with kBlock threads (the readers' run tables in shared memory). Each
+// measures from ForEachNeighborRun's query point: the position plus a zero shift (which turns -0
+// into +0).
 
-// Builds particle i's list, then computes its density from it: the scan only tests the
-// candidates, and the square roots wait for a loop over the neighbours. In the scan about 1
-// candidate in 5 is a neighbour, and a warp would run the square root of every candidate some
-// thread keeps.
+// The grid kernel's density, in the same 8 register lanes and one pass over each run, that also
+// records the neighbours (2 bit operations a candidate, the words stored every 32 blocks).
+// Unlike the grid kernel it loads a block's 8 candidates at once, before testing any (pos has
+// kLanes - 1 entries of padding past the particles; lanes past the run's end are masked), so
+// the loads overlap; square roots only for the lanes within h (a masked lane adds +0, which
+// changes nothing; a warp skips a block where none of its threads has one). At most 64
+// registers: 4 blocks an SM.
+// A particle with more blocks than the list holds still gets its density here; only its list
+// is dropped (units 0), and `unlisted` counts it.
 template <bool kNear>
-__global__ void DensityListKernel(DeviceGrid grid, const float4* __restrict__ pos,
-                                  NeighbourList list, Densities d, SeedConstants c,
-                                  unsigned long long* most_neighbours, uint32_t n) {
-  __shared__ uint32_t run_begin[kRuns][kBlock];
+__global__ void __launch_bounds__(kBlock, 4)
+    DensityListKernel(DeviceGrid grid, const float4* __restrict__ pos, NeighbourList list,
+                      Densities d, SeedConstants c, unsigned long long* unlisted, uint32_t n) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= n) return;
   const float4 xi = pos[i];
   const float qx = xi.x + 0.0f, qy = xi.y + 0.0f, qz = xi.z + 0.0f;
-  uint32_t begin[kRuns], end[kRuns];
-  NeighbourRuns(grid, grid.SortedCell(i), begin, end);
-  bool listable = true;
-#pragma unroll
-  for (int r = 0; r < kRuns; ++r) listable = listable && end[r] - begin[r] <= kMaxRunLength;
-  if (!listable) {
-    list.count[i] = kUnlisted;
-    return;
-  }
-  uint32_t count = 0;  // counts on past the capacity: the host grows the list to the largest
-  uint4 chunk = make_uint4(0, 0, 0, 0);
-  uint4* out = list.chunk + i;
+  const int3 cell = grid.SortedCell(i);
+  float sum2[kLanes] = {}, sum3[kLanes] = {};
+  uint32_t lane_bits[kLanes] = {};  // the lanes' current words
+  uint32_t units = 0;
+  uint32_t t = 0;  // blocks so far
 #pragma unroll 1
-  for (uint32_t l = 0; l < kLanes; ++l) {
+  for (int r = 0; r < kRuns; ++r) {
+    uint32_t begin, end;
+    NeighbourRun(grid, cell, r, begin, end);
+    for (uint32_t j = begin; j < end; j += kLanes) {
+      const uint32_t bit = 1u << (t % kBlocksPerWord);
+      float r2[kLanes];
+      uint32_t inside = 0;
 #pragma unroll
-    for (int r = 0; r < kRuns; ++r) {
-      for (uint32_t j = begin[r] + l; j < end[r]; j += kLanes) {
+      for (int l = 0; l < kLanes; ++l) {
         float dx, dy, dz;
-        if (!(SquaredDistance(__ldg(pos + j), qx, qy, qz, dx, dy, dz) < c.h2)) continue;
-        if (++count > list.capacity) continue;
-        ShiftIn(chunk, uint32_t(r) << kOffsetBits | (j - begin[r]));
-        if (count % kEntriesPerChunk == 0) {
-          out[uint64_t(count / kEntriesPerChunk - 1) * list.stride] = chunk;
+        r2[l] = SquaredDistance(__ldg(pos + j + l), qx, qy, qz, dx, dy, dz);
+        if (j + l < end && r2[l] < c.h2) {
+          inside |= 1u << l;
+          lane_bits[l] |= bit;
         }
       }
+      if (inside != 0) {
+#pragma unroll
+        for (int l = 0; l < kLanes; ++l) {
+          const float q = (inside >> l & 1) ? c.h - sqrtf(r2[l]) : 0.0f;
+          sum2[l] += q * q;
+          if (kNear) sum3[l] += q * q * q;
+        }
+      }
+      if (++t % kBlocksPerWord == 0)
+        StoreListWords(list, i, t / kBlocksPerWord - 1, lane_bits, units);
     }
   }
-  list.count[i] = count;
-  if (count > list.capacity) {
-    atomicMax(most_neighbours, count);  // rare: one atomic per overflowing particle
-    return;
+  if (t % kBlocksPerWord != 0) StoreListWords(list, i, t / kBlocksPerWord, lane_bits, units);
+  const bool listed = t <= list.capacity;
+  list.units[i] = listed ? units : 0;
+  // One atomic per warp with unlisted particles.
+  const uint32_t left = __ballot_sync(__activemask(), !listed);
+  if (left != 0 && (threadIdx.x % 32) == uint32_t(__ffs(left) - 1)) {
+    atomicAdd(unlisted, (unsigned long long)__popc(left));
   }
-  if (count % kEntriesPerChunk != 0) {
-    for (uint32_t s = count % kEntriesPerChunk; s < kEntriesPerChunk; ++s) ShiftIn(chunk, 0);
-    out[uint64_t(count / kEntriesPerChunk) * list.stride] = chunk;
-  }
-#pragma unroll
-  for (int r = 0; r < kRuns; ++r) run_begin[r][threadIdx.x] = begin[r];
-  float sum2 = 0, sum3 = 0;    // LaneSum's running totals
-  float lane2 = 0, lane3 = 0;  // the current lane's
-  ForEachListed<true>(
-      list, i, count, run_begin,
-      [&] {
-        sum2 += lane2, sum3 += lane3;
-        lane2 = 0, lane3 = 0;
-      },
-      [&](uint32_t j) {
-        float dx, dy, dz;
-        const float q = c.h - sqrtf(SquaredDistance(__ldg(pos + j), qx, qy, qz, dx, dy, dz));
-        lane2 += q * q;
-        if (kNear) lane3 += q * q * q;
-      });
-  sum2 += lane2, sum3 += lane3;
-  StoreDensity<kNear>(d, c, i, sum2, sum3);
-}
-
-// Particle i's neighbour count; when the list holds them, also writes its run starts to
-// run_begin.
-__device__ uint32_t ListedCount(const DeviceGrid& grid, const NeighbourList& list, uint32_t i,
-                                uint32_t (*run_begin)[kBlock]) {
-  const uint32_t count = list.count[i];
-  if (count > list.capacity) return count;
-  uint32_t begin[kRuns], end[kRuns];
-  NeighbourRuns(grid, grid.SortedCell(i), begin, end);
-#pragma unroll
-  for (int r = 0; r < kRuns; ++r) run_begin[r][threadIdx.x] = begin[r];
-  return count;
+  StoreDensity<kNear>(d, c, i, LaneSum(sum2), LaneSum(sum3));
 }
 
 template <bool kNear>
-__global__ void PressureForceListKernel(DeviceGrid grid, Particles p,
-                                        const float4* __restrict__ pos, const float* pressure,
-                                        const float* near_pressure,
-                                        const float4* __restrict__ factor, NeighbourList list,
-                                        SeedConstants c, uint32_t n) {
-  __shared__ uint32_t run_begin[kRuns][kBlock];
+__global__ void __launch_bounds__(kBlock, 4)
+    PressureForceListKernel(DeviceGrid grid, Particles p, const float4* __restrict__ pos,
+                            const float* pressure, const float* near_pressure,
+                            const PosValue* __restrict__ pv, NeighbourList list, SeedConstants c,
+                            uint32_t n) {
+  __shared__ uint32_t base[kRuns][kBlock], starts[kMaxListWords][kBlock];
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= n) return;
-  const uint32_t count = ListedCount(grid, list, i, run_begin);
-  if (count > list.capacity) return;
+  const uint32_t units = list.units[i];
+  if (units == 0) return;  // the grid kernel's
+  const uint32_t before = ListedRuns(grid, i, base, starts);
   const float4 xi = pos[i];
   const float qx = xi.x + 0.0f, qy = xi.y + 0.0f, qz = xi.z + 0.0f;
   const float pi = pressure[i];
@@ -454,55 +548,61 @@ __global__ void PressureForceListKernel(DeviceGrid grid, Particles p,
   float force[3] = {0, 0, 0};  // LaneSum's running totals
   float fx = 0, fy = 0, fz = 0;
   int coincident = 0;  // neighbours at distance 0, i itself included
-  ForEachListed<false>(
-      list, i, count, run_begin,
+  ForEachListed(
+      ListCursor(list, i, units, base, starts, before),
+      [&](uint32_t j) {
+        return PosValue{__ldg(&pv[j].pos), __ldg(&pv[j].value)};
+      },
       [&] {
         force[0] += fx, force[1] += fy, force[2] += fz;
         fx = 0, fy = 0, fz = 0;
       },
-      [&](uint32_t j) {
+      [&](const PosValue& nb) {
         float dx, dy, dz;
-        const float r2 = SquaredDistance(__ldg(pos + j), qx, qy, qz, dx, dy, dz);
+        const float r2 = SquaredDistance(nb.pos, qx, qy, qz, dx, dy, dz);
         if (r2 == 0) {
           ++coincident;
           return;
         }
-        const float s = PressureScale<kNear>(c, r2, pi, pni, __ldg(factor + j));
+        const float s = PressureScale<kNear>(c, r2, pi, pni, nb.value);
         fx -= dx * s;
         fy -= dy * s;
         fz -= dz * s;
       });
   force[0] += fx, force[1] += fy, force[2] += fz;
-  if (coincident > 1) {
-    AddCoincidentForces<kNear>(grid, pos, p.id, factor, c, i, xi, pi, pni, force);
-  }
-  ApplyPressureForce(p, factor, c, i, force);
+  if (coincident > 1) AddCoincidentForces<kNear>(grid, pos, p.id, pv, c, i, xi, pi, pni, force);
+  ApplyPressureForce(p, pv, c, i, force);
 }
 
-__global__ void ViscosityListKernel(DeviceGrid grid, Particles p, const float4* __restrict__ pos,
-                                    const float4* __restrict__ vel, NeighbourList list,
-                                    SeedConstants c, uint32_t n) {
-  __shared__ uint32_t run_begin[kRuns][kBlock];
+__global__ void __launch_bounds__(kBlock)
+    ViscosityListKernel(DeviceGrid grid, Particles p, const float4* __restrict__ pos,
+                        const PosValue* __restrict__ pv, NeighbourList list, SeedConstants c,
+                        uint32_t n) {
+  __shared__ uint32_t base[kRuns][kBlock], starts[kMaxListWords][kBlock];
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= n) return;
-  const uint32_t count = ListedCount(grid, list, i, run_begin);
-  if (count > list.capacity) return;
+  const uint32_t units = list.units[i];
+  if (units == 0) return;  // the grid kernel's
+  const uint32_t before = ListedRuns(grid, i, base, starts);
   const float4 xi = pos[i];
   const float qx = xi.x + 0.0f, qy = xi.y + 0.0f, qz = xi.z + 0.0f;
-  const float4 vi = vel[i];
+  const float4 vi = pv[i].value;
   float sum_x = 0, sum_y = 0, sum_z = 0, sum_w = 0;  // LaneSum's running totals
   float ax = 0, ay = 0, az = 0, wsum = 0;
-  ForEachListed<false>(
-      list, i, count, run_begin,
+  ForEachListed(
+      ListCursor(list, i, units, base, starts, before),
+      [&](uint32_t j) {
+        return PosValue{__ldg(&pv[j].pos), __ldg(&pv[j].value)};
+      },
       [&] {
         sum_x += ax, sum_y += ay, sum_z += az, sum_w += wsum;
         ax = 0, ay = 0, az = 0, wsum = 0;
       },
-      [&](uint32_t j) {
+      [&](const PosValue& nb) {
+        const float4 vj = nb.value;
         float dx, dy, dz;
-        const float w = c.h2 - SquaredDistance(__ldg(pos + j), qx, qy, qz, dx, dy, dz);
+        const float w = c.h2 - SquaredDistance(nb.pos, qx, qy, qz, dx, dy, dz);
         const float w3 = w * w * w;
-        const float4 vj = __ldg(vel + j);
         ax += (vj.x - vi.x) * w3;
         ay += (vj.y - vi.y) * w3;
         az += (vj.z - vi.z) * w3;
@@ -525,10 +625,12 @@ __global__ void GatherPredictedKernel(const uint32_t* order, const float* px, co
   pos[k] = make_float4(x, y, z, 0.0f);
 }
 
-// The viscosity pass's copy of the velocities, packed as float4.
-__global__ void PackVelocityKernel(Particles p, float4* vel, uint32_t n) {
+// The viscosity pass's copy of the velocities, packed as float4 beside the positions.
+__global__ void PackVelocityKernel(Particles p, const float4* pos, PosValue* pv, uint32_t n) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
-  if (i < n) vel[i] = make_float4(p.vx[i], p.vy[i], p.vz[i], 0.0f);
+  if (i >= n) return;
+  pv[i].pos = pos[i];
+  pv[i].value = make_float4(p.vx[i], p.vy[i], p.vz[i], 0.0f);
 }
 
 // CollideWithDomainWalls (common_passes.h) for one axis.
@@ -615,19 +717,21 @@ __global__ void ObstaclesKernel(Particles p, Obstacles o, float damping, uint32_
 
 struct SeedPipeline::Impl {
   explicit Impl(int device_index) : device(device_index), stream(device_index) {
-    // DYSA_CUDA_SEED_LIST=K fixes the neighbour list's capacity at K entries per particle (0:
-    // no list, the grid kernels only), for tests of the grid kernels and the overflow path.
+    // DYSA_CUDA_SEED_LIST=K fixes the neighbour list's capacity at K blocks of 8 candidates per
+    // particle (0: no list, the grid kernels only; a small K leaves most particles to them), for
+    // tests of the grid kernels and the overflow path.
     if (const char* value = std::getenv("DYSA_CUDA_SEED_LIST")) {
       const unsigned long k = std::strtoul(value, nullptr, 10);
-      list_want = uint32_t(RoundUp(std::min<unsigned long>(k, kMaxListCapacity), kEntriesPerChunk));
+      list_want = uint32_t(std::min<unsigned long>(k, kMaxListBlocks));
       list_fixed = true;
     }
   }
 
-  // The neighbour list's capacity, entries per particle: the first, enough for the thesis
-  // fluid's ~97 neighbours (and a 100M-particle list in 26 GB); the most it grows to.
-  static constexpr uint32_t kListCapacity = 128;
-  static constexpr uint32_t kMaxListCapacity = 1024;
+  // The neighbour list's capacity, blocks of 8 candidates per particle: the first (2 words per
+  // lane, 68 bytes a particle with the units: the ~40-50 blocks of the thesis fluid's 10M and
+  // 100M blocks) and the most it grows to (132 bytes: twice the ~65 blocks of its 1M block).
+  static constexpr uint32_t kListBlocks = 2 * kBlocksPerWord;
+  static constexpr uint32_t kMaxListBlocks = kMaxListWords * kBlocksPerWord;
 
   static uint64_t RoundUp(uint64_t x, uint64_t to) { return (x + to - 1) / to * to; }
 
@@ -642,18 +746,20 @@ struct SeedPipeline::Impl {
   DeviceBuffer<uint32_t> id, id2;
   mutable DeviceBuffer<float> frame_staging;  // DownloadById's
   DeviceBuffer<float> density, near_density, pressure, near_pressure;
-  DeviceBuffer<float4> pos4;      // the grid's points (px, py, pz), for the neighbour kernels
-  DeviceBuffer<float4> scratch4;  // the pressure factors; the velocity copy
-  DeviceBuffer<uint4> list_chunks;
-  DeviceBuffer<uint32_t> list_count;
-  uint32_t list_want = kListCapacity;  // the capacity the next step asks for
-  bool list_fixed = false;             // DYSA_CUDA_SEED_LIST: no growth
-  bool list_refused = false;           // no room for list_want; not asked again until Upload
+  // The grid's points (px, py, pz), for the neighbour kernels, and kLanes - 1 entries of
+  // padding (DensityListKernel loads whole blocks).
+  DeviceBuffer<float4> pos4;
+  DeviceBuffer<PosValue> pos_value;  // the points with the pressure factors; with the velocities
+  DeviceBuffer<uint32_t> list_words;
+  DeviceBuffer<uint32_t> list_units;
+  uint32_t list_want = kListBlocks;  // the capacity (blocks) the next step asks for
+  bool list_fixed = false;           // DYSA_CUDA_SEED_LIST: no growth
+  bool list_refused = false;         // no room for list_want; not asked again until Upload
   GridSorter sorter;
   DeviceBuffer<SphereObstacle> spheres;
   DeviceBuffer<BoxObstacle> boxes;
-  // Copied back per step: [0] limited, [1] non-finite, [2] the most neighbours of a particle
-  // the list could not hold.
+  // Copied back per step: [0] limited, [1] non-finite, [2] the particles the list could not
+  // hold.
   PinnedBuffer<unsigned long long> flags;
   DeviceBuffer<unsigned long long> device_flags;
   EventTimer timer;
@@ -672,9 +778,11 @@ struct SeedPipeline::Impl {
     }
     id.Resize(count);
     id2.Resize(count);
-    pos4.Resize(count);
-    scratch4.Resize(count);
-    list_count.Resize(count);
+    pos4.Resize(uint64_t(count) + kLanes - 1);
+    CheckCuda(cudaMemsetAsync(pos4.data() + count, 0, (kLanes - 1) * sizeof(float4), stream.get()),
+              "clearing the positions' padding");
+    pos_value.Resize(count);
+    list_units.Resize(count);
     sorter.Reserve(count);
     n = count;
   }
@@ -700,45 +808,47 @@ struct SeedPipeline::Impl {
     data.swap(target);
   }
 
-  // Chunk c of a particle's list lies c * ListStride() chunks after chunk 0; rounded up so that
-  // a warp's chunks start on a 128-byte line.
-  uint64_t ListStride() const { return RoundUp(n, 8); }
+  // Word w of a particle's lane l lies (8 w + l) * ListStride() words after its first; rounded
+  // up so that a warp's words start on a 128-byte line.
+  uint64_t ListStride() const { return RoundUp(n, 32); }
 
-  // The list's capacity for this step, 0 for the grid kernels: periodic axes (the list does not
-  // carry the runs' shifts), or no room. The list takes at most half the GPU memory free besides
-  // it, so that a 100M-particle run on a 141 GB GPU keeps it and a larger one does without.
-  uint32_t PrepareList() {
+  // The list for this step (capacity 0 for the grid kernels: periodic axes, as the list does not
+  // carry the runs' shifts, or no room). It takes at most half the GPU memory free besides it;
+  // without room for list_want, it keeps the words it has.
+  NeighbourList PrepareList() {
+    NeighbourList list{list_words.data(), list_units.data(), ListStride(), 0, 0};
     const GridLayout& g = config.grid;
     if (n == 0 || list_want == 0 || g.periodic[0] || g.periodic[1] || g.periodic[2] ||
         !(config.constants.h2 > 0)) {
-      return 0;
+      return list;
     }
-    const uint64_t stride = ListStride();
-    const uint64_t chunks = stride * (list_want / kEntriesPerChunk);
-    if (list_chunks.capacity() < chunks && !list_refused) {
+    const uint64_t per_word = kLanes * list.stride;  // a word of every lane of every particle
+    const uint64_t words = (list_want + kBlocksPerWord - 1) / kBlocksPerWord;
+    if (list_words.capacity() < words * per_word && !list_refused) {
       size_t free = 0, total = 0;
       CheckCuda(cudaMemGetInfo(&free, &total), "reading the free GPU memory");
-      const uint64_t own = list_chunks.capacity() * sizeof(uint4);
-      if (chunks * sizeof(uint4) <= (free + own) / 2) {
+      const uint64_t own = list_words.capacity() * sizeof(uint32_t);
+      if (words * per_word * sizeof(uint32_t) <= (free + own) / 2) {
         try {
-          list_chunks.Resize(chunks);
+          list_words.Resize(words * per_word);
         } catch (const std::runtime_error&) {
           cudaGetLastError();  // clears the failed allocation's error: the grid kernels go on
         }
       }
-      list_refused = list_chunks.capacity() < chunks;
+      list_refused = list_words.capacity() < words * per_word;
     }
-    // Without room for list_want, the capacity the list has (if any near it).
-    const uint32_t k =
-        uint32_t(std::min<uint64_t>(list_want, list_chunks.capacity() / stride * kEntriesPerChunk));
-    return k >= std::min(list_want, kListCapacity) ? k : 0;
+    list.word = list_words.data();
+    list.words = uint32_t(std::min<uint64_t>(words, list_words.capacity() / per_word));
+    list.capacity = std::min(list_want, list.words * kBlocksPerWord);
+    return list;
   }
 
-  // After a step in which some particle had more neighbours than the list holds: a quarter more
-  // than that for the next steps.
-  void GrowList(uint32_t capacity, uint64_t most) {
-    if (capacity == 0 || most <= capacity || list_fixed || list_refused) return;
-    list_want = uint32_t(std::min<uint64_t>(RoundUp(most + most / 4, 32), kMaxListCapacity));
+  // After a step in which more than one particle in 1,024 did not fit (their pressure force and
+  // viscosity take the grid kernels, whose warps cost as much for one such particle as for 32),
+  // a word more per lane for the next steps, up to kMaxListBlocks; the rest stay with the grid.
+  void GrowList(uint32_t capacity, uint64_t unlisted) {
+    if (capacity == 0 || list_fixed || list_refused || unlisted <= n / 1024) return;
+    list_want = std::min(uint32_t(RoundUp(capacity + 1, kBlocksPerWord)), kMaxListBlocks);
   }
 };
 
@@ -816,14 +926,15 @@ StepOutcome SeedPipeline::Step() {
   CheckCuda(cudaMemsetAsync(m.device_flags.data(), 0, 3 * sizeof(unsigned long long), s),
             "clearing the step's flags");
   auto begin_pass = [&] { m.timer.Record(pass++, s); };
-  const uint32_t capacity = launch ? m.PrepareList() : 0;
-  const NeighbourList list{m.list_chunks.data(), m.list_count.data(), m.ListStride(), capacity};
-  // With a list, the grid kernels compute only the particles it could not hold.
-  const Overflow overflow{capacity > 0 ? m.list_count.data() : nullptr, capacity};
+  const NeighbourList list = launch ? m.PrepareList() : NeighbourList{};
+  const uint32_t capacity = list.capacity;
+  // With a list, the grid kernels compute only the pressure force and viscosity of the particles
+  // it could not hold.
+  const Overflow overflow{capacity > 0 ? list.units : nullptr};
   const Densities densities{m.density.data(), m.near_density.data(), m.pressure.data(),
                             m.near_pressure.data()};
   const float4* pos = m.pos4.data();
-  float4* scratch = m.scratch4.data();
+  PosValue* pv = m.pos_value.data();
 
   begin_pass();  // external_forces
   if (launch) {
@@ -834,50 +945,52 @@ StepOutcome SeedPipeline::Step() {
   const DeviceGrid grid = m.sorter.View();
   begin_pass();  // density
   if (launch) {
-    unsigned long long* most = m.device_flags.data() + 2;
-    if (cfg.near) {
-      if (capacity > 0) {
-        DensityListKernel<true><<<blocks, kBlock, 0, s>>>(grid, pos, list, densities, c, most, n);
+    unsigned long long* unlisted = m.device_flags.data() + 2;
+    if (capacity > 0) {
+      if (cfg.near) {
+        DensityListKernel<true>
+            <<<blocks, kBlock, 0, s>>>(grid, pos, list, densities, c, unlisted, n);
+      } else {
+        DensityListKernel<false>
+            <<<blocks, kBlock, 0, s>>>(grid, pos, list, densities, c, unlisted, n);
       }
-      DensityKernel<true><<<blocks, kBlock, 0, s>>>(grid, pos, densities, c, overflow, n);
+    } else if (cfg.near) {
+      DensityKernel<true><<<blocks, kBlock, 0, s>>>(grid, pos, densities, c, n);
     } else {
-      if (capacity > 0) {
-        DensityListKernel<false><<<blocks, kBlock, 0, s>>>(grid, pos, list, densities, c, most, n);
-      }
-      DensityKernel<false><<<blocks, kBlock, 0, s>>>(grid, pos, densities, c, overflow, n);
+      DensityKernel<false><<<blocks, kBlock, 0, s>>>(grid, pos, densities, c, n);
     }
   }
   begin_pass();  // pressure_force
   if (launch) {
-    PressureFactorsKernel<<<blocks, kBlock, 0, s>>>(m.density.data(), m.pressure.data(),
-                                                    m.near_pressure.data(), scratch, n, cfg.near);
+    PressureFactorsKernel<<<blocks, kBlock, 0, s>>>(pos, m.density.data(), m.pressure.data(),
+                                                    m.near_pressure.data(), pv, n, cfg.near);
     const Particles p = m.View();
     const float* pr = m.pressure.data();
     const float* near_pr = m.near_pressure.data();
     if (cfg.near) {
       if (capacity > 0) {
         PressureForceListKernel<true>
-            <<<blocks, kBlock, 0, s>>>(grid, p, pos, pr, near_pr, scratch, list, c, n);
+            <<<blocks, kBlock, 0, s>>>(grid, p, pos, pr, near_pr, pv, list, c, n);
       }
       PressureForceKernel<true>
-          <<<blocks, kBlock, 0, s>>>(grid, p, pos, pr, near_pr, scratch, c, overflow, n);
+          <<<blocks, kBlock, 0, s>>>(grid, p, pos, pr, near_pr, pv, c, overflow, n);
     } else {
       if (capacity > 0) {
         PressureForceListKernel<false>
-            <<<blocks, kBlock, 0, s>>>(grid, p, pos, pr, near_pr, scratch, list, c, n);
+            <<<blocks, kBlock, 0, s>>>(grid, p, pos, pr, near_pr, pv, list, c, n);
       }
       PressureForceKernel<false>
-          <<<blocks, kBlock, 0, s>>>(grid, p, pos, pr, near_pr, scratch, c, overflow, n);
+          <<<blocks, kBlock, 0, s>>>(grid, p, pos, pr, near_pr, pv, c, overflow, n);
     }
   }
   if (cfg.viscosity) {
     begin_pass();  // viscosity
     if (launch) {
-      PackVelocityKernel<<<blocks, kBlock, 0, s>>>(m.View(), scratch, n);
+      PackVelocityKernel<<<blocks, kBlock, 0, s>>>(m.View(), pos, pv, n);
       if (capacity > 0) {
-        ViscosityListKernel<<<blocks, kBlock, 0, s>>>(grid, m.View(), pos, scratch, list, c, n);
+        ViscosityListKernel<<<blocks, kBlock, 0, s>>>(grid, m.View(), pos, pv, list, c, n);
       }
-      ViscosityKernel<<<blocks, kBlock, 0, s>>>(grid, m.View(), pos, scratch, c, overflow, n);
+      ViscosityKernel<<<blocks, kBlock, 0, s>>>(grid, m.View(), pos, pv, c, overflow, n);
     }
   }
   begin_pass();  // integrate
@@ -925,12 +1038,13 @@ void SeedPipeline::DownloadById(float* position, float* velocity, float* density
 uint64_t SeedPipeline::DeviceBytes() const {
   const Impl& m = *impl_;
   // 22 float arrays (positions, velocities, predictions, their permutation targets, densities,
-  // pressures), two id arrays, the packed positions and the scratch (float4), the neighbour
-  // counts, the neighbour list, and the grid's keys, order and cell starts.
+  // pressures), two id arrays, the packed positions (float4) and the positions with values (two
+  // float4), the neighbour list's units and words, and the grid's keys, order and cell starts.
   return uint64_t(m.x.capacity()) * (22 * sizeof(float) + 2 * sizeof(uint32_t)) +
-         uint64_t(m.pos4.capacity() + m.scratch4.capacity()) * sizeof(float4) +
-         uint64_t(m.list_count.capacity()) * sizeof(uint32_t) +
-         uint64_t(m.list_chunks.capacity()) * sizeof(uint4) + m.sorter.DeviceBytes();
+         uint64_t(m.pos4.capacity()) * sizeof(float4) +
+         uint64_t(m.pos_value.capacity()) * sizeof(PosValue) +
+         uint64_t(m.list_units.capacity() + m.list_words.capacity()) * sizeof(uint32_t) +
+         m.sorter.DeviceBytes();
 }
 
 }  // namespace dysa::cuda
