@@ -77,7 +77,7 @@ void SpawnParticles(const Scene& scene, const Params& params, ParticleArrays& pa
     const double jitter = block.jitter.value_or(physical ? 0.0 : params.spawn_jitter);
     SplitMix64 rng(block.seed);
     // The offset of lattice point k along axis a from the block centre. The lattice step is
-    // the one SpawnParticleRadius takes (simulation_test checks that they agree).
+    // the one SpawnParticleRadius takes (spawn_test checks that they agree).
     auto offset = [&](int a, int k) {
       if (spacing) return (k - 0.5 * (n[a] - 1)) * *spacing;
       // The thesis's spawner: n points spanning the edge, both ends included.
