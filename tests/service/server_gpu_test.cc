@@ -25,19 +25,13 @@
 #include "dysa/service/server.h"
 #include "dysa/service/simulation_host.h"
 #include "dysa/v1/simulation.grpc.pb.h"
+#include "support/gpu_test.h"
 
 namespace dysa::service {
 namespace {
 
+using dysa::testing::kGpu;
 using v1::Simulation;
-
-const Device kGpu{Device::Kind::kCuda, 0};
-
-#define SKIP_WITHOUT_GPU()                                                     \
-  do {                                                                         \
-    const std::string reason = DeviceUnavailableReason(kGpu);                  \
-    if (!reason.empty()) GTEST_SKIP() << "no CUDA GPU to test on: " << reason; \
-  } while (0)
 
 // 10^3 particles of the thesis's basic set-up (3 steps a frame).
 Scene SeedScene() {
@@ -47,19 +41,12 @@ Scene SeedScene() {
   return scene;
 }
 
-// wcsph_pipeline_test's dam of 10 x 15 x 4 particles breaking past a sphere and a box (tens of
-// CFL steps a frame).
+// The GPU tests' dam of 10 x 15 x 4 particles breaking past a sphere and a box (tens of CFL
+// steps a frame).
 Scene WcsphScene() {
-  return ParseScene(R"({
-    "name": "wcsph_dam",
-    "domain": {"min": [0, 0, 0], "max": [0.6, 0.4, 0.08], "no_slip": [false, true, false]},
-    "fluid_blocks": [{"center": [0.1, 0.15, 0.04], "size": [0.2, 0.3, 0.08]}],
-    "obstacles": [{"type": "sphere", "center": [0.33, 0.0, 0.04], "radius": 0.07},
-                  {"type": "box", "center": [0.5, 0.04, 0.04], "size": [0.04, 0.08, 0.3]}],
-    "solver": "wcsph",
-    "params": {"gravity": -9.81, "particle_spacing": 0.02, "speed_of_sound": 25,
-               "kinematic_viscosity": 1e-5}
-  })");
+  Scene scene = dysa::testing::DamScene("wcsph");
+  scene.name = "wcsph_dam";
+  return scene;
 }
 
 // The dam as dfsph runs it.

@@ -16,17 +16,12 @@
 #include "dysa/core/probes.h"
 #include "dysa/core/scene.h"
 #include "dysa/core/simulation.h"
+#include "support/gpu_test.h"
 
 namespace dysa {
 namespace {
 
-const Device kGpu{Device::Kind::kCuda, 0};
-
-#define SKIP_WITHOUT_GPU()                                                     \
-  do {                                                                         \
-    const std::string reason = DeviceUnavailableReason(kGpu);                  \
-    if (!reason.empty()) GTEST_SKIP() << "no CUDA GPU to test on: " << reason; \
-  } while (0)
+using dysa::testing::kGpu;
 
 std::string HashText(uint64_t hash) {
   char text[32];
