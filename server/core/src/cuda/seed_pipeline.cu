@@ -261,43 +261,24 @@ class ListCursor {
 };
 
 // Visits a listed particle's neighbours in list order: use(load(j)) for each neighbour j, with
-// next_lane() where a lane's neighbours end and another's begin. One flat loop over batches of
-// kListBatch neighbours, so that a warp's threads visit their k-th neighbours together (a loop
-// per word would wait, word by word, for the thread with the most). A batch's indices are decoded
-// first (ALU and shared memory only; the next word is already loaded), then all its loads are
-// issued, then its terms added in order: a thread has kListBatch neighbours' loads in flight
-// rather than one, which is what the list kernels wait on (L2 latency, not bandwidth).
-// 8 PosValues a thread take ~110-120 registers (2 blocks an SM, 16 warps, 128 neighbours' loads
-// in flight); 4 take 70-78 (3 blocks, 24 warps, 96 in flight). Neither spills on sm_90.
-constexpr int kListBatch = 8;
-constexpr int kListMinBlocks = kListBatch >= 8 ? 2 : 3;  // the list readers' __launch_bounds__
-
+// next_lane() where a lane's neighbours end and another's begin. One flat loop over the
+// neighbours, so that a warp's threads visit their k-th neighbours together (a loop per word
+// would wait, word by word, for the thread with the most), and load(j) one neighbour ahead, so
+// that a thread's loads of the next neighbour fly while it computes the current one.
 template <class Load, class NextLane, class Use>
 __device__ __forceinline__ void ForEachListed(ListCursor cursor, Load&& load, NextLane&& next_lane,
                                               Use&& use) {
-  using Data = decltype(load(0u));
-  bool more = true;
-  while (more) {
-    uint32_t j[kListBatch];
-    bool new_lane[kListBatch], valid[kListBatch];
-#pragma unroll
-    for (int b = 0; b < kListBatch; ++b) {
-      j[b] = 0, new_lane[b] = false;
-      valid[b] = more && cursor.Next(j[b], new_lane[b]);
-      more = valid[b];
-    }
-    Data data[kListBatch];
-#pragma unroll
-    for (int b = 0; b < kListBatch; ++b) {
-      if (valid[b]) data[b] = load(j[b]);
-    }
-#pragma unroll
-    for (int b = 0; b < kListBatch; ++b) {
-      if (valid[b]) {
-        if (new_lane[b]) next_lane();
-        use(data[b]);
-      }
-    }
+  uint32_t j = 0, next_j = 0;
+  bool new_lane = false, next_new_lane = false;
+  cursor.Next(j, new_lane);  // a listed particle has a neighbour: itself
+  auto data = load(j);
+  for (;;) {
+    const bool more = cursor.Next(next_j, next_new_lane);
+    const auto next_data = load(more ? next_j : j);
+    if (new_lane) next_lane();
+    use(data);
+    if (!more) break;
+    data = next_data, new_lane = next_new_lane;
   }
 }
 
@@ -549,7 +530,7 @@ __global__ void __launch_bounds__(kBlock, 4)
 }
 
 template <bool kNear>
-__global__ void __launch_bounds__(kBlock, kListMinBlocks)
+__global__ void __launch_bounds__(kBlock, 4)
     PressureForceListKernel(DeviceGrid grid, Particles p, const float4* __restrict__ pos,
                             const float* pressure, const float* near_pressure,
                             const PosValue* __restrict__ pv, NeighbourList list, SeedConstants c,
@@ -593,7 +574,7 @@ __global__ void __launch_bounds__(kBlock, kListMinBlocks)
   ApplyPressureForce(p, pv, c, i, force);
 }
 
-__global__ void __launch_bounds__(kBlock, kListMinBlocks)
+__global__ void __launch_bounds__(kBlock)
     ViscosityListKernel(DeviceGrid grid, Particles p, const float4* __restrict__ pos,
                         const PosValue* __restrict__ pv, NeighbourList list, SeedConstants c,
                         uint32_t n) {
