@@ -11,7 +11,9 @@
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
+#include <string>
 #include <thread>
+#include <vector>
 
 #include "dysa/codec/frame_codec.h"
 #include "dysa/core/model.h"
@@ -148,6 +150,14 @@ TEST(ServerTest, EveryControlRpcAppliesAndReports) {
   EXPECT_EQ(viscosity.unit(), "m^3/s");
   EXPECT_EQ(viscosity.max(), 10);
   EXPECT_FALSE(viscosity.needs_reset());
+  // Which solvers read a parameter: the registered names, all of them for a common one.
+  const auto solvers = [&](const char* name) {
+    const auto& names = Find(params.params(), name).solvers();
+    return std::vector<std::string>(names.begin(), names.end());
+  };
+  EXPECT_EQ(solvers("viscosity"), std::vector<std::string>{"seed"});
+  EXPECT_EQ(solvers("gravity_ramp_time"), (std::vector<std::string>{"wcsph", "dfsph"}));
+  EXPECT_EQ(solvers("time_scale").size(), SolverRegistry().size());
 
   v1::UpdateParamsRequest update;
   (*update.mutable_params()->mutable_values())["viscosity"] = 0.02;

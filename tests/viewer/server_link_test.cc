@@ -9,7 +9,9 @@
 #include <algorithm>
 #include <chrono>
 #include <functional>
+#include <string>
 #include <thread>
+#include <vector>
 
 #include "support/server_process.h"
 #include "support/temp_dir.h"
@@ -75,6 +77,24 @@ TEST_F(ServerLinkTest, ViewHoldsStatusEveryParameterAndTheScene) {
   EXPECT_EQ(view.scene->domain_max[1], 3);
   EXPECT_GT(view.scene->particle_radius, 0);
   EXPECT_THAT(view.scene->solvers, ::testing::Contains("seed"));
+}
+
+// The panel shows the running solver's parameters only (ParamInfo::ReadBy): seed_basic's
+// sliders are the thesis's, without the physical solvers'.
+TEST_F(ServerLinkTest, ParametersSayWhichSolversReadThem) {
+  const ServerView view = link_->View();
+  ASSERT_EQ(view.status.solver, "seed");
+  for (const char* name : {"time_scale", "iterations_per_frame", "gravity", "viscosity"})
+    EXPECT_TRUE(Find(view, name)->ReadBy("seed")) << name;
+  for (const char* name : {"rest_density", "speed_of_sound", "warm_start", "gravity_ramp_time"})
+    EXPECT_FALSE(Find(view, name)->ReadBy("seed")) << name;
+  EXPECT_EQ(Find(view, "warm_start")->solvers, std::vector<std::string>{"dfsph"});
+  EXPECT_TRUE(Find(view, "gravity_ramp_time")->ReadBy("dfsph"));
+  EXPECT_FALSE(Find(view, "viscosity")->ReadBy("dfsph"));
+  EXPECT_EQ(Find(view, "time_scale")->solvers, view.scene->solvers);  // every solver
+  // Nothing known (an older server, no status yet): every parameter shows.
+  EXPECT_TRUE(remote::ParamInfo{}.ReadBy("seed"));
+  EXPECT_TRUE(Find(view, "warm_start")->ReadBy(""));
 }
 
 TEST_F(ServerLinkTest, CommandsApplyInOrder) {

@@ -113,9 +113,14 @@ void ControlPanel::DrawParams(const ServerView& view, ServerLink& link) {
     editing_.clear();  // the server answered: show its values again
     editing_revision_ = view.params_revision;
   }
+  // Only the running solver's parameters (and those every solver reads): the others would
+  // change nothing it does.
+  const std::string& solver = view.status.solver;
+  if (!solver.empty()) ImGui::TextDisabled("the %s solver's parameters", solver.c_str());
   ImGui::BeginDisabled(!view.connected);
   ImGui::PushItemWidth(170);
   for (const remote::ParamInfo& p : view.params) {
+    if (!p.ReadBy(solver)) continue;
     auto it = editing_.find(p.name);
     double value = it != editing_.end() ? it->second : p.value;
     const std::string label = SliderLabel(p);

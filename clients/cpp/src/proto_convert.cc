@@ -13,8 +13,11 @@ PassTiming FromProto(const pb::PassTiming& p) {
 std::array<double, 3> FromProto(const pb::Vec3& v) { return {v.x(), v.y(), v.z()}; }
 
 ParamInfo FromProto(const pb::ParamInfo& p) {
-  return {p.name(),          p.value(),   p.unit(),        p.min(),        p.max(),
-          p.default_value(), p.integer(), p.needs_reset(), p.description()};
+  return {p.name(),        p.value(),
+          p.unit(),        p.min(),
+          p.max(),         p.default_value(),
+          p.integer(),     p.needs_reset(),
+          p.description(), {p.solvers().begin(), p.solvers().end()}};
 }
 
 }  // namespace

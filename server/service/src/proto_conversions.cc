@@ -173,6 +173,9 @@ void ToProto(const Params& params, google::protobuf::RepeatedPtrField<v1::ParamI
     p.set_integer(d.integer);
     p.set_needs_reset(d.needs_reset);
     p.set_description(std::string(d.description));
+    for (const SolverInfo& solver : SolverRegistry()) {
+      if (d.ReadBy(solver.name)) p.add_solvers(std::string(solver.name));
+    }
   }
 }
 

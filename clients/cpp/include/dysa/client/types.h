@@ -3,6 +3,7 @@
 // this (the CLI's verbs, the viewer's panel and renderers) builds without the generated headers.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <string>
@@ -61,6 +62,15 @@ struct ParamInfo {
   bool integer = false;
   bool needs_reset = false;
   std::string description;
+  // The solvers that read it (SceneDescription::solvers' names); the others ignore it. Empty
+  // from a server older than this field.
+  std::vector<std::string> solvers;
+
+  // Whether `solver` reads it; true when either is unknown (empty).
+  bool ReadBy(const std::string& solver) const {
+    return solver.empty() || solvers.empty() ||
+           std::find(solvers.begin(), solvers.end(), solver) != solvers.end();
+  }
 };
 
 struct UpdateResult {
