@@ -29,11 +29,14 @@
 namespace {
 
 std::string ParameterHelp() {
-  std::string text = "Parameters for --set (name, range, default):\n";
+  std::string text =
+      "Parameters for --set (name, range, default, the solvers that read it; the others ignore "
+      "it):\n";
   for (const dysa::ParamDecl& p : dysa::ParamTable()) {
     std::ostringstream line;
     line << "  " << p.name << "  " << p.RangeText() << ", default " << p.DefaultValue()
-         << (p.needs_reset ? ", re-spawns the fluid" : "") << "\n      " << p.description << "\n";
+         << (p.needs_reset ? ", re-spawns the fluid" : "") << ", read by " << p.SolversText()
+         << "\n      " << p.description << "\n";
     text += line.str();
   }
   text += "Built-in scenes:";
@@ -134,7 +137,9 @@ class RemoteCommands {
         [this](remote::Client& c) {
           remote::RunControl(c, remote::ControlVerb::kReset, 0, json_, std::cout);
         });
-    Add(app, "params", "Every parameter: value, unit, range, default, whether it needs a reset",
+    Add(app, "params",
+        "Every parameter: value, unit, range, default, whether it needs a reset, the solvers that "
+        "read it",
         [this](remote::Client& c) { remote::PrintParams(c, json_, std::cout); });
     CLI::App* set =
         Add(app, "set", "Change parameters, all or nothing (see `dysa params`)",

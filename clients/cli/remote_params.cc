@@ -25,7 +25,8 @@ Json ToJson(const std::vector<ParamInfo>& params) {
                    {"default_value", p.default_value},
                    {"integer", p.integer},
                    {"needs_reset", p.needs_reset},
-                   {"description", p.description}});
+                   {"description", p.description},
+                   {"solvers", p.solvers}});
   }
   return out;
 }
@@ -36,12 +37,17 @@ void PrintParams(Client& client, bool json, std::ostream& out) {
   const std::vector<ParamInfo> params = client.GetParams();
   if (json) return PrintJson({{"params", ToJson(params)}}, out);
   std::vector<std::vector<std::string>> rows = {
-      {"name", "value", "unit", "range", "default", "needs reset"}};
+      {"name", "value", "unit", "range", "default", "needs reset", "read by"}};
   for (const ParamInfo& p : params) {
     std::string range = "[";  // "[" + Short(...) draws a false -Wrestrict from GCC 12
     range += Short(p.min) + ", " + Short(p.max) + "]" + (p.integer ? " integer" : "");
+    std::string solvers;  // the solvers that read it, "" from an older server
+    for (const std::string& s : p.solvers) {
+      if (!solvers.empty()) solvers += ", ";
+      solvers += s;
+    }
     rows.push_back({p.name, Short(p.value), p.unit, range, Short(p.default_value),
-                    p.needs_reset ? "yes" : ""});
+                    p.needs_reset ? "yes" : "", solvers});
   }
   PrintTable(rows, {1}, out);
 }

@@ -306,6 +306,8 @@ TEST_F(RemoteTest, ParamsListsEveryParameterWithUnitRangeAndResetFlag) {
   const Result r = Dysa("params");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_THAT(r.out, HasSubstr("needs reset"));
+  EXPECT_THAT(r.out, HasSubstr("read by"));
+  EXPECT_THAT(r.out, HasSubstr("wcsph, dfsph"));
   EXPECT_THAT(r.out, HasSubstr("viscosity"));
   EXPECT_THAT(r.out, HasSubstr("m^3/s"));
   EXPECT_THAT(r.out, HasSubstr("particle_quantity"));
@@ -322,6 +324,7 @@ TEST_F(RemoteTest, ParamsListsEveryParameterWithUnitRangeAndResetFlag) {
       EXPECT_LE(p["min"].get<double>(), 0.001);
       EXPECT_GE(p["max"].get<double>(), 0.001);
       EXPECT_FALSE(p["needs_reset"].get<bool>());
+      EXPECT_EQ(p["solvers"], Json::array({"seed"}));
     }
     if (p["name"] == "particle_quantity") {
       quantity = true;

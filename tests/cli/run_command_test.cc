@@ -251,7 +251,9 @@ TEST(DysaBinaryTest, RunHelpListsSetAndEveryParameter) {
   for (const ParamDecl& decl : ParamTable()) {
     EXPECT_THAT(r.out, HasSubstr(std::string(decl.name)));
     EXPECT_THAT(r.out, HasSubstr(decl.RangeText())) << decl.name;
+    EXPECT_THAT(r.out, HasSubstr("read by " + decl.SolversText())) << decl.name;
   }
+  EXPECT_THAT(r.out, HasSubstr("warm_start  [0, 1], default 0.2, read by dfsph"));
   for (const std::string& scene : BuiltinSceneNames()) EXPECT_THAT(r.out, HasSubstr(scene));
 }
 

@@ -292,6 +292,11 @@ class ClientTest(unittest.TestCase):
         self.assertFalse(viscosity.integer)
         self.assertFalse(viscosity.needs_reset)
         self.assertTrue(viscosity.description)
+        self.assertEqual(viscosity.solvers, ("seed",))
+        self.assertTrue(viscosity.read_by("seed"))
+        self.assertFalse(viscosity.read_by("dfsph"))
+        self.assertEqual(params["gravity_ramp_time"].solvers, ("wcsph", "dfsph"))
+        self.assertTrue(params["time_scale"].read_by("dfsph"))
         quantity = params["particle_quantity"]
         self.assertTrue(quantity.integer)
         self.assertTrue(quantity.needs_reset)

@@ -170,6 +170,13 @@ class ParamInfo:
     integer: bool  # only whole numbers are accepted
     needs_reset: bool  # changing it re-spawns the fluid
     description: str
+    # The solvers that read it (names as in Scene.solvers); the others ignore it. Empty from a
+    # server older than this field.
+    solvers: Tuple[str, ...] = ()
+
+    def read_by(self, solver: str) -> bool:
+        """Whether `solver` reads this parameter (True when either is unknown)."""
+        return not solver or not self.solvers or solver in self.solvers
 
 
 @dataclass(frozen=True)
@@ -248,7 +255,8 @@ def _control(m: Any) -> ControlResult:
 
 def _params(messages: Iterable[Any]) -> Dict[str, ParamInfo]:
     return {p.name: ParamInfo(p.name, p.value, p.unit, p.min, p.max, p.default_value,
-                              p.integer, p.needs_reset, p.description) for p in messages}
+                              p.integer, p.needs_reset, p.description, tuple(p.solvers))
+            for p in messages}
 
 
 def _count(n: int, verb: str) -> int:
