@@ -5,8 +5,6 @@
 #include <memory>
 #include <string>
 
-#include "boundary_particles.h"
-#include "cfl_time_step.h"
 #include "cuda/dfsph_pipeline.h"
 #include "cuda/seed_pipeline.h"
 #include "cuda/wcsph_pipeline.h"
@@ -14,8 +12,10 @@
 #include "dysa/core/neighbor_grid.h"
 #include "gpu_backend.h"
 #include "solvers/dfsph/bender_koschier_solver.h"
+#include "solvers/physical/boundary_particles.h"
+#include "solvers/physical/cfl_time_step.h"
+#include "solvers/physical/physical_passes.h"
 #include "solvers/seed/seed_solver.h"
-#include "solvers/wcsph/becker_teschner_solver.h"
 
 namespace dysa {
 namespace {
@@ -49,7 +49,7 @@ class SeedGpuBackend final : public GpuBackend {
   std::vector<std::string> Configure(const Model& model) override {
     const Params& prm = model.params;
     cuda::SeedStepConfig config;
-    NeighborGrid grid;  // the CPU pass's layout (SortParticlesIntoGrid)
+    NeighborGrid grid;  // the CPU pass's layout (seed::SortParticlesIntoGrid)
     grid.Configure(model.domain, Real(prm.smoothing_radius), model.periodic);
     config.grid = Layout(grid);
     // Every constant as the CPU passes compute it (seed_solver.cc), in float.
@@ -127,7 +127,7 @@ void AddObstacles(const Model& model, std::vector<cuda::SphereObstacle>& spheres
   }
 }
 
-// The fluid grid of the physical solvers (wcsph::SortIntoGrid's layout).
+// The fluid grid of the physical solvers (physical::SortIntoGrid's layout).
 cuda::GridLayout PhysicalGrid(const Model& model) {
   NeighborGrid grid;
   grid.Configure(model.domain, Real(model.kernel_support), model.periodic);
@@ -150,8 +150,8 @@ cuda::SphConstants PhysicalConstants(const Model& model) {
   const Real h = Real(prm.particle_spacing);
   c.eps = Real(0.01) * h * h;
   c.rest_density = rho0;
-  c.stiffness = rho0 * prm.speed_of_sound * prm.speed_of_sound / wcsph::kTaitExponent;
-  c.contact_range = Real(wcsph::kContactRange * prm.particle_spacing);
+  c.stiffness = rho0 * prm.speed_of_sound * prm.speed_of_sound / physical::kTaitExponent;
+  c.contact_range = Real(physical::kContactRange * prm.particle_spacing);
   for (int a = 0; a < 3; ++a) {
     c.domain_lo[a] = Real(model.domain.min[a]);
     c.domain_hi[a] = Real(model.domain.max[a]);
@@ -212,7 +212,7 @@ class WcsphGpuBackend final : public GpuBackend {
   }
 
   StepReport Step(const Model& model, State& state) override {
-    const Real gravity = Real(wcsph::GravityAt(model.params, state.time));
+    const Real gravity = Real(physical::GravityAt(model.params, state.time));
     const cuda::StepMaxima maxima = pipeline_.Forces(gravity);
     // ChooseTimeStepPass (cfl_time_step.cc) from the GPU's maxima.
     const TimeStepLimits limits =
@@ -286,7 +286,7 @@ class DfsphGpuBackend final : public GpuBackend {
 
   StepReport Step(const Model& model, State& state) override {
     const Params& prm = model.params;
-    const Real gravity = Real(wcsph::GravityAt(prm, state.time));
+    const Real gravity = Real(physical::GravityAt(prm, state.time));
     State::SolverStats& stats = state.solver_stats;
     const uint64_t step = state.step + 1;
     // DivergenceSolve's step: the one the time_step pass will choose from these velocities.

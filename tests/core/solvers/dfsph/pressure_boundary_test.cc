@@ -14,9 +14,9 @@
 #include <utility>
 #include <vector>
 
-#include "boundary_particles.h"
 #include "dysa/core/scene.h"
 #include "dysa/core/simulation.h"
+#include "solvers/physical/boundary_particles.h"
 #include "support/with_threads.h"
 
 namespace dysa {

@@ -12,9 +12,9 @@
 #include <cmath>
 #include <string>
 
-#include "cfl_time_step.h"
 #include "dysa/core/scene.h"
 #include "dysa/core/simulation.h"
+#include "solvers/physical/cfl_time_step.h"
 #include "support/with_threads.h"
 
 namespace dysa {

@@ -9,11 +9,11 @@
 #include <string>
 #include <vector>
 
-#include "cfl_time_step.h"
-#include "common_passes.h"
 #include "dysa/core/kernels.h"
 #include "solvers/dfsph/pressure_boundary.h"
-#include "solvers/wcsph/becker_teschner_solver.h"
+#include "solvers/domain_walls.h"
+#include "solvers/physical/cfl_time_step.h"
+#include "solvers/physical/physical_passes.h"
 #include "sph_loops.h"
 
 namespace dysa::dfsph {
@@ -342,7 +342,7 @@ void DensitySolve(const Model& model, const BoundaryParticles& boundary, State& 
 
 // Gravity, added to the walls' hydrostatic acceleration of the boundary_pressure pass.
 void AddGravity(const Model& model, State& state) {
-  const Vec3 g(0, Real(wcsph::GravityAt(model.params, state.time)), 0);
+  const Vec3 g(0, Real(physical::GravityAt(model.params, state.time)), 0);
   for (Vec3& a : state.acceleration) a += g;
 }
 
@@ -373,7 +373,7 @@ void IntegratePositions(const Model& model, State& state) {
       p.velocity[i] *= limit / std::sqrt(speed2);
       ++limited;
     }
-    wcsph::LimitApproachToSurfaces(model, dt, p.position[i], p.velocity[i]);
+    physical::LimitApproachToSurfaces(model, dt, p.position[i], p.velocity[i]);
     p.position[i] += p.velocity[i] * dt;
     CollideWithDomainWalls(model.domain, model.periodic, Real(0), p.position[i], p.velocity[i]);
   }
@@ -382,7 +382,7 @@ void IntegratePositions(const Model& model, State& state) {
 
 // The neighbour sort, which also carries the warm start along with the particles.
 void SortIntoGrid(const Model& model, State& state) {
-  wcsph::SortIntoGrid(model, state);
+  physical::SortIntoGrid(model, state);
   ParticleArrays& p = state.particles;
   if (p.density_stiffness.size() != p.size() || p.divergence_stiffness.size() != p.size()) {
     p.density_stiffness.assign(p.size(), Real(0));  // a state the solver did not initialise
@@ -435,10 +435,10 @@ std::vector<Pass> BenderKoschierSolver::BuildPasses(const Model& model) const {
                     [boundary](const Model& m, State& s) { DivergenceSolve(m, *boundary, s); }});
   passes.push_back({"external_forces", AddGravity});
   if (model.params.kinematic_viscosity > 0) {
-    passes.push_back({"viscosity", wcsph::AddViscosity});
+    passes.push_back({"viscosity", physical::AddViscosity});
     if (boundary->HasNoSlip()) {
       passes.push_back({"wall_viscosity", [boundary](const Model& m, State& s) {
-                          wcsph::AddWallViscosity(m, *boundary, s);
+                          physical::AddWallViscosity(m, *boundary, s);
                         }});
     }
   }

@@ -50,8 +50,8 @@
 #include <memory>
 #include <string>
 
-#include "boundary_particles.h"
 #include "dysa/core/solver.h"
+#include "solvers/physical/boundary_particles.h"
 
 namespace dysa::dfsph {
 

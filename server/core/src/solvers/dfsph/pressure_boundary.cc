@@ -4,7 +4,7 @@
 #include <cstdint>
 
 #include "dysa/core/kernels.h"
-#include "solvers/wcsph/becker_teschner_solver.h"
+#include "solvers/physical/physical_passes.h"
 #include "sph_loops.h"
 
 namespace dysa::dfsph {
@@ -33,7 +33,7 @@ void ListBoundaryNeighbors(const Model& model, const BoundaryParticles& boundary
     }
   }
   const Real support = Real(model.kernel_support);
-  const Real gy = Real(wcsph::GravityAt(model.params, state.time));
+  const Real gy = Real(physical::GravityAt(model.params, state.time));
   const Real* bx = boundary.grid().xs().data();
   const Real* by = boundary.grid().ys().data();
   const Real* bz = boundary.grid().zs().data();

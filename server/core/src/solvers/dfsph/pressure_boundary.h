@@ -23,9 +23,9 @@
 // solvers and solve for boundary pressures; the extrapolation here is the explicit form.
 #pragma once
 
-#include "boundary_particles.h"
 #include "dysa/core/model.h"
 #include "dysa/core/state.h"
+#include "solvers/physical/boundary_particles.h"
 
 namespace dysa::dfsph {
 

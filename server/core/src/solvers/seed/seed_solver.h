@@ -30,6 +30,9 @@ class SeedSolver final : public Solver {
 std::unique_ptr<Solver> CreateSeedSolver();
 
 // The passes, exposed for tests.
+// Sorts particles by grid cell (cell edge = smoothing radius) using the predicted positions and
+// reorders every per-particle array that carries over between steps into that order.
+void SortParticlesIntoGrid(const Model& model, State& state);
 void ApplyExternalForces(const Model& model, State& state);
 template <bool kNear>
 void ComputeDensities(const Model& model, State& state);
@@ -37,6 +40,9 @@ template <bool kNear>
 void ApplyPressureForces(const Model& model, State& state);
 void ApplyViscosity(const Model& model, State& state);
 void IntegrateAndCollideWithWalls(const Model& model, State& state);
+// Pushes particles out of static spheres and boxes to the nearest surface point and reflects the
+// normal velocity scaled by the collision damping.
+void CollideWithObstacles(const Model& model, State& state);
 
 // The step's warning when the velocity limiter of IntegrateAndCollideWithWalls slowed `limited`
 // particles at step `step` (shared with the GPU backend).

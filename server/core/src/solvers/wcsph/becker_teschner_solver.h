@@ -56,13 +56,10 @@
 
 #include <memory>
 
-#include "boundary_particles.h"
 #include "dysa/core/solver.h"
+#include "solvers/physical/boundary_particles.h"
 
 namespace dysa::wcsph {
-
-inline constexpr double kTaitExponent = 7;
-inline constexpr double kContactRange = 0.4;  // r0 / d: no particle comes closer than r0 / 2
 
 class BeckerTeschnerSolver final : public Solver {
  public:
@@ -73,26 +70,16 @@ class BeckerTeschnerSolver final : public Solver {
 
 std::unique_ptr<Solver> CreateBeckerTeschnerSolver();
 
-// The passes, exposed for tests (and for dfsph, which shares the grid and density passes).
-void SortIntoGrid(const Model& model, State& state);
+// The passes, exposed for tests; those it shares with dfsph (the neighbour sort, viscosity, the
+// wall contact, gravity) are in solvers/physical/physical_passes.h.
 void ComputeDensityAndPressure(const Model& model, const BoundaryParticles& boundary, State& state);
 // state.boundary_pressure: each boundary particle's pressure extrapolated from the fluid.
 void ComputeBoundaryPressure(const Model& model, const BoundaryParticles& boundary, State& state);
 // Sets state.acceleration to gravity plus the pressure acceleration.
 void ComputePressureAcceleration(const Model& model, const BoundaryParticles& boundary,
                                  State& state);
-// Adds the viscous acceleration to state.acceleration.
-void AddViscosity(const Model& model, State& state);
-// Adds the no-slip walls' viscous acceleration (Model::no_slip) to state.acceleration.
-void AddWallViscosity(const Model& model, const BoundaryParticles& boundary, State& state);
-// v += a dt, the wall contact (LimitApproachToSurfaces), x += v dt, the last-resort clamp.
+// v += a dt, the wall contact (physical::LimitApproachToSurfaces), x += v dt, the last-resort
+// clamp.
 void Integrate(const Model& model, State& state);
-// The wall contact of both physical solvers: limits v so that a step of dt from x brings the
-// particle no closer than r0 / 2 (kContactRange) to any wall or obstacle, cutting only its
-// velocity towards the surface (an inelastic contact: energy is only taken away).
-void LimitApproachToSurfaces(const Model& model, Real dt, const Vec3& x, Vec3& v);
-
-// m/s^2 along y at simulated time `time`: params.gravity, ramped in over gravity_ramp_time.
-double GravityAt(const Params& params, double time);
 
 }  // namespace dysa::wcsph

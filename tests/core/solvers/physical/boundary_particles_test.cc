@@ -1,7 +1,7 @@
 // Tests of server/core/src/boundary_particles.{h,cc}: samples lie behind the surfaces, a flat
 // wall's particles weigh like the fluid they replace, and a fluid lattice at rest has the rest
 // density everywhere, walls, edges and corners included.
-#include "boundary_particles.h"
+#include "solvers/physical/boundary_particles.h"
 
 #include <gtest/gtest.h>
 
@@ -10,6 +10,7 @@
 
 #include "dysa/core/scene.h"
 #include "dysa/core/simulation.h"
+#include "solvers/physical/physical_passes.h"
 #include "solvers/wcsph/becker_teschner_solver.h"
 
 namespace dysa {
@@ -102,7 +103,7 @@ TEST(BoundaryParticlesTest, AFluidLatticeAtRestHasTheRestDensityAtEveryWall) {
   Simulation sim(FilledDomain());
   const BoundaryParticles boundary(sim.model(), kD, 2 * kD);
   State& state = const_cast<State&>(sim.state());
-  wcsph::SortIntoGrid(sim.model(), state);
+  physical::SortIntoGrid(sim.model(), state);
   wcsph::ComputeDensityAndPressure(sim.model(), boundary, state);
   const auto& density = state.particles.density;
   ASSERT_EQ(density.size(), 20u * 10 * 5);
@@ -128,7 +129,7 @@ TEST(BoundaryParticlesTest, APeriodicDomainFilledAtRestHasTheRestDensityEverywhe
   const BoundaryParticles boundary(sim.model(), kD, 2 * kD);
   EXPECT_EQ(boundary.size(), 20u * 6 * 2 * 2);
   State& state = const_cast<State&>(sim.state());
-  wcsph::SortIntoGrid(sim.model(), state);
+  physical::SortIntoGrid(sim.model(), state);
   wcsph::ComputeDensityAndPressure(sim.model(), boundary, state);
   const auto& density = state.particles.density;
   ASSERT_EQ(density.size(), 20u * 10 * 6);

@@ -1,4 +1,4 @@
-#include "boundary_particles.h"
+#include "solvers/physical/boundary_particles.h"
 
 #include <algorithm>
 #include <cmath>

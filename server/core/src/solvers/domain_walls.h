@@ -1,18 +1,10 @@
-// Passes shared by every solver.
+// The domain box's walls, shared by every solver: the seed's collision, and the physical solvers'
+// last-resort clamp after the wall contact (the CPU passes and the GPU kernels alike).
 #pragma once
 
-#include "dysa/core/model.h"
-#include "dysa/core/state.h"
+#include "dysa/core/types.h"
 
 namespace dysa {
-
-// Sorts particles by grid cell (cell edge = smoothing radius) using the predicted positions and
-// reorders every per-particle array that carries over between steps into that order.
-void SortParticlesIntoGrid(const Model& model, State& state);
-
-// Pushes particles out of static spheres and boxes to the nearest surface point and reflects the
-// normal velocity scaled by the collision damping.
-void CollideWithObstacles(const Model& model, State& state);
 
 // Clamps a particle into the domain box; where it crossed a wall moving outwards, the normal
 // velocity is reflected and scaled by `damping`. Across a periodic axis it re-enters through the

@@ -1,11 +1,11 @@
-#include "cfl_time_step.h"
+#include "solvers/physical/cfl_time_step.h"
 
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <string>
 
-#include "solvers/wcsph/becker_teschner_solver.h"
+#include "solvers/physical/physical_passes.h"
 
 namespace dysa {
 
@@ -19,7 +19,7 @@ TimeStepLimits CflLimits(const Model& model, double v_max, double a_max, bool ac
   // c = c0 (rho / rho0)^((gamma - 1) / 2) of the Tait equation, gamma = 7.
   const double compression = std::max(1.0, density_max / params.rest_density);
   const double sound = params.speed_of_sound * compression * compression * compression;
-  static_assert(wcsph::kTaitExponent == 7);
+  static_assert(physical::kTaitExponent == 7);
   const double speed = acoustic ? sound + v_max : v_max;
   const double cfl =
       acoustic ? params.cfl_factor : std::min(params.cfl_factor, kIncompressibleMaxCfl);

@@ -1,0 +1,40 @@
+// What the physical solvers (wcsph, dfsph) share: the gravity ramp, the neighbour sort, the
+// laminar viscosity of the fluid and of no-slip walls, and the inelastic wall contact. Each
+// solver's header describes the discretisation (becker_teschner_solver.h); the CPU passes are
+// here, and the GPU backend reads the same constants.
+#pragma once
+
+#include "dysa/core/model.h"
+#include "dysa/core/params.h"
+#include "dysa/core/state.h"
+#include "solvers/physical/boundary_particles.h"
+
+namespace dysa::physical {
+
+// gamma of the Tait equation of state, p = B ((rho / rho0)^gamma - 1) (Becker & Teschner 2007,
+// eq. 7): wcsph's pressure, and the speed of sound of the CFL step (cfl_time_step.h).
+inline constexpr double kTaitExponent = 7;
+// r0 / d of the wall contact: no particle comes closer than r0 / 2 to a wall or an obstacle.
+inline constexpr double kContactRange = 0.4;
+
+// m/s^2 along y at simulated time `time`: params.gravity, ramped in over gravity_ramp_time,
+// g(t) = g (1 - cos(pi t / T)) / 2 for t < T, g after (T = 0: no ramp).
+double GravityAt(const Params& params, double time);
+
+// The `neighbour_grid` pass: sorts the particles by grid cell (cell edge = the kernel support)
+// of their positions and reorders ids, positions and velocities into that order.
+void SortIntoGrid(const Model& model, State& state);
+
+// Adds the fluid's viscous acceleration (the laminar viscosity of becker_teschner_solver.h) to
+// state.acceleration.
+void AddViscosity(const Model& model, State& state);
+// Adds the no-slip walls' viscous acceleration (Model::no_slip) to state.acceleration, from the
+// fluid's velocity extrapolated to the walls' boundary particles (state.boundary_velocity).
+void AddWallViscosity(const Model& model, const BoundaryParticles& boundary, State& state);
+
+// The wall contact: limits v so that a step of dt from x brings the particle no closer than
+// r0 / 2 (kContactRange) to any wall or obstacle, cutting only its velocity towards the surface
+// (an inelastic contact: energy is only taken away).
+void LimitApproachToSurfaces(const Model& model, Real dt, const Vec3& x, Vec3& v);
+
+}  // namespace dysa::physical
