@@ -5,7 +5,7 @@
 
 namespace dysa {
 
-Model MakeModel(const Scene& scene, const Params& params) {
+Model MakeModel(const Scene& scene, const Params& params, const SolverInfo& solver) {
   CheckPeriodicDomain(scene, params);
   Model model;
   model.params = params;
@@ -18,7 +18,7 @@ Model MakeModel(const Scene& scene, const Params& params) {
   model.spheres = scene.spheres;
   model.boxes = scene.boxes;
   model.dt = params.time_scale / (params.frame_rate * params.iterations_per_frame);
-  model.physical = IsPhysicalSolver(scene.solver);
+  model.physical = solver.physical;
   if (model.physical) {
     const double d = params.particle_spacing;
     model.particle_mass = params.rest_density * d * d * d;
@@ -30,6 +30,10 @@ Model MakeModel(const Scene& scene, const Params& params) {
     model.kernel_support = params.smoothing_radius;
   }
   return model;
+}
+
+Model MakeModel(const Scene& scene, const Params& params) {
+  return MakeModel(scene, params, FindSolver(scene.solver));
 }
 
 }  // namespace dysa

@@ -315,11 +315,7 @@ Scene ParseScene(std::string_view json_text) {
   ForEachElement(r, "obstacles",
                  [&](const json& j, const std::string& path) { ParseObstacle(j, path, scene); });
   scene.solver = r.String("solver").value_or(scene.solver);
-  try {
-    CreateSolver(scene.solver);
-  } catch (const ConfigError& e) {
-    throw ConfigError("solver", e.message());
-  }
+  FindSolver(scene.solver);  // throws ConfigError("solver", ...) naming the known solvers
   if (const json* params = r.Get("params")) {
     if (!params->is_object()) {
       throw ConfigError("params", "expected an object, got " + TypeName(*params));

@@ -13,8 +13,9 @@ namespace dysa {
 
 Simulation::Simulation(Scene scene, const Device& device)
     : scene_(std::move(scene)), device_(device) {
-  solver_ = CreateSolver(scene_.solver);
-  model_ = MakeModel(scene_, scene_.params);
+  solver_info_ = &FindSolver(scene_.solver);
+  solver_ = solver_info_->create();
+  model_ = MakeModel(scene_, scene_.params, *solver_info_);
   if (device_.is_cuda()) gpu_ = CreateGpuBackend(device_, scene_.solver);
   Rebuild();
   Reset();
@@ -182,7 +183,7 @@ Checkpoint Simulation::SaveCheckpoint() const {
 }
 
 void Simulation::RestoreCheckpoint(const Checkpoint& checkpoint) {
-  model_ = MakeModel(scene_, checkpoint.params);
+  model_ = MakeModel(scene_, checkpoint.params, *solver_info_);
   Rebuild();
   alarm_.clear();
   state_.warning.clear();
@@ -215,7 +216,7 @@ bool Simulation::SetParams(const Params& params) {
   for (const ParamDecl& decl : ParamTable()) {
     needs_reset |= decl.needs_reset && decl.get(checked) != decl.get(model_.params);
   }
-  model_ = MakeModel(scene_, checked);
+  model_ = MakeModel(scene_, checked, *solver_info_);
   Rebuild();
   if (needs_reset) Reset();
   return needs_reset;

@@ -53,8 +53,13 @@ struct Model {
   }
 };
 
-// Takes the solver from scene.solver (an unknown name counts as not physical). Throws
-// ConfigError where a periodic axis is too short for the parameters (CheckPeriodicDomain).
+struct SolverInfo;
+
+// The model of `scene` with `params` for `solver`, the scene's solver as the caller looked it
+// up once (FindSolver(scene.solver)). Throws ConfigError where a periodic axis is too short for
+// the parameters (CheckPeriodicDomain).
+Model MakeModel(const Scene& scene, const Params& params, const SolverInfo& solver);
+// The same, looking scene.solver up (throws ConfigError("solver", ...) for an unknown name).
 Model MakeModel(const Scene& scene, const Params& params);
 
 }  // namespace dysa

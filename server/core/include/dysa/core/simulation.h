@@ -140,6 +140,7 @@ class Simulation {
   mutable State state_;
   mutable bool host_stale_ = false;
   size_t particle_count_ = 0;
+  const SolverInfo* solver_info_ = nullptr;  // the scene's solver, looked up once
   std::unique_ptr<Solver> solver_;
   std::unique_ptr<GpuBackend> gpu_;  // null on the CPU
   std::vector<Pass> passes_;         // the CPU's passes (empty on a GPU)
