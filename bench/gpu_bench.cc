@@ -44,7 +44,6 @@ dysa::Scene ThesisBlock(int q, double domain_ratio) {
   dysa::Scene scene = dysa::LoadScene("seed_test_scene");
   const double spacing = 5.0 / 44.0;  // the thesis's: spawn_size / (particle_quantity - 1)
   const double edge = spacing * (q - 1);
-  dysa::SetParam(scene.params, "particle_quantity", q);
   scene.fluid_blocks[0].size = dysa::Vec3d::Constant(edge);
   scene.fluid_blocks[0].particles_per_axis = Eigen::Vector3i::Constant(q);
   const double half = std::max(5.0, 0.5 * domain_ratio * edge);
