@@ -1,6 +1,6 @@
-// Tests of server/core/src/boundary_particles.{h,cc}: samples lie behind the surfaces, a flat
-// wall's particles weigh like the fluid they replace, and a fluid lattice at rest has the rest
-// density everywhere, walls, edges and corners included.
+// Tests of server/core/src/solvers/physical/boundary_particles.{h,cc}: samples lie behind the
+// surfaces, a flat wall's particles weigh like the fluid they replace, and a fluid lattice at rest
+// has the rest density everywhere, walls, edges and corners included.
 #include "solvers/physical/boundary_particles.h"
 
 #include <gtest/gtest.h>

@@ -1,5 +1,5 @@
-// Tests of server/core/src/cfl_time_step.{h,cc}: each limit of the adaptive step binds when it
-// is the smallest, and a step never overshoots the point it must stop at.
+// Tests of server/core/src/solvers/physical/cfl_time_step.{h,cc}: each limit of the adaptive step
+// binds when it is the smallest, and a step never overshoots the point it must stop at.
 #include "solvers/physical/cfl_time_step.h"
 
 #include <gtest/gtest.h>
