@@ -633,7 +633,7 @@ __global__ void PackVelocityKernel(Particles p, const float4* pos, PosValue* pv,
   pv[i].value = make_float4(p.vx[i], p.vy[i], p.vz[i], 0.0f);
 }
 
-// CollideWithDomainWalls (common_passes.h) for one axis.
+// CollideWithDomainWalls (solvers/domain_walls.h) for one axis.
 __device__ void CollideWithWall(float lo, float hi, bool periodic, float damping, float& x,
                                 float& v) {
   if (periodic) {
