@@ -1,7 +1,7 @@
 // Device code shared by the physical solvers' pipelines (wcsph_pipeline.cu,
 // dfsph_pipeline.cu): the cubic spline, the neighbour loop, the viscosity passes, the wall
 // contact and the integration, each the CPU's code (kernels.h, sph_loops.h,
-// becker_teschner_solver.cc) with the same operations in the same order.
+// physical_passes.cc) with the same operations in the same order.
 #pragma once
 
 #include <cuda_runtime.h>
@@ -159,8 +159,8 @@ struct Surfaces {
   bool periodic[3];
 };
 
-// ForEachSurfaceWithin (becker_teschner_solver.cc), with the same unit vectors (-0 components
-// included) and the same order: walls, spheres, boxes.
+// ForEachSurfaceWithin (solvers/physical/physical_passes.cc), with the same unit vectors (-0
+// components included) and the same order: walls, spheres, boxes.
 template <class Visit>
 __device__ void ForEachSurfaceWithin(const SphConstants& c, const Surfaces& s, F3 x, float range,
                                      Visit&& visit) {
@@ -223,7 +223,7 @@ __device__ void CollideWithWall(float lo, float hi, bool periodic, float& x, flo
   }
 }
 
-// LimitApproachToSurfaces (becker_teschner_solver.cc): cuts v so that a step of dt from x comes
+// LimitApproachToSurfaces (physical_passes.cc): cuts v so that a step of dt from x comes
 // no nearer than r0 / 2 to any wall or obstacle.
 __device__ void LimitApproachToSurfaces(const SphConstants& c, const Surfaces& s, F3 x, float dt,
                                         F3& v) {
