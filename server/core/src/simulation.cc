@@ -173,9 +173,15 @@ Checkpoint Simulation::SaveCheckpoint() const {
     // Only what the checkpoint holds crosses from the GPU; the host copy stays as it was.
     ParticleArrays p;
     gpu_->DownloadCheckpointArrays(p);
-    return Checkpoint{model_.params,        state_.time,          state_.step, state_.frame,
-                      std::move(p.id),      std::move(p.position), std::move(p.velocity),
-                      std::move(p.density_stiffness), std::move(p.divergence_stiffness)};
+    return Checkpoint{model_.params,
+                      state_.time,
+                      state_.step,
+                      state_.frame,
+                      std::move(p.id),
+                      std::move(p.position),
+                      std::move(p.velocity),
+                      std::move(p.density_stiffness),
+                      std::move(p.divergence_stiffness)};
   }
   const ParticleArrays& p = state_.particles;
   return Checkpoint{model_.params, state_.time, state_.step,         state_.frame,          p.id,
