@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # On a machine with an NVIDIA GPU: builds with the CUDA backend, runs the GPU tests
 # (ctest -L gpu, which must run there, not skip), the GPU benchmarks (gpu_bench for the three
-# solvers, server_bench --part gpu), and `dysa validate --quick` on the CPU and on the GPU,
-# whose errors must agree within 0.2 points (scripts/compare-validation.py). Everything is
+# solvers, server_bench --part gpu), and `dysa validate` (--quick, and at the default
+# resolutions without --quick) on the CPU and on the GPU, whose errors must agree within 0.2
+# points (scripts/compare-validation.py). Everything is
 # written under OUT_DIR, each file named after the GPU.
 #
 #   scripts/test-gpu.sh [OUT_DIR] [--quick]        (default OUT_DIR: bench/results)
@@ -91,6 +92,16 @@ export OMP_WAIT_POLICY=PASSIVE
 python3 scripts/compare-validation.py "$out/validate_quick_cpu_$gpu.txt" \
   "$out/validate_quick_cuda_$gpu.txt" --max-points 0.2 2>&1 |
   tee "$out/validate_quick_cpu_vs_cuda_$gpu.txt" || status=1
+# And at the default resolutions (about 2 minutes on 16 cores), unless --quick.
+if [[ $quick -eq 0 ]]; then
+  for device in cpu cuda; do
+    "$build/clients/cli/dysa" validate --device "$device" > "$out/validate_default_${device}_$gpu.txt" \
+      2>&1 || status=1
+  done
+  python3 scripts/compare-validation.py "$out/validate_default_cpu_$gpu.txt" \
+    "$out/validate_default_cuda_$gpu.txt" --max-points 0.2 2>&1 |
+    tee "$out/validate_default_cpu_vs_cuda_$gpu.txt" || status=1
+fi
 
 if [[ $status -eq 0 ]]; then
   echo "test-gpu.sh: PASSED ($gpu)"
