@@ -54,7 +54,7 @@ struct Params {
   int max_iterations = 150;
   // Each solve first applies this fraction of what it applied in the previous step (warm
   // start, Bender & Koschier 2017 Sec. 4.4; 0: off). More is faster and less accurate: the
-  // solve adds pressure only, and stops at its tolerance nearer the warm start (README,
+  // solve adds pressure only, and stops at its tolerance nearer the warm start (docs/validation.md,
   // validation: the hydrostatic tank with 0, 0.2 and 0.5).
   double warm_start = 0.2;
 };

@@ -36,7 +36,7 @@
 // it applied in the previous step, then iterates on the error left; the solve stops nearer
 // where it started, so more is faster and less accurate (with 0.5 the tank at 0.02 m is 3.5%
 // off rho0 g (H - y), with 0.2 0.07%; 0.3 failed the stress test of particles started on top
-// of each other: README, validation). The solves' totals are carried
+// of each other: docs/validation.md). The solves' totals are carried
 // per particle as kappa dt^2 and kappa dt (ParticleArrays::density_stiffness,
 // divergence_stiffness), which do not depend on the step size, and permuted with the particles; a
 // checkpoint holds them. Without it (0) every step rebuilds the hydrostatic pressure from zero:
