@@ -55,7 +55,7 @@ struct Params {
   // Each solve first applies this fraction of what it applied in the previous step (warm
   // start, Bender & Koschier 2017 Sec. 4.4; 0: off). More is faster and less accurate: the
   // solve adds pressure only, and stops at its tolerance nearer the warm start (docs/validation.md,
-  // validation: the hydrostatic tank with 0, 0.2 and 0.5).
+  // the hydrostatic tank with 0, 0.2 and 0.5).
   double warm_start = 0.2;
 };
 
