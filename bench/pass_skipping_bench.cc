@@ -88,8 +88,8 @@ Timing Measure(const dysa::Scene& scene, int warmup, int steps, int repeats) {
     const auto start = std::chrono::steady_clock::now();
     for (int i = 0; i < steps; ++i) {
       sim.Step();
-      iterations += uint64_t(sim.state().solver_stats.density_iterations +
-                             sim.state().solver_stats.divergence_iterations);
+      iterations += uint64_t(sim.solver_stats().density_iterations +
+                             sim.solver_stats().divergence_iterations);
     }
     const double ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)

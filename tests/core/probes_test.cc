@@ -20,7 +20,6 @@ State MakeState(const std::vector<Vec3>& positions, const std::vector<Vec3>& vel
   for (size_t i = 0; i < positions.size(); ++i) {
     state.particles.id[i] = uint32_t(i);
     state.particles.position[i] = positions[i];
-    state.particles.predicted[i] = positions[i];
     state.particles.velocity[i] = velocities.empty() ? Vec3::Zero() : velocities[i];
     state.particles.density[i] = 0;
     state.particles.pressure[i] = 0;

@@ -23,7 +23,6 @@ State MakeState(size_t n) {
     p.id[i] = uint32_t(i);
     p.position[i] = Vec3(0.1f * float(i), -0.25f * float(i), 1.0f + float(i));
     p.velocity[i] = Vec3(float(i), 0.5f, -0.125f * float(i));
-    p.predicted[i] = p.position[i];
   }
   return state;
 }
@@ -33,7 +32,7 @@ void SwapSlots(ParticleArrays& p, size_t i, size_t j) {
   std::swap(p.id[i], p.id[j]);
   std::swap(p.position[i], p.position[j]);
   std::swap(p.velocity[i], p.velocity[j]);
-  std::swap(p.predicted[i], p.predicted[j]);
+  std::swap(p.pressure[i], p.pressure[j]);
   std::swap(p.density[i], p.density[j]);
 }
 
@@ -70,12 +69,11 @@ TEST(StateHashTest, ChangesWithOneBitOfAPositionOrVelocity) {
 }
 
 TEST(StateHashTest, IgnoresWhatIsNotPositionVelocityOrId) {
-  // Density, pressure and predicted positions are recomputed each step; the hash leaves them out.
+  // Density and pressure are recomputed each step; the hash leaves them out.
   State a = MakeState(10);
   const uint64_t hash = StateHash(a);
   a.particles.density[3] = 1000;
   a.particles.pressure[4] = 5;
-  a.particles.predicted[5] = Vec3(9.0f, 9.0f, 9.0f);
   a.time = 1;
   a.step = 3;
   EXPECT_EQ(StateHash(a), hash);

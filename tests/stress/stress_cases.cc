@@ -7,6 +7,7 @@
 #include <utility>
 
 #include "dysa/core/params.h"
+#include "solvers/seed/seed_solver.h"
 
 namespace dysa::stress {
 
@@ -31,11 +32,14 @@ double GravityEnergy(const Simulation& sim) {
 
 double PressureWork(const Simulation& sim) {
   const ParticleArrays& p = sim.state().particles;
+  // The seed's near pressure, a pressure of its own (Clavet et al.), counts too.
+  const auto* seed = dynamic_cast<const seed::SeedSolver*>(sim.solver());
+  const std::vector<Real>* near = seed ? &seed->data().near_pressure : nullptr;
   double sum = 0;
   for (size_t i = 0; i < p.size(); ++i) {
     if (!(p.density[i] > 0)) continue;
-    sum += (std::abs(double(p.pressure[i])) + std::abs(double(p.near_pressure[i]))) /
-           double(p.density[i]);
+    const double near_pressure = near ? std::abs(double((*near)[i])) : 0;
+    sum += (std::abs(double(p.pressure[i])) + near_pressure) / double(p.density[i]);
   }
   return sim.model().particle_mass * sum;
 }

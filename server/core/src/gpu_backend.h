@@ -4,12 +4,14 @@
 #pragma once
 
 #include <memory>
+#include <span>
 #include <string>
 #include <string_view>
 #include <vector>
 
 #include "dysa/core/device.h"
 #include "dysa/core/model.h"
+#include "dysa/core/solver.h"
 #include "dysa/core/state.h"
 
 namespace dysa {
@@ -23,12 +25,17 @@ class GpuBackend {
   // Sets up the passes of `model` (rebuilt whenever parameters change) and returns their
   // names, the CPU solver's.
   virtual std::vector<std::string> Configure(const Model& model) = 0;
-  // Replaces the device's particles with `particles` (ids, positions, velocities).
-  virtual void Upload(const ParticleArrays& particles) = 0;
-  // Copies every per-particle array the CPU solver keeps back into `particles` (resized).
+  // Replaces the device's particles with `particles` (ids, positions, velocities) and the
+  // solver's carried arrays with `solver_arrays` (Solver::SaveArrays's; a missing one starts
+  // cold).
+  virtual void Upload(const ParticleArrays& particles,
+                      std::span<const SolverArray> solver_arrays) = 0;
+  // Copies every shared per-particle array (ParticleArrays) back into `particles` (resized).
   virtual void Download(ParticleArrays& particles) const = 0;
-  // Only what a checkpoint holds: ids, positions, velocities and the solver's warm start.
-  virtual void DownloadCheckpointArrays(ParticleArrays& particles) const = 0;
+  // Only what a checkpoint holds: ids, positions, velocities and the solver's carried arrays,
+  // named as the CPU solver's SaveArrays names them.
+  virtual void DownloadCheckpointArrays(ParticleArrays& particles,
+                                        std::vector<SolverArray>& solver_arrays) const = 0;
   // Positions, velocities (xyz triples) and densities in particle-id order; null: not copied.
   virtual void DownloadById(float* position, float* velocity, float* density) const = 0;
 
@@ -41,6 +48,8 @@ class GpuBackend {
   virtual StepReport Step(const Model& model, State& state) = 0;
   // Device memory held, bytes.
   virtual uint64_t DeviceBytes() const = 0;
+  // The latest step's solver diagnostics.
+  virtual SolverStats stats() const { return {}; }
 
  protected:
   DeviceInfo info_;

@@ -132,12 +132,14 @@ void Simulation::CheckStep(bool finite, double start_time) {
   }
 }
 
-void Simulation::UploadParticles() {
+void Simulation::UploadParticles(std::span<const SolverArray> solver_arrays) {
   particle_count_ = state_.particles.size();
   if (!gpu_) return;
-  gpu_->Upload(state_.particles);
+  gpu_->Upload(state_.particles, solver_arrays);
   host_stale_ = false;
 }
+
+SolverStats Simulation::solver_stats() const { return gpu_ ? gpu_->stats() : solver_->stats(); }
 
 void Simulation::StepFrame() {
   state_.warning.clear();
@@ -155,7 +157,7 @@ void Simulation::Reset() {
   alarm_.clear();
   state_.warning.clear();
   SpawnParticles(scene_, model_.params, state_.particles);
-  solver_->InitState(state_);
+  solver_->Reset(state_.particles.size());
   UploadParticles();
   state_.time = 0;
   state_.step = 0;
@@ -163,29 +165,35 @@ void Simulation::Reset() {
 }
 
 size_t Checkpoint::bytes() const {
-  return sizeof(Checkpoint) + id.capacity() * sizeof(uint32_t) +
-         (position.capacity() + velocity.capacity()) * sizeof(Vec3) +
-         (density_stiffness.capacity() + divergence_stiffness.capacity()) * sizeof(Real);
+  size_t bytes = sizeof(Checkpoint) + id.capacity() * sizeof(uint32_t) +
+                 (position.capacity() + velocity.capacity()) * sizeof(Vec3);
+  for (const SolverArray& array : solver_arrays) {
+    bytes += sizeof(SolverArray) + array.name.capacity() + array.values.capacity() * sizeof(Real);
+  }
+  return bytes;
 }
 
 Checkpoint Simulation::SaveCheckpoint() const {
-  if (gpu_ && host_stale_) {
+  Checkpoint checkpoint;
+  checkpoint.params = model_.params;
+  checkpoint.time = state_.time;
+  checkpoint.step = state_.step;
+  checkpoint.frame = state_.frame;
+  if (gpu_) {
     // Only what the checkpoint holds crosses from the GPU; the host copy stays as it was.
     ParticleArrays p;
-    gpu_->DownloadCheckpointArrays(p);
-    return Checkpoint{model_.params,
-                      state_.time,
-                      state_.step,
-                      state_.frame,
-                      std::move(p.id),
-                      std::move(p.position),
-                      std::move(p.velocity),
-                      std::move(p.density_stiffness),
-                      std::move(p.divergence_stiffness)};
+    gpu_->DownloadCheckpointArrays(p, checkpoint.solver_arrays);
+    checkpoint.id = std::move(p.id);
+    checkpoint.position = std::move(p.position);
+    checkpoint.velocity = std::move(p.velocity);
+    return checkpoint;
   }
   const ParticleArrays& p = state_.particles;
-  return Checkpoint{model_.params, state_.time, state_.step,         state_.frame,          p.id,
-                    p.position,    p.velocity,  p.density_stiffness, p.divergence_stiffness};
+  checkpoint.id = p.id;
+  checkpoint.position = p.position;
+  checkpoint.velocity = p.velocity;
+  checkpoint.solver_arrays = solver_->SaveArrays();
+  return checkpoint;
 }
 
 void Simulation::RestoreCheckpoint(const Checkpoint& checkpoint) {
@@ -198,12 +206,15 @@ void Simulation::RestoreCheckpoint(const Checkpoint& checkpoint) {
   std::copy(checkpoint.id.begin(), checkpoint.id.end(), p.id.begin());
   std::copy(checkpoint.position.begin(), checkpoint.position.end(), p.position.begin());
   std::copy(checkpoint.velocity.begin(), checkpoint.velocity.end(), p.velocity.begin());
-  p.density_stiffness = checkpoint.density_stiffness;
-  p.divergence_stiffness = checkpoint.divergence_stiffness;
   state_.time = checkpoint.time;
   state_.step = checkpoint.step;
   state_.frame = checkpoint.frame;
-  UploadParticles();
+  if (gpu_) {
+    UploadParticles(checkpoint.solver_arrays);
+  } else {
+    solver_->RestoreArrays(checkpoint.solver_arrays, p.size());
+    UploadParticles();
+  }
 }
 
 bool Simulation::SetParam(std::string_view name, double value) {

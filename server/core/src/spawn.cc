@@ -91,7 +91,6 @@ void SpawnParticles(const Scene& scene, const Params& params, ParticleArrays& pa
           if (InsideObstacle(scene, pos, obstacle_margin)) continue;
           particles.id[i] = static_cast<uint32_t>(i);
           particles.position[i] = pos.cast<Real>();
-          particles.predicted[i] = particles.position[i];
           particles.velocity[i] = block.velocity.cast<Real>();
           ++i;
         }
@@ -100,9 +99,7 @@ void SpawnParticles(const Scene& scene, const Params& params, ParticleArrays& pa
   }
   particles.Resize(i);  // less the points inside obstacles
   std::fill(particles.density.begin(), particles.density.end(), Real(0));
-  std::fill(particles.near_density.begin(), particles.near_density.end(), Real(0));
   std::fill(particles.pressure.begin(), particles.pressure.end(), Real(0));
-  std::fill(particles.near_pressure.begin(), particles.near_pressure.end(), Real(0));
 }
 
 double SpawnParticleRadius(const Scene& scene, const Params& params) {

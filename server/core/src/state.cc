@@ -8,11 +8,8 @@ void ParticleArrays::Resize(size_t n) {
   id.resize(n);
   position.resize(n);
   velocity.resize(n);
-  predicted.resize(n);
   density.resize(n);
-  near_density.resize(n);
   pressure.resize(n);
-  near_pressure.resize(n);
 }
 
 namespace {

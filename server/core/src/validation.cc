@@ -182,7 +182,7 @@ HydrostaticResult RunHydrostaticTank(const ValidationOptions& options) {
   }
   result.bottom_layer_height = in_bottom ? bottom / in_bottom : 0;
   result.settling = (start_height - mean_height(p)) / d;
-  result.capped_solves = sim.state().solver_stats.capped_solves;
+  result.capped_solves = sim.solver_stats().capped_solves;
   return result;
 }
 

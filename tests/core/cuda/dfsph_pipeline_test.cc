@@ -41,8 +41,8 @@ TEST(DfsphGpuTest, TheFirstStepsMatchTheCpusSolves) {
     cpu.Step();
     gpu.Step();
     EXPECT_EQ(gpu.last_dt(), cpu.last_dt()) << "step " << i + 1;
-    const State::SolverStats& c = cpu.state().solver_stats;
-    const State::SolverStats& g = gpu.state().solver_stats;
+    const SolverStats c = cpu.solver_stats();
+    const SolverStats g = gpu.solver_stats();
     EXPECT_GE(g.density_iterations, 2);
     EXPECT_GE(g.divergence_iterations, 2);
     EXPECT_NEAR(g.density_iterations, c.density_iterations, 1) << "step " << i + 1;

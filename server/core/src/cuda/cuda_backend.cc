@@ -3,7 +3,9 @@
 #include <algorithm>
 #include <cmath>
 #include <memory>
+#include <span>
 #include <string>
+#include <vector>
 
 #include "cuda/dfsph_pipeline.h"
 #include "cuda/seed_pipeline.h"
@@ -82,18 +84,17 @@ class SeedGpuBackend final : public GpuBackend {
     return pipeline_.Configure(config);
   }
 
-  void Upload(const ParticleArrays& p) override {
+  void Upload(const ParticleArrays& p, std::span<const SolverArray>) override {
     pipeline_.Upload(p.size(), p.id.data(), Floats(p.position), Floats(p.velocity));
   }
 
   void Download(ParticleArrays& p) const override {
     p.Resize(pipeline_.size());
-    pipeline_.Download(p.id.data(), Floats(p.position), Floats(p.velocity), Floats(p.predicted),
-                       p.density.data(), p.near_density.data(), p.pressure.data(),
-                       p.near_pressure.data());
+    pipeline_.Download(p.id.data(), Floats(p.position), Floats(p.velocity), nullptr,
+                       p.density.data(), nullptr, p.pressure.data(), nullptr);
   }
 
-  void DownloadCheckpointArrays(ParticleArrays& p) const override {
+  void DownloadCheckpointArrays(ParticleArrays& p, std::vector<SolverArray>&) const override {
     const size_t n = pipeline_.size();
     p.id.resize(n), p.position.resize(n), p.velocity.resize(n);
     pipeline_.Download(p.id.data(), Floats(p.position), Floats(p.velocity), nullptr, nullptr,
@@ -191,7 +192,7 @@ class WcsphGpuBackend final : public GpuBackend {
     return pipeline_.Configure(config, Cloud(boundary));
   }
 
-  void Upload(const ParticleArrays& p) override {
+  void Upload(const ParticleArrays& p, std::span<const SolverArray>) override {
     pipeline_.Upload(p.size(), p.id.data(), Floats(p.position), Floats(p.velocity));
   }
 
@@ -201,7 +202,7 @@ class WcsphGpuBackend final : public GpuBackend {
                        p.pressure.data());
   }
 
-  void DownloadCheckpointArrays(ParticleArrays& p) const override {
+  void DownloadCheckpointArrays(ParticleArrays& p, std::vector<SolverArray>&) const override {
     const size_t n = pipeline_.size();
     p.id.resize(n), p.position.resize(n), p.velocity.resize(n);
     pipeline_.Download(p.id.data(), Floats(p.position), Floats(p.velocity), nullptr, nullptr);
@@ -253,31 +254,32 @@ class DfsphGpuBackend final : public GpuBackend {
     return pipeline_.Configure(config, Cloud(boundary));
   }
 
-  void Upload(const ParticleArrays& p) override {
-    // A state the solver did not initialise starts without a warm start (dfsph::SortIntoGrid).
-    const bool warm =
-        p.density_stiffness.size() == p.size() && p.divergence_stiffness.size() == p.size();
-    const std::vector<Real> zeros(warm ? 0 : p.size(), Real(0));
-    pipeline_.Upload(p.size(), p.id.data(), Floats(p.position), Floats(p.velocity),
-                     warm ? p.density_stiffness.data() : zeros.data(),
-                     warm ? p.divergence_stiffness.data() : zeros.data());
+  void Upload(const ParticleArrays& p, std::span<const SolverArray> solver_arrays) override {
+    // An array the checkpoint does not hold starts cold, as on the CPU
+    // (BenderKoschierSolver::RestoreArrays).
+    const size_t n = p.size();
+    const std::vector<Real> zeros(n, Real(0));
+    const auto* density = FindSolverArray(solver_arrays, dfsph::kDensityStiffness, n);
+    const auto* divergence = FindSolverArray(solver_arrays, dfsph::kDivergenceStiffness, n);
+    pipeline_.Upload(n, p.id.data(), Floats(p.position), Floats(p.velocity),
+                     (density ? *density : zeros).data(),
+                     (divergence ? *divergence : zeros).data());
   }
 
   void Download(ParticleArrays& p) const override {
     p.Resize(pipeline_.size());
-    p.density_stiffness.resize(pipeline_.size());
-    p.divergence_stiffness.resize(pipeline_.size());
     pipeline_.Download(p.id.data(), Floats(p.position), Floats(p.velocity), p.density.data(),
-                       p.pressure.data(), p.density_stiffness.data(),
-                       p.divergence_stiffness.data());
+                       p.pressure.data(), nullptr, nullptr);
   }
 
-  void DownloadCheckpointArrays(ParticleArrays& p) const override {
+  void DownloadCheckpointArrays(ParticleArrays& p,
+                                std::vector<SolverArray>& solver_arrays) const override {
     const size_t n = pipeline_.size();
     p.id.resize(n), p.position.resize(n), p.velocity.resize(n);
-    p.density_stiffness.resize(n), p.divergence_stiffness.resize(n);
+    solver_arrays = {{std::string(dfsph::kDensityStiffness), std::vector<Real>(n)},
+                     {std::string(dfsph::kDivergenceStiffness), std::vector<Real>(n)}};
     pipeline_.Download(p.id.data(), Floats(p.position), Floats(p.velocity), nullptr, nullptr,
-                       p.density_stiffness.data(), p.divergence_stiffness.data());
+                       solver_arrays[0].values.data(), solver_arrays[1].values.data());
   }
 
   void DownloadById(float* position, float* velocity, float* density) const override {
@@ -287,7 +289,7 @@ class DfsphGpuBackend final : public GpuBackend {
   StepReport Step(const Model& model, State& state) override {
     const Params& prm = model.params;
     const Real gravity = Real(physical::GravityAt(prm, state.time));
-    State::SolverStats& stats = state.solver_stats;
+    SolverStats& stats = stats_;
     const uint64_t step = state.step + 1;
     // DivergenceSolve's step: the one the time_step pass will choose from these velocities.
     const float speed2 = pipeline_.Prepare(gravity);
@@ -320,20 +322,22 @@ class DfsphGpuBackend final : public GpuBackend {
   }
 
   uint64_t DeviceBytes() const override { return pipeline_.DeviceBytes(); }
+  SolverStats stats() const override { return stats_; }
 
  private:
-  // A solve's statistics into state.solver_stats, and its warning when it stopped at the cap.
-  static void Record(const cuda::SolveResult& result, const char* solve, double tolerance,
-                     uint64_t step, int& iterations, double& error, State& state) {
+  // A solve's statistics into stats_, and its warning when it stopped at the cap.
+  void Record(const cuda::SolveResult& result, const char* solve, double tolerance, uint64_t step,
+              int& iterations, double& error, State& state) {
     iterations = result.iterations;
     error = result.error;
     if (result.capped) {
-      ++state.solver_stats.capped_solves;
+      ++stats_.capped_solves;
       state.warning = dfsph::CapWarning(solve, result.iterations, result.error, tolerance, step);
     }
   }
 
   cuda::DfsphPipeline pipeline_;
+  SolverStats stats_;
 };
 
 }  // namespace

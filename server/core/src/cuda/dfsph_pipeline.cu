@@ -39,7 +39,7 @@ struct Solver {
   float *alpha, *kappa, *error, *kappa_sum;
   const uint32_t *fluid_begin, *wall_begin;
   Pair *fluid_pairs, *wall_pairs;
-  // The walls' fluid neighbours (State::BoundaryNeighbors), b's in [bn_begin[b], bn_begin[b+1]).
+  // The walls' fluid neighbours (dfsph::BoundaryNeighbors), b's in [bn_begin[b], bn_begin[b+1]).
   const uint32_t* bn_begin;
   const uint32_t* bn_fluid;
   float* bn_weight;

@@ -28,6 +28,14 @@ const std::array kSolvers = {
 
 std::span<const SolverInfo> SolverRegistry() { return kSolvers; }
 
+const std::vector<Real>* FindSolverArray(std::span<const SolverArray> arrays, std::string_view name,
+                                         size_t size) {
+  for (const SolverArray& array : arrays) {
+    if (array.name == name) return array.values.size() == size ? &array.values : nullptr;
+  }
+  return nullptr;
+}
+
 const SolverInfo& FindSolver(std::string_view name) {
   for (const SolverInfo& info : kSolvers) {
     if (info.name == name) return info;

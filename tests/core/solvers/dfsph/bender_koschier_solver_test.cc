@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 #include <omp.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <map>
@@ -20,7 +21,14 @@
 namespace dysa {
 namespace {
 
+using dfsph::BenderKoschierData;
+using dfsph::NeighborPairs;
 using dysa::testing::WithThreads;
+
+// dfsph's own data (pair lists, warm start) of a CPU simulation.
+const BenderKoschierData& DataOf(const Simulation& sim) {
+  return dynamic_cast<const dfsph::BenderKoschierSolver&>(*sim.solver()).data();
+}
 
 // The small dam break of becker_teschner_solver_test: 600 particles past a sphere and a box.
 Scene DamScene() {
@@ -57,7 +65,8 @@ TEST(DfsphPairListTest, ListsEveryPairWithinTheSupportOnce) {
   Simulation sim(DamScene());
   for (int i = 0; i < 30; ++i) sim.Step();
   const State& state = sim.state();
-  const NeighborPairs& pairs = state.fluid_pairs;
+  const BenderKoschierData& data = DataOf(sim);
+  const NeighborPairs& pairs = data.fluid_pairs;
   const size_t n = state.particles.size();
   ASSERT_EQ(pairs.begin.size(), n + 1);
   ASSERT_EQ(pairs.other.size(), pairs.begin[n]);
@@ -91,7 +100,7 @@ TEST(DfsphPairListTest, ListsEveryPairWithinTheSupportOnce) {
   }
   EXPECT_EQ(found, pairs.other.size());
   EXPECT_GT(found, 20 * n);  // a 3D block: about 30 neighbours each
-  EXPECT_GT(state.boundary_pairs.other.size(), 0u);
+  EXPECT_GT(data.boundary_pairs.other.size(), 0u);
 }
 
 TEST(DfsphPairListTest, TheLayoutDoesNotDependOnTheThreadCount) {
@@ -99,7 +108,7 @@ TEST(DfsphPairListTest, TheLayoutDoesNotDependOnTheThreadCount) {
     return WithThreads(threads, [] {
       Simulation sim(DamScene());
       for (int i = 0; i < 20; ++i) sim.Step();
-      const State& s = sim.state();
+      const BenderKoschierData& s = DataOf(sim);
       return std::make_tuple(s.fluid_pairs.begin, s.fluid_pairs.other, s.boundary_pairs.begin,
                              s.boundary_pairs.other);
     });
@@ -122,11 +131,11 @@ TEST(DfsphWarmStartTest, ARestingColumnNeedsFewerIterations) {
     uint64_t total = 0;
     while (sim.state().time < 0.4) {
       sim.Step(0.4);
-      total += uint64_t(sim.state().solver_stats.density_iterations +
-                        sim.state().solver_stats.divergence_iterations);
+      total += uint64_t(sim.solver_stats().density_iterations +
+                        sim.solver_stats().divergence_iterations);
     }
-    EXPECT_EQ(sim.state().solver_stats.capped_solves, 0u) << "warm_start " << warm_start;
-    EXPECT_LT(sim.state().solver_stats.density_error, 1e-4) << "warm_start " << warm_start;
+    EXPECT_EQ(sim.solver_stats().capped_solves, 0u) << "warm_start " << warm_start;
+    EXPECT_LT(sim.solver_stats().density_error, 1e-4) << "warm_start " << warm_start;
     return total;
   };
   const uint64_t cold = iterations(0);
@@ -149,7 +158,7 @@ TEST(DfsphBoundaryTest, SolvesConvergeAndNoParticleLeaks) {
   for (int f = 0; f < 24; ++f) {  // 0.4 s
     sim.StepFrame();
     ASSERT_TRUE(StateIsFinite(sim.state().particles));
-    const State::SolverStats& stats = sim.state().solver_stats;
+    const SolverStats stats = sim.solver_stats();
     ASSERT_EQ(stats.capped_solves, 0u) << "frame " << f;
     ASSERT_LE(stats.density_error, sim.params().density_tolerance) << "frame " << f;
     max_iterations = std::max(max_iterations, stats.density_iterations);
@@ -166,14 +175,43 @@ TEST(DfsphBoundaryTest, SolvesConvergeAndNoParticleLeaks) {
   EXPECT_GE(max_iterations, 2);  // the solve did work
 }
 
+// The checkpoint hook (Solver::SaveArrays): a checkpoint holds the warm start under its names,
+// one value per particle; the steps after a restore read it (without it they start cold and
+// take another path), and restoring it reproduces them bit for bit.
+TEST(DfsphCheckpointTest, HoldsTheWarmStartWhichTheNextStepsRead) {
+  Simulation sim(DamScene());
+  for (int i = 0; i < 20; ++i) sim.Step();
+  const Checkpoint checkpoint = sim.SaveCheckpoint();
+  const size_t n = sim.particle_count();
+  ASSERT_EQ(checkpoint.solver_arrays.size(), 2u);
+  EXPECT_EQ(checkpoint.solver_arrays[0].name, dfsph::kDensityStiffness);
+  EXPECT_EQ(checkpoint.solver_arrays[1].name, dfsph::kDivergenceStiffness);
+  for (const SolverArray& array : checkpoint.solver_arrays) {
+    ASSERT_EQ(array.values.size(), n) << array.name;
+    EXPECT_TRUE(std::any_of(array.values.begin(), array.values.end(), [](Real v) { return v > 0; }))
+        << array.name;
+  }
+  EXPECT_EQ(DataOf(sim).density_stiffness, checkpoint.solver_arrays[0].values);
+  auto steps_from = [&](const Checkpoint& start) {
+    sim.RestoreCheckpoint(start);
+    for (int i = 0; i < 5; ++i) sim.Step();
+    return StateHash(sim.state());
+  };
+  const uint64_t warm = steps_from(checkpoint);
+  Checkpoint cold = checkpoint;
+  cold.solver_arrays.clear();
+  EXPECT_NE(steps_from(cold), warm);
+  EXPECT_EQ(steps_from(checkpoint), warm);
+}
+
 TEST(DfsphDiagnosticsTest, ReachingTheIterationCapIsCounted) {
   Scene scene = DamScene();
   SetParam(scene.params, "max_iterations", 1);
   SetParam(scene.params, "density_tolerance", 1e-7);
   Simulation sim(scene);
   for (int i = 0; i < 20; ++i) sim.Step();
-  EXPECT_GT(sim.state().solver_stats.capped_solves, 0u);
-  EXPECT_EQ(sim.state().solver_stats.density_iterations, 1);
+  EXPECT_GT(sim.solver_stats().capped_solves, 0u);
+  EXPECT_EQ(sim.solver_stats().density_iterations, 1);
   // And said: the run goes on, with a warning that names the limit and what to change.
   EXPECT_THAT(sim.warning(), ::testing::HasSubstr("solve stopped at max_iterations = 1"));
   EXPECT_THAT(sim.warning(), ::testing::HasSubstr("raise max_iterations"));
@@ -183,7 +221,7 @@ TEST(DfsphDiagnosticsTest, ReachingTheIterationCapIsCounted) {
   SetParam(within.params, "cfl_factor", 0.3);
   Simulation converged(within);
   for (int i = 0; i < 20; ++i) converged.Step();
-  EXPECT_EQ(converged.state().solver_stats.capped_solves, 0u);
+  EXPECT_EQ(converged.solver_stats().capped_solves, 0u);
   EXPECT_EQ(converged.warning(), "");
 }
 

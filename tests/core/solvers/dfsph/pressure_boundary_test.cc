@@ -16,6 +16,7 @@
 
 #include "dysa/core/scene.h"
 #include "dysa/core/simulation.h"
+#include "solvers/dfsph/bender_koschier_solver.h"
 #include "solvers/physical/boundary_particles.h"
 #include "support/with_threads.h"
 
@@ -23,6 +24,11 @@ namespace dysa {
 namespace {
 
 using dysa::testing::WithThreads;
+
+// dfsph's own data (the boundary's neighbours) of a CPU simulation.
+const dfsph::BenderKoschierData& DataOf(const Simulation& sim) {
+  return dynamic_cast<const dfsph::BenderKoschierSolver&>(*sim.solver()).data();
+}
 
 // A resting block 0.2 m deep on the floor of a box, under g = 9.81 from the start.
 Scene RestingBlock() {
@@ -37,7 +43,7 @@ Scene RestingBlock() {
 TEST(PressureBoundaryTest, ListsEveryBoundaryPairOnceFromTheBoundarySide) {
   Simulation sim(RestingBlock());
   sim.Step();
-  const State& s = sim.state();
+  const dfsph::BenderKoschierData& s = DataOf(sim);
   const auto& bn = s.boundary_neighbors;
   std::set<std::pair<uint32_t, uint32_t>> from_fluid, from_boundary;
   for (size_t i = 0; i + 1 < s.boundary_pairs.begin.size(); ++i) {
@@ -60,8 +66,8 @@ TEST(PressureBoundaryTest, ListsEveryBoundaryPairOnceFromTheBoundarySide) {
 TEST(PressureBoundaryTest, ShepardWeightsSumToOneAndAUniformKappaExtrapolatesToItself) {
   Simulation sim(RestingBlock());
   sim.Step();
-  State state = sim.state();
-  const auto& bn = state.boundary_neighbors;
+  const State& state = sim.state();
+  dfsph::BoundaryNeighbors bn = DataOf(sim).boundary_neighbors;
   int with_fluid = 0;
   for (size_t b = 0; b + 1 < bn.begin.size(); ++b) {
     if (bn.begin[b] == bn.begin[b + 1]) continue;
@@ -72,7 +78,7 @@ TEST(PressureBoundaryTest, ShepardWeightsSumToOneAndAUniformKappaExtrapolatesToI
   }
   EXPECT_GT(with_fluid, 100);
   const std::vector<Real> uniform(state.particles.size(), Real(3.5));
-  dfsph::ExtrapolateKappa(uniform.data(), state);
+  dfsph::ExtrapolateKappa(uniform.data(), bn);
   for (size_t b = 0; b + 1 < bn.begin.size(); ++b) {
     const double expected = bn.begin[b] == bn.begin[b + 1] ? 0.0 : 3.5;
     EXPECT_NEAR(bn.kappa[b], expected, 1e-4) << "boundary particle " << b;
@@ -87,10 +93,8 @@ TEST(PressureBoundaryTest, TheHydrostaticPartIsTheHeadAboveTheBoundaryAndNeverNe
   Simulation sim(RestingBlock());
   sim.Step();
   const State& s = sim.state();
-  const Model& model = sim.model();
-  // Sampled as the solver's own: the same samples in the same order.
-  const BoundaryParticles boundary(model, model.params.particle_spacing, model.kernel_support);
-  const auto& bn = s.boundary_neighbors;
+  const BoundaryParticles& boundary = *DataOf(sim).boundary;
+  const auto& bn = DataOf(sim).boundary_neighbors;
   ASSERT_EQ(bn.hydrostatic.size(), boundary.size());
   const double rho_g = 1000 * 9.81;
   int under_floor = 0, above = 0;
@@ -120,7 +124,7 @@ TEST(PressureBoundaryTest, OneAndTwoThreadsListTheSameNeighboursAndWeights) {
     return WithThreads(threads, [] {
       Simulation sim(RestingBlock());
       for (int i = 0; i < 5; ++i) sim.Step();
-      const auto& bn = sim.state().boundary_neighbors;
+      const auto& bn = DataOf(sim).boundary_neighbors;
       return std::make_tuple(bn.begin, bn.fluid, bn.weight, bn.hydrostatic);
     });
   };

@@ -101,10 +101,11 @@ TEST(BoundaryParticlesTest, FlatWallsWeighLikeTheFluidTheyReplace) {
 
 TEST(BoundaryParticlesTest, AFluidLatticeAtRestHasTheRestDensityAtEveryWall) {
   Simulation sim(FilledDomain());
-  const BoundaryParticles boundary(sim.model(), kD, 2 * kD);
-  State& state = const_cast<State&>(sim.state());
+  wcsph::BeckerTeschnerData data;  // the boundary at the scene's spacing kD, support 2 kD
+  data.SampleBoundary(sim.model());
+  State state = sim.state();
   physical::SortIntoGrid(sim.model(), state);
-  wcsph::ComputeDensityAndPressure(sim.model(), boundary, state);
+  wcsph::ComputeDensityAndPressure(sim.model(), data, state);
   const auto& density = state.particles.density;
   ASSERT_EQ(density.size(), 20u * 10 * 5);
   const auto [lo, hi] = std::minmax_element(density.begin(), density.end());
@@ -128,9 +129,11 @@ TEST(BoundaryParticlesTest, APeriodicDomainFilledAtRestHasTheRestDensityEverywhe
   Simulation sim(scene);
   const BoundaryParticles boundary(sim.model(), kD, 2 * kD);
   EXPECT_EQ(boundary.size(), 20u * 6 * 2 * 2);
-  State& state = const_cast<State&>(sim.state());
+  wcsph::BeckerTeschnerData data;
+  data.SampleBoundary(sim.model());
+  State state = sim.state();
   physical::SortIntoGrid(sim.model(), state);
-  wcsph::ComputeDensityAndPressure(sim.model(), boundary, state);
+  wcsph::ComputeDensityAndPressure(sim.model(), data, state);
   const auto& density = state.particles.density;
   ASSERT_EQ(density.size(), 20u * 10 * 6);
   const auto [lo, hi] = std::minmax_element(density.begin(), density.end());

@@ -4,6 +4,8 @@
 // conserved, also across periodic seams; a dropped block settles; particles stay inside the
 // walls and out of obstacles; and the velocity limiter and the viscosity's gain cap keep
 // steps beyond the stability limits bounded.
+#include "solvers/seed/seed_solver.h"
+
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -33,6 +35,11 @@ Scene BasicScene(int particle_quantity) {
 }
 
 using dysa::testing::WithThreads;
+
+// The seed solver's own data (the near densities) of a CPU simulation.
+const seed::SeedData& SeedDataOf(const Simulation& sim) {
+  return dynamic_cast<const seed::SeedSolver&>(*sim.solver()).data();
+}
 
 Vec3d TotalMomentum(const State& state, double mass) {
   Vec3d sum = Vec3d::Zero();
@@ -97,18 +104,19 @@ TEST(PassListTest, ZeroNearPressureDoesNoNearDensityWork) {
   SetParam(scene.params, "near_pressure_multiplier", 0);
   Simulation sim(scene);
   for (int i = 0; i < 10; ++i) sim.Step();
-  const ParticleArrays& p = sim.state().particles;
+  const seed::SeedData& d = SeedDataOf(sim);
   EXPECT_TRUE(
-      std::all_of(p.near_density.begin(), p.near_density.end(), [](Real rho) { return rho == 0; }));
+      std::all_of(d.near_density.begin(), d.near_density.end(), [](Real rho) { return rho == 0; }));
   EXPECT_TRUE(
-      std::all_of(p.near_pressure.begin(), p.near_pressure.end(), [](Real pn) { return pn == 0; }));
+      std::all_of(d.near_pressure.begin(), d.near_pressure.end(), [](Real pn) { return pn == 0; }));
   // The ordinary density was computed.
+  const ParticleArrays& p = sim.state().particles;
   EXPECT_TRUE(std::all_of(p.density.begin(), p.density.end(), [](Real rho) { return rho > 0; }));
 
   // With the near pressure on, the near density is computed.
   Simulation with_near(BasicScene(8));
   with_near.Step();
-  const ParticleArrays& q = with_near.state().particles;
+  const seed::SeedData& q = SeedDataOf(with_near);
   EXPECT_TRUE(
       std::all_of(q.near_density.begin(), q.near_density.end(), [](Real rho) { return rho > 0; }));
 }
@@ -130,13 +138,13 @@ TEST(PassListTest, NearPressureOffAtRunTimeStopsTheNearDensityWork) {
   Simulation sim(BasicScene(6));
   sim.Step();
   EXPECT_FALSE(sim.SetParam("near_pressure_multiplier", 0));
-  std::vector<Real> before = sim.state().particles.near_density;
+  std::vector<Real> before = SeedDataOf(sim).near_density;
   ASSERT_TRUE(std::any_of(before.begin(), before.end(), [](Real rho) { return rho > 0; }));
   sim.Step();
   sim.Step();
   // No longer computed: the array holds what it held (in whatever order the particles are now
   // stored), or has been cleared.
-  std::vector<Real> after = sim.state().particles.near_density;
+  std::vector<Real> after = SeedDataOf(sim).near_density;
   std::sort(after.begin(), after.end());
   std::sort(before.begin(), before.end());
   const bool cleared = std::all_of(after.begin(), after.end(), [](Real rho) { return rho == 0; });
@@ -144,7 +152,7 @@ TEST(PassListTest, NearPressureOffAtRunTimeStopsTheNearDensityWork) {
   // And back on, it is computed again.
   EXPECT_FALSE(sim.SetParam("near_pressure_multiplier", 2.25));
   sim.Step();
-  const std::vector<Real>& again = sim.state().particles.near_density;
+  const std::vector<Real>& again = SeedDataOf(sim).near_density;
   EXPECT_TRUE(std::all_of(again.begin(), again.end(), [](Real rho) { return rho > 0; }));
 }
 

@@ -29,9 +29,9 @@ struct PassProfile {
 
 // Everything a simulation needs to carry on from a given moment, bit for bit: the parameters
 // and the particles' ids, positions and velocities in storage order (the order decides the next
-// neighbour sort, so restoring it reproduces the following steps exactly), and the warm start of
-// a solver that has one (dfsph; empty otherwise). Every other per-particle array is recomputed
-// by the step before it is read.
+// neighbour sort, so restoring it reproduces the following steps exactly), and the arrays the
+// solver carries from step to step (Solver::SaveArrays: dfsph's warm start; none for the
+// others). Every other per-particle array is recomputed by the step before it is read.
 struct Checkpoint {
   Params params;
   double time = 0;
@@ -40,8 +40,7 @@ struct Checkpoint {
   std::vector<uint32_t> id;
   std::vector<Vec3> position;
   std::vector<Vec3> velocity;
-  std::vector<Real> density_stiffness;
-  std::vector<Real> divergence_stiffness;
+  std::vector<SolverArray> solver_arrays;
 
   size_t bytes() const;
 };
@@ -69,6 +68,12 @@ class Simulation {
   size_t particle_count() const { return particle_count_; }
   std::span<const PassProfile> profile() const { return profile_; }
   std::vector<std::string> PassNames() const;
+  // The latest step's solver diagnostics (iterations, errors of an iterative solver), on any
+  // device.
+  SolverStats solver_stats() const;
+  // The CPU's solver and, through its type (solvers/*), its own data: for tests and
+  // diagnostics. Null on a GPU, whose backend keeps that data in device memory.
+  const Solver* solver() const { return gpu_ ? nullptr : solver_.get(); }
 
   // Per-particle arrays in particle-id order (id k at index k): each span is empty (not read),
   // or 3 * particle_count() floats (positions, velocities: x, y, z interleaved), or
@@ -130,8 +135,9 @@ class Simulation {
   void RecordPassTime(size_t pass, double ms);
   // After a step: the alarm when it diverged, from `finite` and the step's dt.
   void CheckStep(bool finite, double start_time);
-  // The particles changed on the host (spawn, restore): hand them to the GPU.
-  void UploadParticles();
+  // The particles changed on the host (spawn, restore): hand them and the solver's arrays
+  // (none: a cold start) to the GPU.
+  void UploadParticles(std::span<const SolverArray> solver_arrays = {});
 
   Scene scene_;
   Device device_;

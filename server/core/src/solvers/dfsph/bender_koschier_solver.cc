@@ -19,9 +19,9 @@
 namespace dysa::dfsph {
 namespace {
 
-// The solvers' per-particle arrays, in state.solver_scratch: alpha_i, kappa_i of the current
-// iteration, the error of particle i, and sum kappa_i dt over the iterations both solves
-// applied this step (for p_i).
+// The solves' per-particle arrays, in data.work: alpha_i, kappa_i of the current iteration, the
+// error of particle i, and sum kappa_i dt over the iterations both solves applied this step
+// (for p_i).
 struct Work {
   Real* alpha;
   Real* kappa;
@@ -29,10 +29,10 @@ struct Work {
   Real* kappa_sum;
 };
 
-Work Arrays(State& state) {
+Work Arrays(BenderKoschierData& data, const State& state) {
   const size_t n = state.particles.size();
-  state.solver_scratch.resize(4 * n);
-  Real* base = state.solver_scratch.data();
+  data.work.resize(4 * n);
+  Real* base = data.work.data();
   return {base, base + n, base + 2 * n, base + 3 * n};
 }
 
@@ -69,17 +69,18 @@ void JoinPairBlocks(const PairBlock& block, int64_t lo, int64_t hi, std::vector<
   std::copy(block.grad_w.begin(), block.grad_w.end(), pairs.grad_w.begin() + base);
 }
 
-// rho_i and alpha_i; lists the step's pairs (state.fluid_pairs, state.boundary_pairs).
-void DensityAndFactor(const Model& model, const BoundaryParticles& boundary, State& state) {
+// rho_i and alpha_i; lists the step's pairs (data.fluid_pairs, data.boundary_pairs).
+void DensityAndFactor(const Model& model, BenderKoschierData& data, State& state) {
+  const BoundaryParticles& boundary = *data.boundary;
   ParticleArrays& p = state.particles;
-  const Work w = Arrays(state);
+  const Work w = Arrays(data, state);
   const Real support = Real(model.kernel_support);
   const Real mass = Real(model.particle_mass);
   const Real rho0 = Real(model.params.rest_density);
   const Real* volume = boundary.padded_volume();
   const int64_t n = int64_t(p.size());
-  NeighborPairs& fluid_pairs = state.fluid_pairs;
-  NeighborPairs& wall_pairs = state.boundary_pairs;
+  NeighborPairs& fluid_pairs = data.fluid_pairs;
+  NeighborPairs& wall_pairs = data.boundary_pairs;
   fluid_pairs.begin.resize(n + 1);
   wall_pairs.begin.resize(n + 1);
   // The blocks' sizes, one per thread, kept by the calling thread like the blocks by theirs.
@@ -135,14 +136,14 @@ void DensityAndFactor(const Model& model, const BoundaryParticles& boundary, Sta
 
 // D rho_i / Dt = sum_j m (v_i - v_j) . grad W_ij + sum_b Psi_b v_i . grad W_ib, over the
 // step's pairs (the grid's neighbours at distance > 0, in the grid's order).
-Real DensityRate(const Model& model, const BoundaryParticles& boundary, const State& state,
+Real DensityRate(const Model& model, const BenderKoschierData& data, const State& state,
                  int64_t i) {
   const ParticleArrays& p = state.particles;
   const Real mass = Real(model.particle_mass);
   const Real rho0 = Real(model.params.rest_density);
-  const Real* volume = boundary.padded_volume();
-  const NeighborPairs& fluid = state.fluid_pairs;
-  const NeighborPairs& wall = state.boundary_pairs;
+  const Real* volume = data.boundary->padded_volume();
+  const NeighborPairs& fluid = data.fluid_pairs;
+  const NeighborPairs& wall = data.boundary_pairs;
   const Vec3& v = p.velocity[i];
   Real rate = 0;
   for (size_t k = fluid.begin[i]; k < fluid.begin[i + 1]; ++k) {
@@ -162,21 +163,21 @@ constexpr double kMaxCorrection = 0.05;
 //            + sum_b Psi_b (kappa_i / rho_i + kappa_b / rho_b) grad W_ib], from the kappa of
 // every particle, extrapolated to the boundary (pressure_boundary.h);
 // kappa_sum_i += kappa_i dt and applied_i += kappa_i (the solve's total, for its warm start).
-void ApplyKappa(const Model& model, const BoundaryParticles& boundary, State& state, Real dt,
+void ApplyKappa(const Model& model, BenderKoschierData& data, State& state, Real dt,
                 Real* applied) {
   ParticleArrays& p = state.particles;
-  const Work w = Arrays(state);
+  const Work w = Arrays(data, state);
   const Real mass = Real(model.particle_mass);
   const Real rho0 = Real(model.params.rest_density);
-  const Real* volume = boundary.padded_volume();
+  const Real* volume = data.boundary->padded_volume();
   const int64_t n = int64_t(p.size());
   // kappa_j / rho_j, read by the neighbours; in the error array, free until the next iteration.
 #pragma omp parallel for schedule(static)
   for (int64_t j = 0; j < n; ++j) w.error[j] = w.kappa[j] / p.density[j];
-  ExtrapolateKappa(w.error, state);
-  const Real* kappa_b = state.boundary_neighbors.kappa.data();
-  const NeighborPairs& fluid_pairs = state.fluid_pairs;
-  const NeighborPairs& wall_pairs = state.boundary_pairs;
+  ExtrapolateKappa(w.error, data.boundary_neighbors);
+  const Real* kappa_b = data.boundary_neighbors.kappa.data();
+  const NeighborPairs& fluid_pairs = data.fluid_pairs;
+  const NeighborPairs& wall_pairs = data.boundary_pairs;
 #pragma omp parallel for schedule(static)
   for (int64_t i = 0; i < n; ++i) {
     const Real ki = w.error[i];
@@ -200,10 +201,10 @@ void ApplyKappa(const Model& model, const BoundaryParticles& boundary, State& st
 // that are being compressed now start warm (as in SPlisHSPlasH), and by at most the one-iteration
 // bound kMaxCorrection: a particle that has already moved apart would otherwise be pushed again
 // by its previous pressure (tests/stress: particles started on top of each other blew apart).
-void StartWarmStart(const Model& model, const BoundaryParticles& boundary, State& state, Real dt,
+void StartWarmStart(const Model& model, BenderKoschierData& data, State& state, Real dt,
                     bool density_solve, Real* carried) {
   const ParticleArrays& p = state.particles;
-  const Work w = Arrays(state);
+  const Work w = Arrays(data, state);
   const int64_t n = int64_t(p.size());
   const Real rho0 = Real(model.params.rest_density);
   const Real scale = Real(model.params.warm_start) / (density_solve ? dt * dt : dt);
@@ -217,7 +218,7 @@ void StartWarmStart(const Model& model, const BoundaryParticles& boundary, State
   for (int64_t i = 0; i < n; ++i) {
     Real kappa = 0;
     if (carried[i] > 0) {  // the rate only where there is something to start from
-      const Real rate = DensityRate(model, boundary, state, i);
+      const Real rate = DensityRate(model, data, state, i);
       const bool compressing =
           density_solve ? p.density[i] + dt * rate > rho0 : rate > 0 && p.density[i] >= rho0;
       if (compressing) kappa = std::min(scale * carried[i], bound * w.alpha[i]);
@@ -226,7 +227,7 @@ void StartWarmStart(const Model& model, const BoundaryParticles& boundary, State
     carried[i] = 0;
     any = any || kappa > 0;
   }
-  if (any) ApplyKappa(model, boundary, state, dt, carried);
+  if (any) ApplyKappa(model, data, state, dt, carried);
 }
 
 void FinishWarmStart(const State& state, Real dt, bool density_solve, Real* carried) {
@@ -250,9 +251,9 @@ double MaxSpeed(const ParticleArrays& p) {
   return std::sqrt(double(v2));
 }
 
-void DivergenceSolve(const Model& model, const BoundaryParticles& boundary, State& state) {
+void DivergenceSolve(const Model& model, BenderKoschierData& data, State& state) {
   ParticleArrays& p = state.particles;
-  const Work w = Arrays(state);
+  const Work w = Arrays(data, state);
   const int64_t n = int64_t(p.size());
   const double rho0 = model.params.rest_density;
   // The step these velocities will be integrated with, as the time_step pass will choose it
@@ -262,9 +263,9 @@ void DivergenceSolve(const Model& model, const BoundaryParticles& boundary, Stat
                model.params.max_time_step);
   const Real inv_dt = Real(1 / dt);
   std::fill(w.kappa_sum, w.kappa_sum + n, Real(0));
-  Real* carried = p.divergence_stiffness.data();
-  StartWarmStart(model, boundary, state, Real(dt), false, carried);
-  State::SolverStats& stats = state.solver_stats;
+  Real* carried = data.divergence_stiffness.data();
+  StartWarmStart(model, data, state, Real(dt), false, carried);
+  SolverStats& stats = data.stats;
   int iteration = 0;
   for (;; ++iteration) {
 #pragma omp parallel for schedule(static)
@@ -274,9 +275,8 @@ void DivergenceSolve(const Model& model, const BoundaryParticles& boundary, Stat
       // the density solve takes over (SPlisHSPlasH leaves out particles with too few neighbours
       // for the same reason). Held too, spray pushed apart spray and gained energy: particles
       // started on top of each other reached 12 times what the start released (stress_bench).
-      const Real rate = p.density[i] >= rho0
-                            ? std::max(DensityRate(model, boundary, state, i), Real(0))
-                            : Real(0);
+      const Real rate =
+          p.density[i] >= rho0 ? std::max(DensityRate(model, data, state, i), Real(0)) : Real(0);
       w.error[i] = rate;
       w.kappa[i] = rate * w.alpha[i] * inv_dt;
     }
@@ -288,28 +288,28 @@ void DivergenceSolve(const Model& model, const BoundaryParticles& boundary, Stat
                                  model.params.divergence_tolerance, state.step + 1);
       break;
     }
-    ApplyKappa(model, boundary, state, Real(dt), carried);
+    ApplyKappa(model, data, state, Real(dt), carried);
   }
   FinishWarmStart(state, Real(dt), false, carried);
   stats.divergence_iterations = iteration;
 }
 
-void DensitySolve(const Model& model, const BoundaryParticles& boundary, State& state) {
+void DensitySolve(const Model& model, BenderKoschierData& data, State& state) {
   ParticleArrays& p = state.particles;
-  const Work w = Arrays(state);
+  const Work w = Arrays(data, state);
   const int64_t n = int64_t(p.size());
   const Real rho0 = Real(model.params.rest_density);
   const Real dt = Real(state.dt);
   const Real inv_dt2 = 1 / (dt * dt);
-  Real* carried = p.density_stiffness.data();
-  StartWarmStart(model, boundary, state, dt, true, carried);
-  State::SolverStats& stats = state.solver_stats;
+  Real* carried = data.density_stiffness.data();
+  StartWarmStart(model, data, state, dt, true, carried);
+  SolverStats& stats = data.stats;
   int iteration = 0;
   for (;; ++iteration) {
 #pragma omp parallel for schedule(static)
     for (int64_t i = 0; i < n; ++i) {
       // Only compression is an error: a free surface's kernel deficit is not.
-      const Real predicted = p.density[i] + dt * DensityRate(model, boundary, state, i);
+      const Real predicted = p.density[i] + dt * DensityRate(model, data, state, i);
       const Real excess = std::max(predicted - rho0, Real(0));
       w.error[i] = excess;
       // A compression far beyond any the solve meets in a running fluid (particles started on
@@ -326,7 +326,7 @@ void DensitySolve(const Model& model, const BoundaryParticles& boundary, State& 
                                  model.params.density_tolerance, state.step + 1);
       break;
     }
-    ApplyKappa(model, boundary, state, dt, carried);
+    ApplyKappa(model, data, state, dt, carried);
   }
   FinishWarmStart(state, dt, true, carried);
   stats.density_iterations = iteration;
@@ -341,17 +341,17 @@ void DensitySolve(const Model& model, const BoundaryParticles& boundary, State& 
 }
 
 // Gravity, added to the walls' hydrostatic acceleration of the boundary_pressure pass.
-void AddGravity(const Model& model, State& state) {
+void AddGravity(const Model& model, BenderKoschierData& data, State& state) {
   const Vec3 g(0, Real(physical::GravityAt(model.params, state.time)), 0);
-  for (Vec3& a : state.acceleration) a += g;
+  for (Vec3& a : data.acceleration) a += g;
 }
 
-void PredictVelocities(const Model&, State& state) {
+void PredictVelocities(const Model&, BenderKoschierData& data, State& state) {
   ParticleArrays& p = state.particles;
   const Real dt = Real(state.dt);
   const int64_t n = int64_t(p.size());
 #pragma omp parallel for schedule(static)
-  for (int64_t i = 0; i < n; ++i) p.velocity[i] += state.acceleration[i] * dt;
+  for (int64_t i = 0; i < n; ++i) p.velocity[i] += data.acceleration[i] * dt;
 }
 
 // x += v dt, with the displacement of a step limited to one particle spacing: a particle that
@@ -381,16 +381,16 @@ void IntegratePositions(const Model& model, State& state) {
 }
 
 // The neighbour sort, which also carries the warm start along with the particles.
-void SortIntoGrid(const Model& model, State& state) {
+void SortIntoGrid(const Model& model, BenderKoschierData& data, State& state) {
   physical::SortIntoGrid(model, state);
-  ParticleArrays& p = state.particles;
-  if (p.density_stiffness.size() != p.size() || p.divergence_stiffness.size() != p.size()) {
-    p.density_stiffness.assign(p.size(), Real(0));  // a state the solver did not initialise
-    p.divergence_stiffness.assign(p.size(), Real(0));
+  const size_t n = state.particles.size();
+  if (data.density_stiffness.size() != n || data.divergence_stiffness.size() != n) {
+    data.density_stiffness.assign(n, Real(0));  // particles the solver did not start: cold
+    data.divergence_stiffness.assign(n, Real(0));
   }
   const auto order = state.grid.order();
-  PermuteInPlace(order, p.density_stiffness, state.real_scratch);
-  PermuteInPlace(order, p.divergence_stiffness, state.real_scratch);
+  PermuteInPlace(order, data.density_stiffness, state.real_scratch);
+  PermuteInPlace(order, data.divergence_stiffness, state.real_scratch);
 }
 
 }  // namespace
@@ -415,37 +415,43 @@ std::string SpeedLimitWarning(uint64_t limited, uint64_t step) {
          "cfl_factor or max_time_step, or raise max_iterations)";
 }
 
-void BenderKoschierSolver::InitState(State& state) const {
-  const size_t n = state.particles.size();
-  state.particles.density_stiffness.assign(n, Real(0));
-  state.particles.divergence_stiffness.assign(n, Real(0));
+void BenderKoschierSolver::Reset(size_t particles) {
+  data_.density_stiffness.assign(particles, Real(0));
+  data_.divergence_stiffness.assign(particles, Real(0));
 }
 
-std::vector<Pass> BenderKoschierSolver::BuildPasses(const Model& model) const {
-  const auto boundary = std::make_shared<const BoundaryParticles>(
-      model, model.params.particle_spacing, model.kernel_support);
+std::vector<SolverArray> BenderKoschierSolver::SaveArrays() const {
+  return {{std::string(kDensityStiffness), data_.density_stiffness},
+          {std::string(kDivergenceStiffness), data_.divergence_stiffness}};
+}
+
+void BenderKoschierSolver::RestoreArrays(std::span<const SolverArray> arrays, size_t particles) {
+  Reset(particles);
+  if (const auto* saved = FindSolverArray(arrays, kDensityStiffness, particles)) {
+    data_.density_stiffness = *saved;
+  }
+  if (const auto* saved = FindSolverArray(arrays, kDivergenceStiffness, particles)) {
+    data_.divergence_stiffness = *saved;
+  }
+}
+
+std::vector<Pass> BenderKoschierSolver::BuildPasses(const Model& model) {
+  data_.SampleBoundary(model);
   std::vector<Pass> passes;
-  passes.push_back({"neighbour_grid", SortIntoGrid});
-  passes.push_back(
-      {"density", [boundary](const Model& m, State& s) { DensityAndFactor(m, *boundary, s); }});
-  passes.push_back({"boundary_pressure", [boundary](const Model& m, State& s) {
-                      ListBoundaryNeighbors(m, *boundary, s);
-                    }});
-  passes.push_back({"divergence_solve",
-                    [boundary](const Model& m, State& s) { DivergenceSolve(m, *boundary, s); }});
-  passes.push_back({"external_forces", AddGravity});
+  passes.push_back(SolverPass("neighbour_grid", data_, SortIntoGrid));
+  passes.push_back(SolverPass("density", data_, DensityAndFactor));
+  passes.push_back(SolverPass("boundary_pressure", data_, ListBoundaryNeighbors));
+  passes.push_back(SolverPass("divergence_solve", data_, DivergenceSolve));
+  passes.push_back(SolverPass("external_forces", data_, AddGravity));
   if (model.params.kinematic_viscosity > 0) {
-    passes.push_back({"viscosity", physical::AddViscosity});
-    if (boundary->HasNoSlip()) {
-      passes.push_back({"wall_viscosity", [boundary](const Model& m, State& s) {
-                          physical::AddWallViscosity(m, *boundary, s);
-                        }});
+    passes.push_back(SolverPass("viscosity", data_, physical::AddViscosity));
+    if (data_.boundary->HasNoSlip()) {
+      passes.push_back(SolverPass("wall_viscosity", data_, physical::AddWallViscosity));
     }
   }
-  passes.push_back({"time_step", ChooseIncompressibleTimeStepPass});
-  passes.push_back({"predict_velocity", PredictVelocities});
-  passes.push_back(
-      {"density_solve", [boundary](const Model& m, State& s) { DensitySolve(m, *boundary, s); }});
+  passes.push_back(SolverPass("time_step", data_, ChooseIncompressibleTimeStepPass));
+  passes.push_back(SolverPass("predict_velocity", data_, PredictVelocities));
+  passes.push_back(SolverPass("density_solve", data_, DensitySolve));
   passes.push_back({"integrate", IntegratePositions});
   return passes;
 }

@@ -19,47 +19,60 @@
 //   density      kappa_i = (max(rho*_i, rho0) - rho0) / dt^2 alpha_i with the predicted
 //                rho*_i = rho_i + dt D rho_i / Dt, iterated until mean (rho* - rho0) / rho0 <=
 //                density_tolerance                                                 (eq. 17)
-// each at least twice and at most max_iterations times (state.solver_stats counts the solves
-// that stopped at the cap). The step, in the order of the passes:
+// each at least twice and at most max_iterations times (SolverStats counts the solves that
+// stopped at the cap). The step, in the order of the passes:
 //   neighbours, rho, alpha; the boundary's fluid neighbours; divergence solve on v;
 //   non-pressure accelerations; dt;
 //   v += dt a; density solve; x += dt v.
 // Positions stay put from the density pass to x += dt v, so that pass lists every pair within
-// the support with its grad W (State::fluid_pairs, boundary_pairs), and the solves' sweeps read
-// the lists instead of searching the grid again (the same pairs in the same order: the results
-// are those of a grid search, bit for bit).
-// The pressure reported (p_i, which the probes read) is both solves' velocity change over the
-// step taken as one acceleration, p_i = mu rho_i sum kappa_i dt_solve / dt, with mu the
-// gradient moment of kernels.h as in wcsph.
-// Warm start (2017, Sec. 4.4): each solve first applies the fraction warm_start (0.2, below 1
-// because a solve only adds pressure, kappa >= 0, and could not take an overshoot back) of what
-// it applied in the previous step, then iterates on the error left; the solve stops nearer
-// where it started, so more is faster and less accurate (with 0.5 the tank at 0.02 m is 3.5%
-// off rho0 g (H - y), with 0.2 0.07%; 0.3 failed the stress test of particles started on top
-// of each other: docs/validation.md). The solves' totals are carried
-// per particle as kappa dt^2 and kappa dt (ParticleArrays::density_stiffness,
-// divergence_stiffness), which do not depend on the step size, and permuted with the particles; a
-// checkpoint holds them. Without it (0) every step rebuilds the hydrostatic pressure from zero:
-// twice the iterations for a column at rest (tests/core). The divergence
-// solve's stopping test uses the CFL step of the current velocities (a function of the state), so a
-// checkpoint reproduces the following steps bit for bit. Errors are summed serially in particle
-// order, so the iteration counts do not depend on the thread count.
+// the support with its grad W (BenderKoschierData::fluid_pairs, boundary_pairs), and the solves'
+// sweeps read the lists instead of searching the grid again (the same pairs in the same order: the
+// results are those of a grid search, bit for bit). The solver's data: bender_koschier_data.h. The
+// pressure reported (p_i, which the probes read) is both solves' velocity change over the step
+// taken as one acceleration, p_i = mu rho_i sum kappa_i dt_solve / dt, with mu the gradient moment
+// of kernels.h as in wcsph. Warm start (2017, Sec. 4.4): each solve first applies the fraction
+// warm_start (0.2, below 1 because a solve only adds pressure, kappa >= 0, and could not take an
+// overshoot back) of what it applied in the previous step, then iterates on the error left; the
+// solve stops nearer where it started, so more is faster and less accurate (with 0.5 the tank at
+// 0.02 m is 3.5% off rho0 g (H - y), with 0.2 0.07%; 0.3 failed the stress test of particles
+// started on top of each other: docs/validation.md). The solves' totals are carried per particle as
+// kappa dt^2 and kappa dt (BenderKoschierData::density_stiffness, divergence_stiffness), which do
+// not depend on the step size, and permuted with the particles; a checkpoint holds them
+// (SaveArrays). Without it (0) every step rebuilds the hydrostatic pressure from zero: twice the
+// iterations for a column at rest (tests/core). The divergence solve's stopping test uses the CFL
+// step of the current velocities (a function of the state), so a checkpoint reproduces the
+// following steps bit for bit. Errors are summed serially in particle order, so the iteration
+// counts do not depend on the thread count.
 #pragma once
 
 #include <cstdint>
 #include <memory>
+#include <span>
 #include <string>
+#include <string_view>
+#include <vector>
 
 #include "dysa/core/solver.h"
-#include "solvers/physical/boundary_particles.h"
+#include "solvers/dfsph/bender_koschier_data.h"
 
 namespace dysa::dfsph {
 
 class BenderKoschierSolver final : public Solver {
  public:
-  std::vector<Pass> BuildPasses(const Model& model) const override;
-  void InitState(State& state) const override;
+  std::vector<Pass> BuildPasses(const Model& model) override;
+  void Reset(size_t particles) override;
+  std::vector<SolverArray> SaveArrays() const override;
+  void RestoreArrays(std::span<const SolverArray> arrays, size_t particles) override;
+  SolverStats stats() const override { return data_.stats; }
+  const BenderKoschierData& data() const { return data_; }
+
+ private:
+  BenderKoschierData data_;
 };
+
+// The names of the warm start's arrays in a checkpoint (SolverArray::name).
+inline constexpr std::string_view kDensityStiffness = "density_stiffness";
+inline constexpr std::string_view kDivergenceStiffness = "divergence_stiffness";
 
 std::unique_ptr<Solver> CreateBenderKoschierSolver();
 

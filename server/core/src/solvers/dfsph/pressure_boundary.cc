@@ -9,10 +9,11 @@
 
 namespace dysa::dfsph {
 
-void ListBoundaryNeighbors(const Model& model, const BoundaryParticles& boundary, State& state) {
+void ListBoundaryNeighbors(const Model& model, BenderKoschierData& data, State& state) {
+  const BoundaryParticles& boundary = *data.boundary;
   const ParticleArrays& p = state.particles;
-  const NeighborPairs& pairs = state.boundary_pairs;
-  State::BoundaryNeighbors& bn = state.boundary_neighbors;
+  const NeighborPairs& pairs = data.boundary_pairs;
+  BoundaryNeighbors& bn = data.boundary_neighbors;
   const int64_t n = int64_t(p.size());
   const int64_t nb = int64_t(boundary.size());
   // The transpose, by counting: b's neighbours in fluid order, whatever the thread count.
@@ -24,7 +25,7 @@ void ListBoundaryNeighbors(const Model& model, const BoundaryParticles& boundary
   bn.hydrostatic.resize(size_t(nb));
   bn.kappa.assign(size_t(nb), Real(0));
   {
-    std::vector<size_t>& next = state.boundary_fill;
+    std::vector<size_t>& next = bn.fill;
     next.assign(bn.begin.begin(), bn.begin.end() - 1);
     for (int64_t i = 0; i < n; ++i) {
       for (size_t k = pairs.begin[i]; k < pairs.begin[i + 1]; ++k) {
@@ -56,7 +57,7 @@ void ListBoundaryNeighbors(const Model& model, const BoundaryParticles& boundary
   const Real rho0 = Real(model.params.rest_density);
   const Real mu = Real(model.gradient_moment);
   const Real* volume = boundary.padded_volume();
-  state.acceleration.resize(size_t(n));
+  data.acceleration.resize(size_t(n));
 #pragma omp parallel for schedule(static)
   for (int64_t i = 0; i < n; ++i) {
     Vec3 sum = Vec3::Zero();
@@ -65,12 +66,11 @@ void ListBoundaryNeighbors(const Model& model, const BoundaryParticles& boundary
       sum += (volume[b] * bn.hydrostatic[b]) * pairs.grad_w[k];
     }
     const Real rho = p.density[i];
-    state.acceleration[i] = (-rho0 / (rho * rho * mu)) * sum;
+    data.acceleration[i] = (-rho0 / (rho * rho * mu)) * sum;
   }
 }
 
-void ExtrapolateKappa(const Real* kappa_over_rho, State& state) {
-  State::BoundaryNeighbors& bn = state.boundary_neighbors;
+void ExtrapolateKappa(const Real* kappa_over_rho, BoundaryNeighbors& bn) {
   const int64_t nb = int64_t(bn.kappa.size());
 #pragma omp parallel for schedule(static)
   for (int64_t b = 0; b < nb; ++b) {

@@ -25,16 +25,16 @@
 
 #include "dysa/core/model.h"
 #include "dysa/core/state.h"
-#include "solvers/physical/boundary_particles.h"
+#include "solvers/dfsph/bender_koschier_data.h"
 
 namespace dysa::dfsph {
 
-// Lists state.boundary_neighbors from state.boundary_pairs (the density pass's) with their
-// Shepard weights and hydrostatic pressure, and sets state.acceleration to the walls'
+// Lists data.boundary_neighbors from data.boundary_pairs (the density pass's) with their
+// Shepard weights and hydrostatic pressure, and sets data.acceleration to the walls'
 // hydrostatic acceleration (the external_forces pass adds gravity to it).
-void ListBoundaryNeighbors(const Model& model, const BoundaryParticles& boundary, State& state);
+void ListBoundaryNeighbors(const Model& model, BenderKoschierData& data, State& state);
 
-// state.boundary_neighbors.kappa[b] = sum_i w_bi kappa_over_rho[i].
-void ExtrapolateKappa(const Real* kappa_over_rho, State& state);
+// neighbors.kappa[b] = sum_i w_bi kappa_over_rho[i].
+void ExtrapolateKappa(const Real* kappa_over_rho, BoundaryNeighbors& neighbors);
 
 }  // namespace dysa::dfsph

@@ -42,7 +42,8 @@ double ChooseTimeStep(const TimeStepLimits& limits, double until) {
 
 namespace {
 
-void ChooseStep(const Model& model, State& state, bool acoustic) {
+void ChooseStep(const Model& model, const physical::PhysicalData& data, State& state,
+                bool acoustic) {
   const ParticleArrays& p = state.particles;
   const int64_t n = int64_t(p.size());
   // Maxima are exact whatever the order they are taken in, so the reduction is deterministic.
@@ -52,7 +53,7 @@ void ChooseStep(const Model& model, State& state, bool acoustic) {
 #pragma omp parallel for schedule(static) reduction(max : v2_max, a2_max, density_max)
   for (int64_t i = 0; i < n; ++i) {
     v2_max = std::max(v2_max, p.velocity[i].squaredNorm());
-    a2_max = std::max(a2_max, state.acceleration[i].squaredNorm());
+    a2_max = std::max(a2_max, data.acceleration[i].squaredNorm());
     density_max = std::max(density_max, p.density[i]);
   }
   const TimeStepLimits limits =
@@ -62,10 +63,13 @@ void ChooseStep(const Model& model, State& state, bool acoustic) {
 
 }  // namespace
 
-void ChooseTimeStepPass(const Model& model, State& state) { ChooseStep(model, state, true); }
+void ChooseTimeStepPass(const Model& model, physical::PhysicalData& data, State& state) {
+  ChooseStep(model, data, state, true);
+}
 
-void ChooseIncompressibleTimeStepPass(const Model& model, State& state) {
-  ChooseStep(model, state, false);
+void ChooseIncompressibleTimeStepPass(const Model& model, physical::PhysicalData& data,
+                                      State& state) {
+  ChooseStep(model, data, state, false);
   if (model.params.cfl_factor > kIncompressibleMaxCfl) {
     state.warning = "cfl_factor " + std::to_string(model.params.cfl_factor) +
                     " is beyond the incompressible solver's stability limit; steps use " +

@@ -22,6 +22,7 @@
 
 #include "dysa/core/model.h"
 #include "dysa/core/state.h"
+#include "solvers/physical/physical_data.h"
 
 namespace dysa {
 
@@ -51,10 +52,12 @@ TimeStepLimits CflLimits(const Model& model, double v_max, double a_max, bool ac
 // it would take two steps anyway (so no sliver of a step is left).
 double ChooseTimeStep(const TimeStepLimits& limits, double until);
 
-// The `time_step` pass: v_max and |a|_max over the particles (state.velocity, state.acceleration
-// of this step), then state.dt = ChooseTimeStep(..., state.max_dt).
-void ChooseTimeStepPass(const Model& model, State& state);
+// The `time_step` pass: v_max and |a|_max over the particles (their velocities, and the
+// accelerations of this step in data.acceleration), then state.dt = ChooseTimeStep(...,
+// state.max_dt).
+void ChooseTimeStepPass(const Model& model, physical::PhysicalData& data, State& state);
 // The same without the speed of sound (dfsph).
-void ChooseIncompressibleTimeStepPass(const Model& model, State& state);
+void ChooseIncompressibleTimeStepPass(const Model& model, physical::PhysicalData& data,
+                                      State& state);
 
 }  // namespace dysa

@@ -27,7 +27,7 @@ void SortIntoGrid(const Model& model, State& state) {
   PermuteInPlace(order, p.id, state.index_scratch);
 }
 
-void AddViscosity(const Model& model, State& state) {
+void AddViscosity(const Model& model, PhysicalData& data, State& state) {
   ParticleArrays& p = state.particles;
   const Real support = Real(model.kernel_support);
   const Real h = Real(model.params.particle_spacing);  // smoothing length, support / 2
@@ -47,11 +47,12 @@ void AddViscosity(const Model& model, State& state) {
       const Real vx = (v - p.velocity[j]).dot(xij);
       sum += (vx / (p.density[j] * (r * r + eps))) * GradW(xij, r, support);
     });
-    state.acceleration[i] += scale * sum;
+    data.acceleration[i] += scale * sum;
   }
 }
 
-void AddWallViscosity(const Model& model, const BoundaryParticles& boundary, State& state) {
+void AddWallViscosity(const Model& model, PhysicalData& data, State& state) {
+  const BoundaryParticles& boundary = *data.boundary;
   ParticleArrays& p = state.particles;
   const Real support = Real(model.kernel_support);
   const Real h = Real(model.params.particle_spacing);
@@ -65,7 +66,7 @@ void AddWallViscosity(const Model& model, const BoundaryParticles& boundary, Sta
   const std::span<const uint8_t> no_slip = boundary.no_slip();
   const Real* volume = boundary.padded_volume();
   const int64_t nb = int64_t(boundary.size());
-  state.boundary_velocity.resize(size_t(nb));
+  data.boundary_velocity.resize(size_t(nb));
   // v_b = -(Shepard mean of the fluid's velocity around b): the wall's velocity (0) at the
   // surface halfway between b and its fluid neighbours.
 #pragma omp parallel for schedule(static)
@@ -81,7 +82,7 @@ void AddWallViscosity(const Model& model, const BoundaryParticles& boundary, Sta
                       weights += w;
                     });
     }
-    state.boundary_velocity[b] = weights > 0 ? Vec3(-weighted / weights) : Vec3::Zero();
+    data.boundary_velocity[b] = weights > 0 ? Vec3(-weighted / weights) : Vec3::Zero();
   }
   const int64_t n = int64_t(p.size());
 #pragma omp parallel for schedule(static)
@@ -92,10 +93,10 @@ void AddWallViscosity(const Model& model, const BoundaryParticles& boundary, Sta
     ForEachWithin(boundary.grid(), cell, p.position[i], support,
                   [&](uint32_t b, const Vec3& xib, Real r) {
                     if (!no_slip[b] || r <= 0) return;
-                    const Real vx = (v - state.boundary_velocity[b]).dot(xib);
+                    const Real vx = (v - data.boundary_velocity[b]).dot(xib);
                     sum += (volume[b] * vx / (r * r + eps)) * GradW(xib, r, support);
                   });
-    state.acceleration[i] += scale * sum;
+    data.acceleration[i] += scale * sum;
   }
 }
 

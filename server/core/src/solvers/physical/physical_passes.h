@@ -7,7 +7,7 @@
 #include "dysa/core/model.h"
 #include "dysa/core/params.h"
 #include "dysa/core/state.h"
-#include "solvers/physical/boundary_particles.h"
+#include "solvers/physical/physical_data.h"
 
 namespace dysa::physical {
 
@@ -26,11 +26,11 @@ double GravityAt(const Params& params, double time);
 void SortIntoGrid(const Model& model, State& state);
 
 // Adds the fluid's viscous acceleration (the laminar viscosity of becker_teschner_solver.h) to
-// state.acceleration.
-void AddViscosity(const Model& model, State& state);
-// Adds the no-slip walls' viscous acceleration (Model::no_slip) to state.acceleration, from the
-// fluid's velocity extrapolated to the walls' boundary particles (state.boundary_velocity).
-void AddWallViscosity(const Model& model, const BoundaryParticles& boundary, State& state);
+// data.acceleration.
+void AddViscosity(const Model& model, PhysicalData& data, State& state);
+// Adds the no-slip walls' viscous acceleration (Model::no_slip) to data.acceleration, from the
+// fluid's velocity extrapolated to the walls' boundary particles (data.boundary_velocity).
+void AddWallViscosity(const Model& model, PhysicalData& data, State& state);
 
 // The wall contact: limits v so that a step of dt from x brings the particle no closer than
 // r0 / 2 (kContactRange) to any wall or obstacle, cutting only its velocity towards the surface

@@ -29,14 +29,14 @@ Vec3 CoincidentDirection(uint32_t id_i, uint32_t id_j) {
 
 }  // namespace
 
-void ApplyExternalForces(const Model& model, State& state) {
+void ApplyExternalForces(const Model& model, SeedData& data, State& state) {
   ParticleArrays& p = state.particles;
   const Vec3 dv(0, Real(model.params.gravity * model.dt), 0);
   const int64_t n = static_cast<int64_t>(p.size());
 #pragma omp parallel for schedule(static)
   for (int64_t i = 0; i < n; ++i) {
     p.velocity[i] += dv;
-    p.predicted[i] = p.position[i] + p.velocity[i] * kPredictionLookahead;
+    data.predicted[i] = p.position[i] + p.velocity[i] * kPredictionLookahead;
   }
 }
 
@@ -85,7 +85,7 @@ Real* PaddedArray(std::vector<Real>& storage, size_t slot, size_t n, F&& value_o
 }
 
 template <bool kNear>
-void ComputeDensities(const Model& model, State& state) {
+void ComputeDensities(const Model& model, SeedData& data, State& state) {
   ParticleArrays& p = state.particles;
   const SeedKernelFactors<Real> k(Real(model.params.smoothing_radius));
   const Real mass = Real(model.params.particle_mass);
@@ -120,8 +120,8 @@ void ComputeDensities(const Model& model, State& state) {
     p.pressure[i] = (rho - rho0) * stiffness;
     if constexpr (kNear) {
       const Real rho_near = mass * k.spiky3 * simd::Sum(sum3);
-      p.near_density[i] = rho_near;
-      p.near_pressure[i] = rho_near * near_stiffness;
+      data.near_density[i] = rho_near;
+      data.near_pressure[i] = rho_near * near_stiffness;
     }
   }
 }
@@ -134,7 +134,7 @@ void ComputeDensities(const Model& model, State& state) {
 // density instead, which breaks that symmetry: total momentum drifts by ~1e-3 per 100 steps.)
 // The factors (p_i + p_j) / (2 rho_j) are evaluated as p_i * half_inv_rho_j + half_p_over_rho_j.
 template <bool kNear>
-void ApplyPressureForces(const Model& model, State& state) {
+void ApplyPressureForces(const Model& model, SeedData& data, State& state) {
   ParticleArrays& p = state.particles;
   const SeedKernelFactors<Real> k(Real(model.params.smoothing_radius));
   const Real mass_dt = Real(model.params.particle_mass * model.dt);
@@ -154,7 +154,7 @@ void ApplyPressureForces(const Model& model, State& state) {
   const Real* half_pn_over_rho = half_p_over_rho;
   if constexpr (kNear) {
     half_pn_over_rho = PaddedArray(
-        scratch, 2, n, [&](int64_t j) { return Real(0.5) * p.near_pressure[j] / p.density[j]; });
+        scratch, 2, n, [&](int64_t j) { return Real(0.5) * data.near_pressure[j] / p.density[j]; });
   }
 
 #pragma omp parallel for schedule(static)
@@ -166,7 +166,7 @@ void ApplyPressureForces(const Model& model, State& state) {
     const RealV xi = simd::Broadcast(xs[i]), yi = simd::Broadcast(ys[i]),
                 zi = simd::Broadcast(zs[i]);
     const RealV pi = simd::Broadcast(p.pressure[i]);
-    const RealV pni = simd::Broadcast(kNear ? p.near_pressure[i] : Real(0));
+    const RealV pni = simd::Broadcast(kNear ? data.near_pressure[i] : Real(0));
     RealV fx{}, fy{}, fz{};
     MaskV coincident{};  // candidates at distance 0, i itself included
     grid.ForEachNeighborRun(
@@ -198,7 +198,7 @@ void ApplyPressureForces(const Model& model, State& state) {
     if (zero_distance > 1) {
       // Rare: particles exactly on top of each other get a pair-specific direction.
       const Real pi_s = p.pressure[i];
-      const Real pni_s = kNear ? p.near_pressure[i] : Real(0);
+      const Real pni_s = kNear ? data.near_pressure[i] : Real(0);
       grid.ForEachNeighborRun(
           grid.SortedCell(uint32_t(i)), [&](uint32_t begin, uint32_t end, const Vec3& shift) {
             for (uint32_t j = begin; j < end; ++j) {
@@ -302,19 +302,19 @@ std::string VelocityLimiterWarning(uint64_t limited, const Model& model, uint64_
          "iterations_per_frame or soften the pressure)";
 }
 
-template void ComputeDensities<true>(const Model&, State&);
-template void ComputeDensities<false>(const Model&, State&);
-template void ApplyPressureForces<true>(const Model&, State&);
-template void ApplyPressureForces<false>(const Model&, State&);
+template void ComputeDensities<true>(const Model&, SeedData&, State&);
+template void ComputeDensities<false>(const Model&, SeedData&, State&);
+template void ApplyPressureForces<true>(const Model&, SeedData&, State&);
+template void ApplyPressureForces<false>(const Model&, SeedData&, State&);
 
-void SortParticlesIntoGrid(const Model& model, State& state) {
+void SortParticlesIntoGrid(const Model& model, SeedData& data, State& state) {
   ParticleArrays& p = state.particles;
   state.grid.Configure(model.domain, Real(model.params.smoothing_radius), model.periodic);
-  state.grid.Sort(p.predicted);
+  state.grid.Sort(data.predicted);
   const auto order = state.grid.order();
   PermuteInPlace(order, p.position, state.vec3_scratch);
   PermuteInPlace(order, p.velocity, state.vec3_scratch);
-  PermuteInPlace(order, p.predicted, state.vec3_scratch);
+  PermuteInPlace(order, data.predicted, state.vec3_scratch);
   PermuteInPlace(order, p.id, state.index_scratch);
 }
 
@@ -365,22 +365,30 @@ void CollideWithObstacles(const Model& model, State& state) {
   }
 }
 
-std::vector<Pass> SeedSolver::BuildPasses(const Model& model) const {
+std::vector<Pass> SeedSolver::BuildPasses(const Model& model) {
   const bool near = model.params.near_pressure_multiplier > 0;
   std::vector<Pass> passes;
-  passes.push_back({"external_forces", ApplyExternalForces});
-  passes.push_back({"neighbour_grid", SortParticlesIntoGrid});
+  passes.push_back(SolverPass("external_forces", data_, ApplyExternalForces));
+  passes.push_back(SolverPass("neighbour_grid", data_, SortParticlesIntoGrid));
   if (near) {
-    passes.push_back({"density", ComputeDensities<true>});
-    passes.push_back({"pressure_force", ApplyPressureForces<true>});
+    passes.push_back(SolverPass("density", data_, ComputeDensities<true>));
+    passes.push_back(SolverPass("pressure_force", data_, ApplyPressureForces<true>));
   } else {
-    passes.push_back({"density", ComputeDensities<false>});
-    passes.push_back({"pressure_force", ApplyPressureForces<false>});
+    passes.push_back(SolverPass("density", data_, ComputeDensities<false>));
+    passes.push_back(SolverPass("pressure_force", data_, ApplyPressureForces<false>));
   }
   if (model.params.viscosity > 0) passes.push_back({"viscosity", ApplyViscosity});
   passes.push_back({"integrate", IntegrateAndCollideWithWalls});
   if (model.HasObstacles()) passes.push_back({"obstacles", CollideWithObstacles});
   return passes;
+}
+
+void SeedSolver::Reset(size_t particles) {
+  // Every array is written by the step before it is read (predicted by external_forces, the
+  // near densities by density); zero until then.
+  data_.predicted.assign(particles, Vec3::Zero());
+  data_.near_density.assign(particles, Real(0));
+  data_.near_pressure.assign(particles, Real(0));
 }
 
 std::unique_ptr<Solver> CreateSeedSolver() { return std::make_unique<SeedSolver>(); }

@@ -13,6 +13,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "dysa/core/solver.h"
 
@@ -22,9 +23,22 @@ namespace dysa::seed {
 // ahead as in the thesis: it damps the response to fast approach without depending on dt.
 inline constexpr Real kPredictionLookahead = Real(1.0 / 120.0);
 
+// What the seed model keeps besides the shared State, per particle in storage order, all
+// rewritten every step before they are read (so a checkpoint holds none of them).
+struct SeedData {
+  std::vector<Vec3> predicted;     // m, positions predicted kPredictionLookahead ahead
+  std::vector<Real> near_density;  // kg/m^3, Clavet et al.'s spiky^3 near density
+  std::vector<Real> near_pressure;
+};
+
 class SeedSolver final : public Solver {
  public:
-  std::vector<Pass> BuildPasses(const Model& model) const override;
+  std::vector<Pass> BuildPasses(const Model& model) override;
+  void Reset(size_t particles) override;
+  const SeedData& data() const { return data_; }
+
+ private:
+  SeedData data_;
 };
 
 std::unique_ptr<Solver> CreateSeedSolver();
@@ -32,12 +46,13 @@ std::unique_ptr<Solver> CreateSeedSolver();
 // The passes, exposed for tests.
 // Sorts particles by grid cell (cell edge = smoothing radius) using the predicted positions and
 // reorders every per-particle array that carries over between steps into that order.
-void SortParticlesIntoGrid(const Model& model, State& state);
-void ApplyExternalForces(const Model& model, State& state);
+void SortParticlesIntoGrid(const Model& model, SeedData& data, State& state);
+// Gravity into the velocities; the predicted positions.
+void ApplyExternalForces(const Model& model, SeedData& data, State& state);
 template <bool kNear>
-void ComputeDensities(const Model& model, State& state);
+void ComputeDensities(const Model& model, SeedData& data, State& state);
 template <bool kNear>
-void ApplyPressureForces(const Model& model, State& state);
+void ApplyPressureForces(const Model& model, SeedData& data, State& state);
 void ApplyViscosity(const Model& model, State& state);
 void IntegrateAndCollideWithWalls(const Model& model, State& state);
 // Pushes particles out of static spheres and boxes to the nearest surface point and reflects the

@@ -17,8 +17,8 @@ using physical::GravityAt;
 using physical::kTaitExponent;
 using physical::SortIntoGrid;
 
-void ComputeDensityAndPressure(const Model& model, const BoundaryParticles& boundary,
-                               State& state) {
+void ComputeDensityAndPressure(const Model& model, BeckerTeschnerData& data, State& state) {
+  const BoundaryParticles& boundary = *data.boundary;
   ParticleArrays& p = state.particles;
   const Real support = Real(model.kernel_support);
   const Real mass = Real(model.particle_mass);
@@ -50,7 +50,8 @@ void ComputeDensityAndPressure(const Model& model, const BoundaryParticles& boun
   }
 }
 
-void ComputeBoundaryPressure(const Model& model, const BoundaryParticles& boundary, State& state) {
+void ComputeBoundaryPressure(const Model& model, BeckerTeschnerData& data, State& state) {
+  const BoundaryParticles& boundary = *data.boundary;
   const ParticleArrays& p = state.particles;
   const Real support = Real(model.kernel_support);
   const Vec3 gravity(0, Real(GravityAt(model.params, state.time)), 0);
@@ -59,7 +60,7 @@ void ComputeBoundaryPressure(const Model& model, const BoundaryParticles& bounda
   const Real* by = bgrid.ys().data();
   const Real* bz = bgrid.zs().data();
   const int64_t n = int64_t(boundary.size());
-  state.boundary_pressure.resize(boundary.size());
+  data.boundary_pressure.resize(boundary.size());
 #pragma omp parallel for schedule(static)
   for (int64_t b = 0; b < n; ++b) {
     const Vec3 x(bx[b], by[b], bz[b]);
@@ -73,12 +74,12 @@ void ComputeBoundaryPressure(const Model& model, const BoundaryParticles& bounda
                     weighted += (p.pressure[f] + p.density[f] * gravity.dot(xbf)) * w;
                   });
     const Real pressure = weights > 0 ? weighted / weights : Real(0);
-    state.boundary_pressure[b] = pressure > 0 ? pressure : Real(0);
+    data.boundary_pressure[b] = pressure > 0 ? pressure : Real(0);
   }
 }
 
-void ComputePressureAcceleration(const Model& model, const BoundaryParticles& boundary,
-                                 State& state) {
+void ComputePressureAcceleration(const Model& model, BeckerTeschnerData& data, State& state) {
+  const BoundaryParticles& boundary = *data.boundary;
   ParticleArrays& p = state.particles;
   const Real support = Real(model.kernel_support);
   const Real mass = Real(model.particle_mass);
@@ -91,7 +92,7 @@ void ComputePressureAcceleration(const Model& model, const BoundaryParticles& bo
   const Real* volume = boundary.padded_volume();
   const size_t n = p.size();
   const size_t nb = boundary.size();
-  state.acceleration.resize(n);
+  data.acceleration.resize(n);
   // p_j / rho_j^2 of every fluid particle, then of every boundary particle (its density from
   // its pressure through the inverse Tait equation), read by the neighbours.
   state.real_scratch.resize(n + nb);
@@ -103,7 +104,7 @@ void ComputePressureAcceleration(const Model& model, const BoundaryParticles& bo
   }
 #pragma omp parallel for schedule(static)
   for (int64_t b = 0; b < int64_t(nb); ++b) {
-    const double pb = state.boundary_pressure[b];
+    const double pb = data.boundary_pressure[b];
     const double rho = rho0 * std::pow(pb / stiffness + 1, 1 / kTaitExponent);
     boundary_p_over_rho2[b] = Real(pb / (rho * rho));
   }
@@ -120,47 +121,38 @@ void ComputePressureAcceleration(const Model& model, const BoundaryParticles& bo
     ForEachWithin(boundary.grid(), cell, x, support, [&](uint32_t b, const Vec3& xib, Real r) {
       wall += (volume[b] * (pi + boundary_p_over_rho2[b])) * GradW(xib, r, support);
     });
-    state.acceleration[i] = gravity - gradient_scale * (mass * fluid + psi_scale * wall);
+    data.acceleration[i] = gravity - gradient_scale * (mass * fluid + psi_scale * wall);
   }
 }
 
-void Integrate(const Model& model, State& state) {
+void Integrate(const Model& model, BeckerTeschnerData& data, State& state) {
   ParticleArrays& p = state.particles;
   const Real dt = Real(state.dt);
   const int64_t n = int64_t(p.size());
 #pragma omp parallel for schedule(static)
   for (int64_t i = 0; i < n; ++i) {
-    p.velocity[i] += state.acceleration[i] * dt;
+    p.velocity[i] += data.acceleration[i] * dt;
     physical::LimitApproachToSurfaces(model, dt, p.position[i], p.velocity[i]);
     p.position[i] += p.velocity[i] * dt;
     CollideWithDomainWalls(model.domain, model.periodic, Real(0), p.position[i], p.velocity[i]);
   }
 }
 
-std::vector<Pass> BeckerTeschnerSolver::BuildPasses(const Model& model) const {
-  const auto boundary = std::make_shared<const BoundaryParticles>(
-      model, model.params.particle_spacing, model.kernel_support);
+std::vector<Pass> BeckerTeschnerSolver::BuildPasses(const Model& model) {
+  data_.SampleBoundary(model);
   std::vector<Pass> passes;
   passes.push_back({"neighbour_grid", SortIntoGrid});
-  passes.push_back({"density", [boundary](const Model& m, State& s) {
-                      ComputeDensityAndPressure(m, *boundary, s);
-                    }});
-  passes.push_back({"boundary_pressure", [boundary](const Model& m, State& s) {
-                      ComputeBoundaryPressure(m, *boundary, s);
-                    }});
-  passes.push_back({"pressure_force", [boundary](const Model& m, State& s) {
-                      ComputePressureAcceleration(m, *boundary, s);
-                    }});
+  passes.push_back(SolverPass("density", data_, ComputeDensityAndPressure));
+  passes.push_back(SolverPass("boundary_pressure", data_, ComputeBoundaryPressure));
+  passes.push_back(SolverPass("pressure_force", data_, ComputePressureAcceleration));
   if (model.params.kinematic_viscosity > 0) {
-    passes.push_back({"viscosity", AddViscosity});
-    if (boundary->HasNoSlip()) {
-      passes.push_back({"wall_viscosity", [boundary](const Model& m, State& s) {
-                          AddWallViscosity(m, *boundary, s);
-                        }});
+    passes.push_back(SolverPass("viscosity", data_, AddViscosity));
+    if (data_.boundary->HasNoSlip()) {
+      passes.push_back(SolverPass("wall_viscosity", data_, AddWallViscosity));
     }
   }
-  passes.push_back({"time_step", ChooseTimeStepPass});
-  passes.push_back({"integrate", Integrate});
+  passes.push_back(SolverPass("time_step", data_, ChooseTimeStepPass));
+  passes.push_back(SolverPass("integrate", data_, Integrate));
   return passes;
 }
 

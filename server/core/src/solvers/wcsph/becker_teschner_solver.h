@@ -55,31 +55,41 @@
 #pragma once
 
 #include <memory>
+#include <vector>
 
 #include "dysa/core/solver.h"
-#include "solvers/physical/boundary_particles.h"
+#include "solvers/physical/physical_data.h"
 
 namespace dysa::wcsph {
 
+// What wcsph keeps besides the shared State and the physical solvers' data; per step.
+struct BeckerTeschnerData : physical::PhysicalData {
+  // Pa, per boundary particle: the pressure extrapolated from the fluid around it.
+  std::vector<Real> boundary_pressure;
+};
+
 class BeckerTeschnerSolver final : public Solver {
  public:
-  // The boundary particles are sampled here (from the domain, the obstacles and the spacing)
-  // and shared by the passes of this list.
-  std::vector<Pass> BuildPasses(const Model& model) const override;
+  // Samples the boundary particles (from the domain, the obstacles and the spacing) for the
+  // passes of this list.
+  std::vector<Pass> BuildPasses(const Model& model) override;
+  const BeckerTeschnerData& data() const { return data_; }
+
+ private:
+  BeckerTeschnerData data_;
 };
 
 std::unique_ptr<Solver> CreateBeckerTeschnerSolver();
 
 // The passes, exposed for tests; those it shares with dfsph (the neighbour sort, viscosity, the
 // wall contact, gravity) are in solvers/physical/physical_passes.h.
-void ComputeDensityAndPressure(const Model& model, const BoundaryParticles& boundary, State& state);
-// state.boundary_pressure: each boundary particle's pressure extrapolated from the fluid.
-void ComputeBoundaryPressure(const Model& model, const BoundaryParticles& boundary, State& state);
-// Sets state.acceleration to gravity plus the pressure acceleration.
-void ComputePressureAcceleration(const Model& model, const BoundaryParticles& boundary,
-                                 State& state);
+void ComputeDensityAndPressure(const Model& model, BeckerTeschnerData& data, State& state);
+// data.boundary_pressure: each boundary particle's pressure extrapolated from the fluid.
+void ComputeBoundaryPressure(const Model& model, BeckerTeschnerData& data, State& state);
+// Sets data.acceleration to gravity plus the pressure acceleration.
+void ComputePressureAcceleration(const Model& model, BeckerTeschnerData& data, State& state);
 // v += a dt, the wall contact (physical::LimitApproachToSurfaces), x += v dt, the last-resort
 // clamp.
-void Integrate(const Model& model, State& state);
+void Integrate(const Model& model, BeckerTeschnerData& data, State& state);
 
 }  // namespace dysa::wcsph

@@ -1,0 +1,33 @@
+// What both physical solvers (wcsph, dfsph) keep besides the shared State: the boundary
+// particles of the current model and the step's accelerations. Each solver's own data extends
+// it (BeckerTeschnerData, BenderKoschierData). Nothing here outlives a step except the boundary
+// particles, which depend on the model only: a checkpoint holds none of it.
+#pragma once
+
+#include <memory>
+#include <vector>
+
+#include "dysa/core/model.h"
+#include "dysa/core/types.h"
+#include "solvers/physical/boundary_particles.h"
+
+namespace dysa::physical {
+
+struct PhysicalData {
+  // The walls and obstacles of the model the pass list was built for (Solver::BuildPasses).
+  std::unique_ptr<const BoundaryParticles> boundary;
+  // m/s^2, per particle in storage order: this step's accelerations, computed after the
+  // neighbour sort.
+  std::vector<Vec3> acceleration;
+  // m/s, per boundary particle of a no-slip wall: the fluid's velocity extrapolated to it,
+  // mirrored (so that the velocity falls to 0 at the wall); 0 elsewhere. Per step.
+  std::vector<Vec3> boundary_velocity;
+
+  // Samples the boundary particles of `model` at its particle spacing and kernel support.
+  void SampleBoundary(const Model& model) {
+    boundary = std::make_unique<const BoundaryParticles>(model, model.params.particle_spacing,
+                                                         model.kernel_support);
+  }
+};
+
+}  // namespace dysa::physical
