@@ -311,8 +311,10 @@ TEST(ParseSceneTest, ParticleCountsThatWouldExhaustMemoryAreRejected) {
       R"({"fluid_blocks": [{"particles_per_axis": 700}, {"particles_per_axis": 700}]})",
       "fluid_blocks[1]");
   EXPECT_THAT(e.what(), HasSubstr(std::to_string(kMaxParticles)));
-  // Exactly at the limit is fine: 500 x 1000 x 1000 = 5e8.
-  EXPECT_NO_THROW(ParseScene(R"({"fluid_blocks": [{"particles_per_axis": [500, 1000, 1000]}]})"));
+  // Exactly at the limit is fine: 500 x 1000 x 1000 = 5e8 (at the smoothing radius's spacing,
+  // 8 to a grid cell, not the default block's 5 m: ABlockCrowdingOneGridCellIsRefused).
+  EXPECT_NO_THROW(ParseScene(
+      R"({"fluid_blocks": [{"particles_per_axis": [500, 1000, 1000], "size": [99.8, 199.8, 199.8]}]})"));
   ExpectConfigError(R"({"fluid_blocks": [{"particles_per_axis": [500, 1000, 1001]}]})",
                     "fluid_blocks[0]");
 }
@@ -338,6 +340,7 @@ TEST(BlockParticleCountsTest, ChecksTheLimitWithTheGivenParams) {
     EXPECT_EQ(e.field(), "fluid_blocks[5]");
   }
   p.particle_quantity = 400;  // 6 x 6.4e7 = 3.8e8
+  p.smoothing_radius = 0.02;  // 2.6 particles per grid cell edge, not 17
   EXPECT_EQ(BlockParticleCounts(scene, p).size(), 6u);
 }
 
@@ -388,6 +391,25 @@ class TempFile {
  private:
   std::filesystem::path path_;
 };
+
+// A valid-looking block whose particles sit at one point (issue 21): every step would be
+// O(n^2). Refused at load, naming the block and the limit; the same block spread out loads.
+TEST(ParseSceneTest, ABlockCrowdingOneGridCellIsRefused) {
+  try {
+    ParseScene(R"({"fluid_blocks":[{"particles_per_axis":[200,200,1],"size":1e-6}]})");
+    FAIL() << "accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.field(), "fluid_blocks[0]");
+    EXPECT_THAT(e.what(), ::testing::HasSubstr("would share one neighbour-grid cell"));
+    EXPECT_THAT(e.what(), ::testing::HasSubstr("at most 1024"));
+  }
+  EXPECT_NO_THROW(ParseScene(R"({"fluid_blocks":[{"particles_per_axis":[200,200,1],"size":8}]})"));
+  // Also when a parameter change would crowd the cells: a larger smoothing radius.
+  Scene scene = ParseScene(R"({"fluid_blocks":[{"particles_per_axis":[40,40,40],"size":2}]})");
+  Params wide = scene.params;
+  SetParam(wide, "smoothing_radius", 1.0);
+  EXPECT_THROW(BlockParticleCounts(scene, wide), ConfigError);
+}
 
 TEST(LoadSceneTest, MissingFileIsNamed) {
   const std::string path = "/nonexistent/dir/no_such_scene.json";

@@ -57,7 +57,11 @@ void NeighborGrid::Sort(std::span<const Vec3> points) {
   const size_t cells = static_cast<size_t>(cell_count());
   cell_start_.assign(cells + 1, 0);
   for (int64_t i = 0; i < n; ++i) ++cell_start_[key_[i] + 1];
-  for (size_t c = 0; c < cells; ++c) cell_start_[c + 1] += cell_start_[c];
+  max_cell_count_ = 0;
+  for (size_t c = 0; c < cells; ++c) {
+    max_cell_count_ = std::max(max_cell_count_, cell_start_[c + 1]);
+    cell_start_[c + 1] += cell_start_[c];
+  }
   // cell_start_[c] now is the first slot of cell c; use a copy as the fill cursor.
   cursor_.assign(cell_start_.begin(), cell_start_.end() - 1);
   for (int64_t i = 0; i < n; ++i) order_[cursor_[key_[i]]++] = static_cast<uint32_t>(i);

@@ -2,11 +2,13 @@
 
 #include <cmath>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
 
+#include "dysa/core/neighbor_grid.h"
 #include "dysa/core/solver.h"
 
 namespace dysa {
@@ -390,6 +392,48 @@ void CheckPeriodicDomain(const Scene& scene, const Params& params) {
   }
 }
 
+namespace {
+
+// Refuses a block of `n` particles per axis whose particles would crowd one neighbour-grid cell
+// beyond NeighborGrid::kMaxParticlesPerCell: per axis, as many of its lattice points as one cell
+// edge spans (the grid's edge: the kernel's support, longer where kMaxCells caps a large
+// domain). `spacing`: the block's spacing (a physical solver's particle_spacing, the block's
+// own), else the thesis's edge-to-edge size / (n - 1).
+void CheckParticlesPerCell(const Scene& scene, const Params& params, const FluidBlock& block,
+                           const std::optional<double>& spacing, const Eigen::Vector3i& n,
+                           const std::string& path) {
+  const bool physical = IsPhysicalSolver(scene.solver);
+  const double support = physical ? 2 * params.particle_spacing : params.smoothing_radius;
+  NeighborGrid grid;
+  try {
+    grid.Configure(scene.domain, Real(support), scene.periodic);
+  } catch (const std::invalid_argument&) {
+    return;  // a periodic axis too short for the grid: CheckPeriodicDomain names it
+  }
+  const Vec3d size = block.size.value_or(Vec3d::Constant(params.spawn_size));
+  double per_cell = 1;
+  double closest = std::numeric_limits<double>::infinity();
+  for (int a = 0; a < 3; ++a) {
+    if (n[a] < 2) continue;
+    const double step = spacing ? *spacing : size[a] / (n[a] - 1);
+    closest = std::min(closest, step);
+    const double spanned = step > 0 ? std::floor(grid.cell_sizes()[a] / step) + 1 : double(n[a]);
+    per_cell *= std::min(double(n[a]), spanned);
+  }
+  if (per_cell <= NeighborGrid::kMaxParticlesPerCell) return;
+  const std::string cause = physical ? "params.particle_spacing" : "the block's spacing";
+  throw ConfigError(
+      path,
+      "about " + Num(per_cell) + " particles (" + cause + " " + Num(closest) +
+          " m) would share one neighbour-grid cell of edge " + Num(grid.cell_sizes().minCoeff()) +
+          " m; at most " + std::to_string(NeighborGrid::kMaxParticlesPerCell) +
+          " can, or every step costs O(n^2): space the particles further apart" +
+          (physical ? std::string(" or shrink the domain")
+                    : " (size, particles_per_axis, spacing) or lower params.smoothing_radius"));
+}
+
+}  // namespace
+
 std::vector<Eigen::Vector3i> BlockParticleCounts(const Scene& scene, const Params& params) {
   std::vector<Eigen::Vector3i> counts;
   uint64_t total = 0;
@@ -428,6 +472,14 @@ std::vector<Eigen::Vector3i> BlockParticleCounts(const Scene& scene, const Param
     }
     total += uint64_t(block);
     counts.push_back(n);
+  }
+  // Then how densely: a count within the limit may still crowd the neighbour grid.
+  for (size_t i = 0; i < scene.fluid_blocks.size(); ++i) {
+    const FluidBlock& b = scene.fluid_blocks[i];
+    const std::optional<double> spacing =
+        physical ? std::optional<double>(params.particle_spacing) : b.spacing;
+    CheckParticlesPerCell(scene, params, b, spacing, counts[i],
+                          "fluid_blocks[" + std::to_string(i) + "]");
   }
   return counts;
 }

@@ -109,6 +109,17 @@ void Simulation::Step(double until) {
       const auto start = Clock::now();
       passes_[k].run(model_, state_);
       RecordPassTime(k, std::chrono::duration<double, std::milli>(Clock::now() - start).count());
+      if (k == sort_pass_ && state_.grid.max_cell_count() > NeighborGrid::kMaxParticlesPerCell) {
+        // The neighbour passes would cost O(n^2): stop before them, the state as it was (only
+        // reordered), and say why.
+        alarm_ = std::to_string(state_.grid.max_cell_count()) +
+                 " particles crowd one neighbour-grid cell at step " +
+                 std::to_string(state_.step + 1) + " (t = " + std::to_string(start_time) +
+                 " s; at most " + std::to_string(NeighborGrid::kMaxParticlesPerCell) +
+                 " can, or each step costs O(n^2)): the fluid collapsed; reset, or space the "
+                 "particles further apart";
+        return;
+      }
     }
     // About 0.1 ms per 100,000 particles, well under 1% of a step: checked every step so that
     // no later step, probe or frame ever reads a diverged state.
@@ -249,7 +260,11 @@ void Simulation::Rebuild() {
     names = gpu_->Configure(model_);
   } else {
     passes_ = solver_->BuildPasses(model_);
-    for (const Pass& pass : passes_) names.push_back(pass.name);
+    sort_pass_ = passes_.size();
+    for (size_t k = 0; k < passes_.size(); ++k) {
+      names.push_back(passes_[k].name);
+      if (passes_[k].name == kNeighbourSortPass) sort_pass_ = k;
+    }
   }
   // Keep the accumulated timings of passes that stay in the list.
   std::vector<PassProfile> profile;

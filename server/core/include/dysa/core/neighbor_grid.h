@@ -33,6 +33,14 @@ class NeighborGrid {
   // Bounds the cell count: on a fine grid over a large domain the cell edge grows beyond
   // min_cell_size (which stays correct, only slower) rather than allocating without limit.
   static constexpr int64_t kMaxCells = 1 << 24;
+  // The most particles one cell may hold for a step to cost a bounded multiple of a normal one:
+  // a neighbour pass tests the particles of 27 cells, so its cost per particle grows with the
+  // cell's occupancy, and particles collapsed into one cell make a step O(n^2) (40,000 particles
+  // at one point took minutes a step). A fluid at rest holds 8 particles a cell (wcsph, dfsph:
+  // edge 2 d) and the thesis scene about 13 (seed): 1,024 is 40 to 130 times that, a step at
+  // most about 100 times a normal one. Scenes that would exceed it are refused
+  // (BlockParticleCounts), and a step that finds a cell over it stops with an alarm.
+  static constexpr uint32_t kMaxParticlesPerCell = 1024;
 
   // Lays cells of edge >= min_cell_size over the domain, wrapping along the axes marked
   // periodic. A periodic axis needs room for 3 cells: throws std::invalid_argument when its
@@ -45,6 +53,8 @@ class NeighborGrid {
   void Sort(std::span<const Vec3> points);
 
   std::span<const uint32_t> order() const { return order_; }
+  // The most points any cell holds after the latest Sort.
+  uint32_t max_cell_count() const { return max_cell_count_; }
   // The sorted points as separate coordinate arrays, for vectorised neighbour loops. Each holds
   // kPadding readable zeros past its end, so a loop may load whole vectors at a run's end.
   static constexpr int kPadding = 8;
@@ -161,7 +171,8 @@ class NeighborGrid {
   std::vector<uint32_t> order_;       // sorted position -> input index
   std::vector<uint32_t> cell_start_;  // cells + 1 entries; cell c holds [start[c], start[c+1])
   std::vector<uint32_t> cursor_;      // fill position of each cell during the sort
-  std::vector<Real> xs_, ys_, zs_;    // sorted points, padded
+  uint32_t max_cell_count_ = 0;
+  std::vector<Real> xs_, ys_, zs_;  // sorted points, padded
 };
 
 // out[k] = in[order[k]] for every k, in parallel; then swaps out into in.

@@ -105,7 +105,10 @@ class Simulation {
   // The step the latest Step() took, s.
   double last_dt() const { return state_.dt; }
   // Empty while the state is healthy. Otherwise why the simulation stopped by itself: a NaN or
-  // Inf in a position or velocity after a step, or an adaptive step that collapsed to zero.
+  // Inf in a position or velocity after a step, an adaptive step that collapsed to zero, or
+  // (CPU) particles crowded into one neighbour-grid cell beyond
+  // NeighborGrid::kMaxParticlesPerCell, found by the neighbour sort before the passes that
+  // would cost O(n^2).
   // Step() and StepFrame() then do nothing (nothing integrates or shows garbage) until Reset(),
   // RestoreCheckpoint() or a parameter change that resets.
   const std::string& alarm() const { return alarm_; }
@@ -150,6 +153,9 @@ class Simulation {
   std::unique_ptr<Solver> solver_;
   std::unique_ptr<GpuBackend> gpu_;  // null on the CPU
   std::vector<Pass> passes_;         // the CPU's passes (empty on a GPU)
+  // The neighbour sort among passes_ (after it the step checks the cells' occupancy), or
+  // passes_.size() when there is none.
+  size_t sort_pass_ = 0;
   std::vector<PassProfile> profile_;
   std::string alarm_;
 };

@@ -22,6 +22,10 @@ struct Pass {
   std::function<void(const Model&, State&)> run;
 };
 
+// The name of every solver's neighbour sort, after which a step checks that no grid cell holds
+// more than NeighborGrid::kMaxParticlesPerCell particles.
+inline constexpr std::string_view kNeighbourSortPass = "neighbour_grid";
+
 // The pass `name` of a solver with data of its own: run(model, data, state), the shape
 // (const Model&, Data&, State&) of every such pass. `data` belongs to the solver and outlives
 // its pass list.
