@@ -119,6 +119,7 @@ class ServerProcess {
     pid_ = -1;
     return took;
   }
+  pid_t pid() const { return pid_; }
   const std::string& address() const { return address_; }
   int port() const { return port_; }
   bool running() const { return !address_.empty(); }
