@@ -227,12 +227,13 @@ void SimulationHost::Loop() {
 void SimulationHost::Handle(Job& job) {
   const Clock::time_point now = Clock::now();
   if (const ControlCode gone = CallerGone(job.caller, now); gone != ControlCode::kOk) {
-    const bool cancelled = gone == ControlCode::kCancelled;
-    const std::string why = cancelled ? "its caller cancelled it"
-                                      : "its caller's deadline passed, or left no time to answer";
-    Log(std::string(ControlName(job.control)) + " skipped, not applied: " + why + " (queued " +
-        Milliseconds(now - job.queued) + ")");
-    Answer(job, Error(gone, std::string("not applied: ") + why + " before the server got to it"));
+    const std::string why =
+        (gone == ControlCode::kCancelled ? std::string("its caller had cancelled the call")
+                                         : "less than " + Milliseconds(kReplyMargin) +
+                                               " was left before its caller's deadline") +
+        " when the server got to it (queued " + Milliseconds(now - job.queued) + ")";
+    Log(std::string(ControlName(job.control)) + " skipped, not applied: " + why);
+    Answer(job, Error(gone, "not applied: " + why));
     return;
   }
   // Any control but a parameter change ends a Step in progress; the Step is answered first.
@@ -352,7 +353,8 @@ ControlResult SimulationHost::Apply(Control& control) {
             return ControlResult{};
           },
           [&](StepControl&) {
-            return Error(ControlCode::kFailedPrecondition, "Step is handled by BeginStep");
+            // Never reached: Handle hands Steps to BeginStep, which answers them later.
+            return Error(ControlCode::kFailedPrecondition, "Step is not applied at once");
           },
           [&](StepBackControl& c) {
             if (c.count < 1 || c.count > kMaxStepCount) {
