@@ -1,13 +1,12 @@
 // dysa-server: runs a scene and serves dysa.v1.Simulation. Argument parsing and wiring only.
 //
-// Phases: parse flags -> read files (scene, token, TLS) -> block SIGINT/SIGTERM for every
-// thread -> start host and server -> wait for a signal -> shut down in reverse order.
-#include <pthread.h>
-#include <signal.h>
-
+// Phases: parse flags -> read files (scene, token, TLS) -> take SIGINT/SIGTERM from every thread
+// -> start host and server -> wait for a signal -> shut down in reverse order, within
+// kShutdownBound of the signal.
 #include <CLI/CLI.hpp>
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <ctime>
 #include <filesystem>
 #include <fstream>
@@ -19,9 +18,16 @@
 #include "dysa/core/scene.h"
 #include "dysa/core/types.h"
 #include "dysa/service/server.h"
+#include "dysa/service/shutdown_signal.h"
 #include "dysa/service/simulation_host.h"
 
 namespace {
+
+// From SIGTERM to exit, whatever runs (a long Step, a step of a pathological scene, streams to
+// stalled readers): well inside a container's grace period. The orderly shutdown gets all but
+// kExitMargin of it; the rest is for the exit itself.
+constexpr auto kShutdownBound = std::chrono::milliseconds(1500);
+constexpr auto kExitMargin = std::chrono::milliseconds(300);
 
 // "2026-11-22T10:00:00.123Z dysa-server: <line>" on stderr; whole lines from any thread.
 void Log(const std::string& line) {
@@ -165,12 +171,8 @@ int main(int argc, char** argv) {
   server_options.protect_watch = protect_watch;
 
   // Phase 3: signals. Blocked before any thread starts, so every thread inherits the mask and
-  // only sigwait below receives them.
-  sigset_t signals;
-  sigemptyset(&signals);
-  sigaddset(&signals, SIGINT);
-  sigaddset(&signals, SIGTERM);
-  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+  // only the signal thread receives them (from here on, also during start-up).
+  dysa::service::ShutdownSignal signals(kShutdownBound, Log);
 
   // Phase 4: run.
   std::unique_ptr<dysa::service::SimulationHost> host;
@@ -202,15 +204,17 @@ int main(int argc, char** argv) {
       (host->Status().solver_threads == 1 ? " solver thread" : " solver threads") + " on " +
       host->Status().device);
 
-  int signal_number = 0;
-  sigwait(&signals, &signal_number);
-  Log(std::string("received ") + (signal_number == SIGINT ? "SIGINT" : "SIGTERM") +
-      ", shutting down");
+  Log("received " + signals.Wait() + ", shutting down");
 
   // Phase 5: cleanup, in reverse order.
-  server->Shutdown();
+  if (!server->Shutdown(signals.deadline() - kExitMargin)) {
+    // The host cannot be destroyed while its thread is inside the step.
+    Log("the simulation thread is still inside a solver step: exiting without waiting for it");
+    std::_Exit(0);
+  }
   server.reset();
   host.reset();
+  signals.Disarm();
   Log("stopped");
   return 0;
 }

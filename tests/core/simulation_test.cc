@@ -290,6 +290,102 @@ TEST(SimulationTest, SpawnIsDeterministicAndIdsAreAPermutation) {
 }
 
 // ---------------------------------------------------------------------------------------------
+// Frames in pieces (StepFrame(interrupted)): what lets the server act between steps.
+
+// A small wcsph dam (600 particles): its frames take many CFL-adaptive steps.
+Scene PhysicalScene() {
+  return ParseScene(R"({
+    "domain": {"min": [0, 0, 0], "max": [0.6, 0.4, 0.08]},
+    "fluid_blocks": [{"center": [0.1, 0.15, 0.04], "size": [0.2, 0.3, 0.08]}],
+    "solver": "wcsph",
+    "params": {"gravity": -9.81, "particle_spacing": 0.02, "speed_of_sound": 25}
+  })");
+}
+
+// Steps one frame interrupting it before every step it can; returns the calls it took.
+int StepFrameInSingleSteps(Simulation& sim) {
+  int calls = 1;
+  const auto always = [] { return true; };
+  while (!sim.StepFrame(always)) {
+    EXPECT_TRUE(sim.frame_in_progress());
+    ++calls;
+  }
+  EXPECT_FALSE(sim.frame_in_progress());
+  return calls;
+}
+
+TEST(FrameInPiecesTest, AFrameInterruptedAtEveryStepEndsAsOneSteppedWhole) {
+  for (const Scene& scene : {DenseBasicScene(), PhysicalScene()}) {
+    SCOPED_TRACE(scene.solver);
+    Simulation whole(scene);
+    Simulation pieces(scene);
+    for (int f = 1; f <= 3; ++f) {
+      const uint64_t steps_before = whole.step();
+      whole.StepFrame();
+      const uint64_t frame_steps = whole.step() - steps_before;
+      // One step per call: the frame took as many calls as steps.
+      EXPECT_EQ(uint64_t(StepFrameInSingleSteps(pieces)), frame_steps);
+      ASSERT_EQ(pieces.frame(), uint64_t(f));
+      ASSERT_EQ(pieces.step(), whole.step());
+      ASSERT_EQ(pieces.time(), whole.time());  // the same end, to the bit
+      ASSERT_EQ(StateHash(pieces.state()), StateHash(whole.state())) << "frame " << f;
+    }
+    if (scene.solver == "wcsph") EXPECT_GT(whole.step(), 3u * 20);  // many steps per frame
+  }
+}
+
+TEST(FrameInPiecesTest, APartialFrameCountsNoFrameAndResumesWhereItStopped) {
+  Simulation sim(PhysicalScene());
+  const double frame_time = sim.model().FrameTime();
+  int asked = 0;
+  EXPECT_FALSE(sim.StepFrame([&] { return ++asked > 4; }));  // 5 steps, then interrupted
+  EXPECT_EQ(asked, 5);  // asked before every step but the first
+  EXPECT_EQ(sim.step(), 5u);
+  EXPECT_EQ(sim.frame(), 0u);
+  EXPECT_TRUE(sim.frame_in_progress());
+  EXPECT_LT(sim.time(), frame_time);
+  // A parameter change that needs no reset keeps the frame's end (time_scale would move it).
+  EXPECT_FALSE(sim.SetParam("time_scale", 0.5));
+  EXPECT_TRUE(sim.StepFrame([] { return false; }));
+  EXPECT_EQ(sim.frame(), 1u);
+  EXPECT_EQ(sim.time(), frame_time);
+  // The next frame is half as long.
+  sim.StepFrame();
+  EXPECT_NEAR(sim.time(), 1.5 * frame_time, 1e-12);
+}
+
+TEST(FrameInPiecesTest, ResetAndRestoringACheckpointDropAPartialFrame) {
+  Simulation sim(DenseBasicScene());
+  const int steps_per_frame = sim.params().iterations_per_frame;
+  ASSERT_GE(steps_per_frame, 2);
+  sim.StepFrame();
+  const Checkpoint at_frame_1 = sim.SaveCheckpoint();
+  sim.StepFrame();
+  const uint64_t hash_at_frame_2 = StateHash(sim.state());
+
+  const auto stop = [] { return true; };
+  ASSERT_FALSE(sim.StepFrame(stop));  // one step into frame 3
+  sim.RestoreCheckpoint(at_frame_1);
+  EXPECT_FALSE(sim.frame_in_progress());
+  // A whole frame from the checkpoint, not the rest of the dropped one.
+  EXPECT_EQ(StepFrameInSingleSteps(sim), steps_per_frame);
+  EXPECT_EQ(sim.frame(), 2u);
+  EXPECT_EQ(StateHash(sim.state()), hash_at_frame_2);
+
+  ASSERT_FALSE(sim.StepFrame(stop));
+  sim.Reset();
+  EXPECT_FALSE(sim.frame_in_progress());
+  EXPECT_EQ(StepFrameInSingleSteps(sim), steps_per_frame);
+  EXPECT_EQ(sim.step(), uint64_t(steps_per_frame));
+
+  // So does a parameter change that resets.
+  ASSERT_FALSE(sim.StepFrame(stop));
+  ASSERT_TRUE(sim.SetParam("particle_quantity", 10));
+  EXPECT_FALSE(sim.frame_in_progress());
+  EXPECT_EQ(StepFrameInSingleSteps(sim), steps_per_frame);
+}
+
+// ---------------------------------------------------------------------------------------------
 // Determinism.
 
 uint64_t HashAfter(const Scene& scene, int steps) {

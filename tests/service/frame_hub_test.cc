@@ -7,7 +7,9 @@
 
 #include <atomic>
 #include <cmath>
+#include <memory>
 #include <thread>
+#include <vector>
 
 namespace dysa::service {
 namespace {
@@ -227,6 +229,47 @@ TEST(FrameHubTest, PublishingWhileSubscribersComeAndGoIsSafe) {
   stop = true;
   publisher.join();
   EXPECT_EQ(hub.subscribers(), 0u);
+  EXPECT_EQ(hub.configurations(), 0u);
+  EXPECT_EQ(hub.configuration_bytes(), 0u);
+  EXPECT_EQ(hub.frames_alive(), 0);
+}
+
+// The 64 stream configurations whose memory stayed after every stream closed: a
+// configuration's encoder and frames go with its last subscriber, even while its stream still
+// holds the subscription object.
+TEST(FrameHubTest, AConfigurationsBuffersGoWithItsLastSubscriber) {
+  constexpr size_t kParticles = 5000;
+  constexpr uint32_t kConfigurations = 12;
+  FrameHub hub(64);
+  CountingListener l;
+  std::vector<std::shared_ptr<Subscription>> subs;
+  for (uint32_t i = 0; i < kConfigurations; ++i) {
+    SubscriptionOptions o = Options(codec::kPositions | codec::kVelocity | codec::kDensity);
+    o.stream.position_bits = 8 + i;
+    subs.push_back(hub.Subscribe(o, &l));
+  }
+  // A 13th configuration, with two subscribers sharing its encoder.
+  auto shared = hub.Subscribe(Options(), &l);
+  auto shared_too = hub.Subscribe(Options(), &l);
+  for (uint64_t f = 0; f < 3; ++f) hub.Publish(Snapshot(f, kParticles), false, false);
+  EXPECT_EQ(hub.configurations(), kConfigurations + 1);
+  // Each encoder keeps at least the quantised positions of the frames it predicts from.
+  EXPECT_GT(hub.configuration_bytes(), (kConfigurations + 1) * kParticles * 3 * sizeof(uint32_t));
+  EXPECT_GT(hub.frames_alive(), 0);
+
+  const size_t one_configuration = hub.configuration_bytes() / (kConfigurations + 1);
+  hub.Unsubscribe(shared);  // its configuration still has a subscriber
+  EXPECT_EQ(hub.configurations(), kConfigurations + 1);
+  for (const auto& sub : subs) hub.Unsubscribe(sub);
+  EXPECT_EQ(hub.configurations(), 1u);
+  EXPECT_LT(hub.configuration_bytes(), 2 * one_configuration);
+  hub.Unsubscribe(shared_too);
+  // The subscriptions are still held (as by their streams), yet nothing is.
+  EXPECT_EQ(hub.configurations(), 0u);
+  EXPECT_EQ(hub.configuration_bytes(), 0u);
+  EXPECT_EQ(hub.frames_alive(), 0);
+  EXPECT_EQ(subs[0]->Take(nullptr), nullptr);
+  hub.Unsubscribe(subs[0]);  // again: nothing happens
 }
 
 }  // namespace

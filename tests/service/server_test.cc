@@ -6,10 +6,14 @@
 #include <grpcpp/grpcpp.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cstdlib>
 #include <fstream>
+#include <future>
+#include <memory>
+#include <mutex>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -539,6 +543,97 @@ TEST(ServerTest, LimitsAreReportedAsResourceExhausted) {
   EXPECT_EQ(fx.stub().LoadScene(Context().get(), load, &reply).error_code(),
             grpc::StatusCode::RESOURCE_EXHAUSTED);
   EXPECT_EQ(GetStatus(fx.stub()).particles(), 1000u);
+}
+
+// Holds the simulation thread, as a slow control would: a control submitted to the host whose
+// answer blocks the thread until the holder goes.
+class ThreadHolder {
+ public:
+  explicit ThreadHolder(SimulationHost& host) {
+    auto held = std::make_shared<std::promise<void>>();
+    auto is_held = held->get_future();
+    host.Submit(ResumeControl{}, [held, released = release_.get_future().share()](ControlResult) {
+      held->set_value();
+      released.wait();
+    });
+    is_held.wait();
+  }
+  ~ThreadHolder() { release_.set_value(); }
+
+ private:
+  std::promise<void> release_;
+};
+
+// The issue's `dysa --timeout 3 pause`: a control whose caller's deadline passes while it waits
+// in the queue is answered DEADLINE_EXCEEDED and never applied (it once was, later).
+TEST(ServerTest, AControlWhoseDeadlinePassedInTheQueueIsNotApplied) {
+  std::mutex log_mu;
+  std::vector<std::string> log;
+  HostOptions options;  // running
+  options.log = [&](const std::string& line) {
+    std::lock_guard lock(log_mu);
+    log.push_back(line);
+  };
+  Fixture fx(options);
+  const auto skipped = [&] {
+    std::lock_guard lock(log_mu);
+    return std::any_of(log.begin(), log.end(), [](const std::string& line) {
+      return line.find("Pause skipped, not applied") != std::string::npos;
+    });
+  };
+  {
+    ThreadHolder holder(fx.host());
+    grpc::ClientContext context;
+    context.set_deadline(std::chrono::system_clock::now() + std::chrono::milliseconds(200));
+    v1::ControlReply reply;
+    EXPECT_EQ(fx.stub().Pause(&context, {}, &reply).error_code(),
+              grpc::StatusCode::DEADLINE_EXCEEDED);
+  }
+  const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (!skipped() && std::chrono::steady_clock::now() < give_up) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  EXPECT_TRUE(skipped());
+  EXPECT_EQ(GetStatus(fx.stub()).state(), v1::RUN_STATE_RUNNING) << "the Pause was applied";
+}
+
+// A Step of many frames with a short deadline ends in time to say what it did: applied and
+// reported, never DEADLINE_EXCEEDED for frames that were stepped.
+TEST(ServerTest, AStepEndsBeforeItsCallersDeadlineAndReportsTheFramesItMoved) {
+  Scene scene = LoadScene("seed_basic");  // 27,000 particles: 10,000 frames take minutes
+  Fixture fx(Paused(), {}, scene);
+  grpc::ClientContext context;
+  context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(1));
+  v1::StepRequest step;
+  step.set_count(kMaxStepCount);
+  v1::ControlReply reply;
+  const grpc::Status s = fx.stub().Step(&context, step, &reply);
+  ASSERT_TRUE(s.ok()) << s.error_code() << " " << s.error_message();
+  EXPECT_LT(reply.frames_moved(), kMaxStepCount);
+  EXPECT_EQ(reply.status().frame(), reply.frames_moved());
+  EXPECT_EQ(GetStatus(fx.stub()).frame(), reply.frames_moved());  // and it stopped there
+}
+
+TEST(ServerTest, ShutdownDuringALongStepAnswersItAndReturnsPromptly) {
+  Fixture fx(Paused(), {}, LoadScene("seed_basic"));
+  grpc::Status step_status;
+  std::thread stepping([&] {
+    v1::StepRequest step;
+    step.set_count(kMaxStepCount);
+    v1::ControlReply reply;
+    step_status = fx.stub().Step(Context().get(), step, &reply);
+  });
+  const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (fx.host().Status().frame < 1 && std::chrono::steady_clock::now() < give_up) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  const auto start = std::chrono::steady_clock::now();
+  EXPECT_TRUE(fx.server().Shutdown(start + std::chrono::seconds(10)));
+  stepping.join();
+  EXPECT_EQ(step_status.error_code(), grpc::StatusCode::UNAVAILABLE) << step_status.error_message();
+  // A step of 27,000 particles is milliseconds: the thread stops at the next one (before: after
+  // all 10,000 frames).
+  EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(5));
 }
 
 TEST(ServerTest, ShutdownEndsStreamsWithUnavailable) {

@@ -1,14 +1,21 @@
 // Tests of dysa/service/simulation_host.h, without a network: controls are applied between
-// frames with the documented results, invalid changes apply nothing, limits are enforced, and
-// stepping back and forward again reaches bit-identical states.
+// steps with the documented results (a Step yields to later controls, a frame interrupted by a
+// control goes on bit-identically), controls whose caller gave up are not applied, invalid
+// changes apply nothing, limits are enforced, and stepping back and forward again reaches
+// bit-identical states.
 #include "dysa/service/simulation_host.h"
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <atomic>
 #include <chrono>
 #include <future>
+#include <memory>
+#include <mutex>
+#include <string>
 #include <thread>
+#include <vector>
 
 namespace dysa::service {
 namespace {
@@ -27,11 +34,69 @@ HostOptions Paused() {
   return o;
 }
 
-ControlResult Apply(SimulationHost& host, Control control) {
+ControlResult Apply(SimulationHost& host, Control control, ControlCaller caller = {}) {
   std::promise<ControlResult> promise;
   auto result = promise.get_future();
-  host.Submit(std::move(control), [&](ControlResult r) { promise.set_value(std::move(r)); });
+  host.Submit(
+      std::move(control), [&](ControlResult r) { promise.set_value(std::move(r)); },
+      std::move(caller));
   return result.get();
+}
+
+// Submits a control and returns its answer to come.
+std::future<ControlResult> Submit(SimulationHost& host, Control control,
+                                  ControlCaller caller = {}) {
+  auto promise = std::make_shared<std::promise<ControlResult>>();
+  auto result = promise->get_future();
+  host.Submit(
+      std::move(control), [promise](ControlResult r) { promise->set_value(std::move(r)); },
+      std::move(caller));
+  return result;
+}
+
+bool WaitForFrame(const SimulationHost& host, uint64_t frame) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (host.Status().frame < frame) {
+    if (std::chrono::steady_clock::now() > deadline) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+  return true;
+}
+
+// Holds the simulation thread: submits a Resume whose answer blocks that thread until release().
+class ThreadHolder {
+ public:
+  explicit ThreadHolder(SimulationHost& host) {
+    auto held = std::make_shared<std::promise<void>>();
+    auto is_held = held->get_future();
+    host.Submit(ResumeControl{}, [held, released = release_.get_future().share()](ControlResult) {
+      held->set_value();
+      released.wait();
+    });
+    is_held.wait();
+  }
+  ~ThreadHolder() { release(); }
+  void release() {
+    if (!released_) release_.set_value();
+    released_ = true;
+  }
+
+ private:
+  std::promise<void> release_;
+  bool released_ = false;
+};
+
+// A wcsph dam of 600 particles with 25 ms frames: over a hundred CFL-limited steps each, a few
+// tenths of a second, so controls arrive in the middle of a frame.
+Scene LongFrameScene() {
+  Scene scene = ParseScene(R"({
+    "domain": {"min": [0, 0, 0], "max": [0.6, 0.4, 0.08]},
+    "fluid_blocks": [{"center": [0.1, 0.15, 0.04], "size": [0.2, 0.3, 0.08]}],
+    "solver": "wcsph",
+    "params": {"gravity": -9.81, "particle_spacing": 0.02, "speed_of_sound": 25,
+               "frame_rate": 40}
+  })");
+  return scene;
 }
 
 class SimulationHostTest : public ::testing::Test {
@@ -206,6 +271,169 @@ TEST(SimulationHostDeviceTest, AnUnavailableDeviceIsAConfigErrorNamingTheDevice)
     EXPECT_EQ(e.field(), "device") << e.what();
     EXPECT_EQ(e.message(), DeviceUnavailableReason(options.device));
   }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Controls between steps, and callers that gave up.
+
+TEST(SimulationHostStepsTest, APauseActsInTheMiddleOfAFrameWhichThenGoesOnUnchanged) {
+  SimulationHost host(LongFrameScene(), Paused());
+  host.Start();
+  ASSERT_EQ(Apply(host, ResumeControl{}).code, ControlCode::kOk);
+  std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  ControlResult r = Apply(host, PauseControl{});
+  ASSERT_EQ(r.code, ControlCode::kOk) << r.message;
+  // Before: the Pause waited for the frame's thousands of steps.
+  EXPECT_EQ(r.status.frame, 0u) << "the Pause waited for the end of the frame";
+  EXPECT_LT(r.status.time, 0.025);
+  // The rest of the frame, from where it stopped, reaches the state of one frame stepped whole.
+  r = Apply(host, StepControl{1});
+  ASSERT_EQ(r.code, ControlCode::kOk) << r.message;
+  EXPECT_EQ(r.frames_moved, 1u);
+  EXPECT_EQ(r.status.frame, 1u);
+  Simulation whole(LongFrameScene());
+  whole.StepFrame();
+  EXPECT_EQ(r.status.time, whole.time());
+  EXPECT_EQ(r.status.step, whole.step());
+  EXPECT_EQ(r.status.state_hash, StateHash(whole.state()));
+}
+
+// A parameter change in the middle of a frame is replayed where it was made when stepping back
+// and forward again: the frame's end gets a checkpoint, not the middle (which re-simulation
+// could not resume) nor nothing (checkpoints are 16 frames apart here).
+TEST(SimulationHostStepsTest, AParameterChangeInTheMiddleOfAFrameStepsBackExactly) {
+  HostOptions options = Paused();
+  options.history.max_bytes = 100'000;  // a handful of checkpoints of 600 particles
+  SimulationHost host(LongFrameScene(), options);
+  host.Start();
+  ASSERT_EQ(Apply(host, ResumeControl{}).code, ControlCode::kOk);
+  std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  ControlResult r = Apply(host, PauseControl{});
+  const uint64_t frame = r.status.frame;
+  ASSERT_GT(r.status.time, double(frame) * 0.025) << "the Pause did not land inside a frame";
+  r = Apply(host, UpdateParamsControl{{{"gravity", -3.0}}});
+  ASSERT_EQ(r.code, ControlCode::kOk) << r.message;
+  ASSERT_FALSE(r.reset);
+  r = Apply(host, StepControl{1});
+  ASSERT_EQ(r.status.frame, frame + 1);
+  const uint64_t after_change = r.status.state_hash;
+  r = Apply(host, StepControl{2});
+  ASSERT_EQ(r.status.frame, frame + 3);
+  r = Apply(host, StepBackControl{2});
+  ASSERT_EQ(r.status.frame, frame + 1);
+  EXPECT_EQ(r.status.state_hash, after_change);
+  EXPECT_EQ(r.params.gravity, -3.0);
+}
+
+TEST(SimulationHostStepsTest, APauseEndsAStepInProgressWhichReportsTheFramesItMoved) {
+  SimulationHost host(SmallScene(), Paused());
+  host.Start();
+  auto step = Submit(host, StepControl{kMaxStepCount});
+  ASSERT_TRUE(WaitForFrame(host, 2));
+  const ControlResult pause = Apply(host, PauseControl{});
+  ASSERT_EQ(step.wait_for(std::chrono::seconds(0)), std::future_status::ready)
+      << "the Step was not answered before the Pause";
+  const ControlResult stepped = step.get();
+  ASSERT_EQ(stepped.code, ControlCode::kOk) << stepped.message;
+  EXPECT_GE(stepped.frames_moved, 2u);
+  EXPECT_LT(stepped.frames_moved, kMaxStepCount);
+  EXPECT_EQ(stepped.status.frame, stepped.frames_moved);
+  EXPECT_EQ(pause.status.frame, stepped.frames_moved);  // nothing stepped after it
+  EXPECT_FALSE(pause.status.running);
+}
+
+TEST(SimulationHostStepsTest, AParameterChangeDuringAStepIsAppliedAndTheStepGoesOn) {
+  SimulationHost host(SmallScene(), Paused());
+  host.Start();
+  auto step = Submit(host, StepControl{40});
+  ASSERT_TRUE(WaitForFrame(host, 1));
+  const ControlResult set = Apply(host, UpdateParamsControl{{{"gravity", -2.0}}});
+  ASSERT_EQ(set.code, ControlCode::kOk) << set.message;
+  EXPECT_LT(set.status.frame, 40u);
+  const ControlResult stepped = step.get();
+  ASSERT_EQ(stepped.code, ControlCode::kOk) << stepped.message;
+  EXPECT_EQ(stepped.frames_moved, 40u);
+  EXPECT_EQ(stepped.params.gravity, -2.0);
+}
+
+TEST(SimulationHostStepsTest, AStepEndsBeforeItsCallersDeadlineOrWhenItsCallerCancels) {
+  SimulationHost host(SmallScene(), Paused());
+  host.Start();
+  ControlCaller soon;
+  soon.deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(400);
+  ControlResult r = Apply(host, StepControl{kMaxStepCount}, soon);
+  // Answered (applied, with what it did) while its caller still waits.
+  ASSERT_EQ(r.code, ControlCode::kOk) << r.message;
+  EXPECT_LE(std::chrono::steady_clock::now(), soon.deadline);
+  EXPECT_LT(r.frames_moved, kMaxStepCount);
+  EXPECT_EQ(r.status.frame, r.frames_moved);
+
+  auto gone = std::make_shared<std::atomic<bool>>(false);
+  ControlCaller cancelling;
+  cancelling.cancelled = [gone] { return gone->load(); };
+  auto step = Submit(host, StepControl{kMaxStepCount}, cancelling);
+  ASSERT_TRUE(WaitForFrame(host, r.status.frame + 1));
+  *gone = true;
+  r = step.get();
+  EXPECT_EQ(r.code, ControlCode::kCancelled);
+  const uint64_t frame = host.Status().frame;
+  std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  EXPECT_EQ(host.Status().frame, frame);  // it stopped stepping
+  EXPECT_FALSE(host.Status().running);
+}
+
+TEST(SimulationHostCallerTest, AControlWhoseCallerGaveUpWhileQueuedIsNotApplied) {
+  std::vector<std::string> log;
+  std::mutex log_mu;
+  HostOptions options = Paused();
+  options.log = [&](const std::string& line) {
+    std::lock_guard lock(log_mu);
+    log.push_back(line);
+  };
+  SimulationHost host(SmallScene(), options);
+  host.Start();
+  std::future<ControlResult> late, cancelled, waiting;
+  {
+    ThreadHolder holder(host);  // a slow control: the thread is busy with it
+    ControlCaller short_deadline;
+    short_deadline.deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(50);
+    late = Submit(host, PauseControl{}, short_deadline);
+    ControlCaller gone;
+    gone.cancelled = [] { return true; };
+    cancelled = Submit(host, StepBackControl{1}, gone);
+    ControlCaller patient;
+    patient.deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+    waiting = Submit(host, UpdateParamsControl{{{"gravity", -4.0}}}, patient);
+    std::this_thread::sleep_for(std::chrono::milliseconds(150));  // past the short deadline
+  }
+  ControlResult r = late.get();
+  EXPECT_EQ(r.code, ControlCode::kDeadlineExceeded);
+  EXPECT_NE(r.message.find("not applied"), std::string::npos) << r.message;
+  EXPECT_TRUE(r.status.running) << "the Pause was applied";
+  r = cancelled.get();
+  EXPECT_EQ(r.code, ControlCode::kCancelled);
+  // The one whose caller still waits is applied, and says so.
+  r = waiting.get();
+  EXPECT_EQ(r.code, ControlCode::kOk) << r.message;
+  EXPECT_EQ(r.params.gravity, -4.0);
+  EXPECT_TRUE(host.Status().running);
+  std::lock_guard lock(log_mu);
+  EXPECT_THAT(log, ::testing::Contains(::testing::HasSubstr("Pause skipped, not applied")));
+  EXPECT_THAT(log, ::testing::Contains(::testing::HasSubstr("StepBack skipped, not applied")));
+}
+
+TEST(SimulationHostLimitsTest, StopAnswersQueuedControlsWithoutWaitingForTheThread) {
+  SimulationHost host(SmallScene(), Paused());
+  host.Start();
+  auto holder = std::make_unique<ThreadHolder>(host);
+  auto queued = Submit(host, PauseControl{});
+  host.RequestStop();  // the thread is busy: the queue is answered here
+  ASSERT_EQ(queued.wait_for(std::chrono::seconds(0)), std::future_status::ready);
+  EXPECT_EQ(queued.get().code, ControlCode::kUnavailable);
+  EXPECT_FALSE(host.StopWithin(std::chrono::steady_clock::now() + std::chrono::milliseconds(20)));
+  holder->release();
+  EXPECT_TRUE(host.StopWithin(std::chrono::steady_clock::now() + std::chrono::seconds(60)));
+  holder.reset();
 }
 
 TEST(SimulationHostLimitsTest, ControlsAfterStopAreAnsweredUnavailable) {

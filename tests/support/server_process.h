@@ -94,6 +94,32 @@ class ServerProcess {
     EXPECT_EQ(WaitExit(pid_), 0) << ReadFile(log_);
     pid_ = -1;
   }
+  // Sends `signal` and waits for the exit, which must be status 0; returns the seconds from the
+  // signal to the exit. After `give_up` seconds it kills the server (SIGKILL) and fails.
+  double StopTimed(int signal, double give_up) {
+    if (pid_ <= 0) return 0;
+    const auto start = std::chrono::steady_clock::now();
+    const auto seconds = [&] {
+      return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    };
+    kill(pid_, signal);
+    int status = 0;
+    while (waitpid(pid_, &status, WNOHANG) != pid_) {
+      if (seconds() > give_up) {
+        kill(pid_, SIGKILL);
+        waitpid(pid_, &status, 0);
+        ADD_FAILURE() << "dysa-server still ran " << give_up << " s after the signal:\n"
+                      << ReadFile(log_);
+        break;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+    const double took = seconds();
+    EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << ReadFile(log_);
+    pid_ = -1;
+    return took;
+  }
+  pid_t pid() const { return pid_; }
   const std::string& address() const { return address_; }
   int port() const { return port_; }
   bool running() const { return !address_.empty(); }

@@ -379,7 +379,7 @@ class Client:
         return _status(self._call("GetStatus", _pb.GetStatusRequest()))
 
     def pause(self) -> ControlResult:
-        """Pauses the simulation (between two frames)."""
+        """Pauses the simulation (between two solver steps, possibly inside a frame)."""
         return _control(self._call("Pause", _pb.PauseRequest()))
 
     def resume(self) -> ControlResult:
@@ -389,8 +389,8 @@ class Client:
     def step(self, n: int = 1) -> ControlResult:
         """Advances n frames (each iterations_per_frame solver steps), then pauses.
 
-        Returns once the frames have been simulated; a long step may need a larger
-        Client.timeout.
+        Returns once the frames have been simulated, or earlier when another control arrives
+        or Client.timeout is about to expire: frames_moved says how many were.
         """
         return _control(self._call("Step", _pb.StepRequest(count=_count(n, "step"))))
 

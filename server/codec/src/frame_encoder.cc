@@ -107,6 +107,17 @@ void StreamConfig::Validate() const {
 
 FrameEncoder::FrameEncoder(StreamConfig config) : config_(config) { config_.Validate(); }
 
+size_t FrameEncoder::buffer_bytes() const {
+  size_t bytes = 0;
+  for (const auto* frames : {&history_, &spare_}) {
+    for (const auto& frame : *frames) {
+      for (const auto& component : frame) bytes += component.capacity() * sizeof(uint32_t);
+    }
+  }
+  for (const auto& component : values_) bytes += component.capacity() * sizeof(float);
+  return bytes;
+}
+
 std::vector<Chunk> FrameEncoder::Encode(const FrameInput& f) {
   const size_t ids = CheckInput(f, config_.fields);
   const ChunkLayout layout = LayOutChunks(ids, config_);

@@ -152,19 +152,38 @@ void Simulation::UploadParticles(std::span<const SolverArray> solver_arrays) {
 
 SolverStats Simulation::solver_stats() const { return gpu_ ? gpu_->stats() : solver_->stats(); }
 
-void Simulation::StepFrame() {
-  state_.warning.clear();
-  if (model_.physical) {
-    // A frame is a fixed slice of simulated time whatever steps the CFL condition allows.
-    const double end = state_.time + model_.FrameTime();
-    while (state_.time < end && alarm_.empty()) Step(end);
-  } else {
-    for (int i = 0; i < model_.params.iterations_per_frame; ++i) Step();
+void Simulation::StepFrame() { StepFrame(nullptr); }
+
+bool Simulation::StepFrame(const std::function<bool()>& interrupted) {
+  if (!frame_open_) {
+    state_.warning.clear();
+    // A frame is a fixed slice of simulated time whatever steps the CFL condition allows; its
+    // end is fixed here so that resuming a partial frame lands on the same time, bit for bit.
+    frame_end_time_ = state_.time + model_.FrameTime();
+    frame_steps_left_ = model_.params.iterations_per_frame;
+    frame_open_ = true;
   }
+  for (bool first = true;; first = false) {
+    // A diverged physical frame ends at once; a fixed-step frame counts its (idle) steps, as
+    // StepFrame always did.
+    const bool complete = model_.physical ? !(state_.time < frame_end_time_ && alarm_.empty())
+                                          : frame_steps_left_ <= 0;
+    if (complete) break;
+    if (!first && interrupted && interrupted()) return false;
+    if (model_.physical) {
+      Step(frame_end_time_);
+    } else {
+      Step();
+      --frame_steps_left_;
+    }
+  }
+  frame_open_ = false;
   ++state_.frame;
+  return true;
 }
 
 void Simulation::Reset() {
+  frame_open_ = false;
   alarm_.clear();
   state_.warning.clear();
   SpawnParticles(scene_, model_.params, state_.particles);
@@ -210,6 +229,7 @@ Checkpoint Simulation::SaveCheckpoint() const {
 void Simulation::RestoreCheckpoint(const Checkpoint& checkpoint) {
   model_ = MakeModel(scene_, checkpoint.params, *solver_info_);
   Rebuild();
+  frame_open_ = false;
   alarm_.clear();
   state_.warning.clear();
   ParticleArrays& p = state_.particles;

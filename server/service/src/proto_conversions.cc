@@ -94,6 +94,10 @@ grpc::Status ToGrpc(ControlCode code, const std::string& message) {
       return {grpc::StatusCode::FAILED_PRECONDITION, message};
     case ControlCode::kUnavailable:
       return {grpc::StatusCode::UNAVAILABLE, message};
+    case ControlCode::kDeadlineExceeded:
+      return {grpc::StatusCode::DEADLINE_EXCEEDED, message};
+    case ControlCode::kCancelled:
+      return {grpc::StatusCode::CANCELLED, message};
   }
   return {grpc::StatusCode::INTERNAL, message};
 }

@@ -2,6 +2,7 @@
 
 #include <grpcpp/grpcpp.h>
 
+#include <algorithm>
 #include <chrono>
 #include <stdexcept>
 
@@ -34,13 +35,20 @@ Server::Server(SimulationHost& host, const ServerOptions& options) : host_(host)
 
 Server::~Server() { Shutdown(); }
 
-void Server::Shutdown(int grace_ms) {
-  if (shut_down_) return;
+bool Server::Shutdown(std::chrono::steady_clock::time_point deadline) {
+  if (shut_down_) return stopped_;
   shut_down_ = true;
   host_.hub().Close();
-  host_.Stop();
-  server_->Shutdown(std::chrono::system_clock::now() + std::chrono::milliseconds(grace_ms));
+  // Control calls in flight are answered by the host as it stops (or right away, if queued):
+  // gRPC's shutdown waits for every call to finish, so the thread goes first.
+  stopped_ = host_.StopWithin(deadline);
+  if (!stopped_) return false;
+  const auto left = deadline - std::chrono::steady_clock::now();
+  server_->Shutdown(std::chrono::system_clock::now() +
+                    std::chrono::duration_cast<std::chrono::system_clock::duration>(
+                        std::max(left, std::chrono::steady_clock::duration::zero())));
   server_->Wait();
+  return true;
 }
 
 }  // namespace dysa::service

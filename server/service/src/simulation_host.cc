@@ -39,6 +39,20 @@ int PublisherThreads(const HostOptions& options, int solver_threads) {
   return std::max(0, cores - solver_threads);
 }
 
+// Why `caller` no longer waits for an answer at `now` (kOk while it does): a control is applied
+// only with kReplyMargin left for its answer to arrive.
+ControlCode CallerGone(const ControlCaller& caller, Clock::time_point now) {
+  if (caller.cancelled && caller.cancelled()) return ControlCode::kCancelled;
+  if (caller.deadline != Clock::time_point::max() && now + kReplyMargin > caller.deadline) {
+    return ControlCode::kDeadlineExceeded;
+  }
+  return ControlCode::kOk;
+}
+
+std::string Milliseconds(Clock::duration d) {
+  return std::to_string(std::chrono::duration_cast<std::chrono::milliseconds>(d).count()) + " ms";
+}
+
 int64_t UnixMicros() {
   return std::chrono::duration_cast<std::chrono::microseconds>(
              std::chrono::system_clock::now().time_since_epoch())
@@ -46,6 +60,19 @@ int64_t UnixMicros() {
 }
 
 }  // namespace
+
+const char* ControlName(const Control& control) {
+  return std::visit(Overloaded{
+                        [](const PauseControl&) { return "Pause"; },
+                        [](const ResumeControl&) { return "Resume"; },
+                        [](const StepControl&) { return "Step"; },
+                        [](const StepBackControl&) { return "StepBack"; },
+                        [](const ResetControl&) { return "Reset"; },
+                        [](const UpdateParamsControl&) { return "UpdateParams"; },
+                        [](const LoadSceneControl&) { return "LoadScene"; },
+                    },
+                    control);
+}
 
 SimulationHost::SimulationHost(Scene scene, HostOptions options)
     : options_(std::move(options)),
@@ -72,27 +99,42 @@ SimulationHost::SimulationHost(Scene scene, HostOptions options)
 SimulationHost::~SimulationHost() { Stop(); }
 
 void SimulationHost::Start() {
-  if (!thread_.joinable()) thread_ = std::thread([this] { Loop(); });
+  if (thread_.joinable()) return;
+  thread_ = std::thread([this] {
+    Loop();
+    std::lock_guard lock(mu_);
+    finished_ = true;
+    finished_cv_.notify_all();
+  });
 }
 
-void SimulationHost::Stop() {
-  {
-    std::lock_guard lock(mu_);
-    stop_ = true;
-  }
-  wake_.notify_one();
-  if (thread_.joinable()) thread_.join();
-  publisher_.Stop();
-  // Answer what the thread left (or everything, if it never ran).
+void SimulationHost::RequestStop() {
   std::deque<Job> left;
   {
     std::lock_guard lock(mu_);
+    stop_ = true;
+    attention_ = true;
     left.swap(queue_);
   }
+  wake_.notify_one();
   for (Job& job : left) {
     job.done(Error(ControlCode::kUnavailable, "the server is shutting down"));
   }
 }
+
+bool SimulationHost::StopWithin(Clock::time_point deadline) {
+  RequestStop();
+  if (thread_.joinable()) {
+    std::unique_lock lock(mu_);
+    if (!finished_cv_.wait_until(lock, deadline, [&] { return finished_; })) return false;
+    lock.unlock();
+    thread_.join();
+  }
+  publisher_.Stop();
+  return true;
+}
+
+void SimulationHost::Stop() { StopWithin(Clock::time_point::max()); }
 
 HostStatus SimulationHost::Status() const {
   HostStatus status;
@@ -115,11 +157,13 @@ HostScene SimulationHost::CurrentScene() const {
   return scene_;
 }
 
-void SimulationHost::Submit(Control control, std::function<void(ControlResult)> done) {
+void SimulationHost::Submit(Control control, std::function<void(ControlResult)> done,
+                            ControlCaller caller) {
   {
     std::lock_guard lock(mu_);
     if (!stop_) {
-      queue_.push_back(Job{std::move(control), std::move(done)});
+      queue_.push_back(Job{std::move(control), std::move(done), std::move(caller), Clock::now()});
+      attention_ = true;
       wake_.notify_one();
       return;
     }
@@ -132,30 +176,42 @@ void SimulationHost::Loop() {
   omp_set_num_threads(solver_threads_);
   running_threads_ = omp_get_max_threads();
   RefreshStatus();
+  const auto yield_to_controls = [this] { return attention_.load(std::memory_order_relaxed); };
   auto next_frame = Clock::now();
   while (true) {
-    std::deque<Job> jobs;
+    std::optional<Job> job;
     bool frame_needed = false;
     {
       std::unique_lock lock(mu_);
+      // A Step, or a running frame that a control interrupted, goes on without waiting.
+      const bool busy = step_ || (running_ && sim_->frame_in_progress());
       auto ready = [&] { return stop_ || !queue_.empty() || frame_needed_; };
-      if (!running_) {
+      if (!busy && !running_) {
         wake_.wait(lock, ready);
-      } else if (options_.frame_rate > 0) {
+      } else if (!busy && options_.frame_rate > 0) {
         wake_.wait_until(lock, next_frame, ready);
       }
-      if (stop_) return;
-      jobs.swap(queue_);
-      std::swap(frame_needed, frame_needed_);
+      if (stop_) break;
+      // One control at a time: what is still queued interrupts whatever this one starts.
+      if (!queue_.empty()) {
+        job = std::move(queue_.front());
+        queue_.pop_front();
+        attention_ = !queue_.empty();
+      } else {
+        std::swap(frame_needed, frame_needed_);
+      }
     }
-    for (Job& job : jobs) job.done(Apply(job.control));
-    // While running, the next frame serves whoever waits for one.
-    if (frame_needed && !running_) Publish(/*force=*/true, /*discontinuity=*/false);
+    if (job) {
+      Handle(*job);
+      continue;
+    }
+    // While running or stepping, the next frame serves whoever waits for one.
+    if (frame_needed && !running_ && !step_) Publish(/*force=*/true, /*discontinuity=*/false);
 
-    const auto now = Clock::now();
-    if (running_ && now >= next_frame) {
-      AdvanceFrame();
-      if (options_.frame_rate > 0) {
+    if (step_) {
+      ContinueStep();
+    } else if (running_ && (sim_->frame_in_progress() || Clock::now() >= next_frame)) {
+      if (AdvanceFrame(yield_to_controls) && options_.frame_rate > 0) {
         const auto period = std::chrono::duration_cast<Clock::duration>(
             std::chrono::duration<double>(1.0 / options_.frame_rate));
         // Catch up after a short hiccup, but never burst after a long one (a slow frame).
@@ -163,10 +219,97 @@ void SimulationHost::Loop() {
       }
     }
   }
+  if (step_) {
+    FinishStep(Error(ControlCode::kUnavailable, "the server is shutting down"), "shutdown");
+  }
 }
 
-void SimulationHost::AdvanceFrame() {
-  sim_->StepFrame();
+void SimulationHost::Handle(Job& job) {
+  const Clock::time_point now = Clock::now();
+  if (const ControlCode gone = CallerGone(job.caller, now); gone != ControlCode::kOk) {
+    const std::string why =
+        (gone == ControlCode::kCancelled ? std::string("its caller had cancelled the call")
+                                         : "less than " + Milliseconds(kReplyMargin) +
+                                               " was left before its caller's deadline") +
+        " when the server got to it (queued " + Milliseconds(now - job.queued) + ")";
+    Log(std::string(ControlName(job.control)) + " skipped, not applied: " + why);
+    Answer(job, Error(gone, "not applied: " + why));
+    return;
+  }
+  // Any control but a parameter change ends a Step in progress; the Step is answered first.
+  if (step_ && !std::holds_alternative<UpdateParamsControl>(job.control)) {
+    FinishStep(ControlResult{}, std::string(ControlName(job.control)) + " arrived");
+  }
+  if (std::holds_alternative<StepControl>(job.control)) {
+    BeginStep(job);
+    return;
+  }
+  ControlResult result = Apply(job.control);
+  Answer(job, std::move(result));
+}
+
+void SimulationHost::Answer(Job& job, ControlResult result) {
+  RefreshStatus();
+  result.status = Status();
+  result.params = sim_->params();
+  job.done(std::move(result));
+}
+
+void SimulationHost::BeginStep(Job& job) {
+  const StepControl& c = std::get<StepControl>(job.control);
+  if (c.count < 1 || c.count > kMaxStepCount) {
+    Answer(job, Error(ControlCode::kInvalidArgument,
+                      "count: allowed range [1, " + std::to_string(kMaxStepCount) + "] frames"));
+    return;
+  }
+  if (!alarm_.empty()) {
+    Answer(job, Error(ControlCode::kFailedPrecondition,
+                      "cannot step: " + alarm_ + " (StepBack or Reset first)"));
+    return;
+  }
+  if (running_) Log("paused at frame " + std::to_string(sim_->frame()) + " to step");
+  running_ = false;
+  step_ = ActiveStep{std::move(job), c.count, 0};
+  RefreshStatus();
+}
+
+void SimulationHost::ContinueStep() {
+  ActiveStep& step = *step_;
+  const ControlCode gone = CallerGone(step.job.caller, Clock::now());
+  if (gone == ControlCode::kCancelled) {
+    FinishStep(Error(gone, "cancelled by its caller"), "its caller cancelled it");
+    return;
+  }
+  if (gone == ControlCode::kDeadlineExceeded) {
+    // Answered while the caller still waits: the frames moved are reported.
+    FinishStep(ControlResult{}, "its caller's deadline is near");
+    return;
+  }
+  const bool complete = AdvanceFrame([&] {
+    return attention_.load(std::memory_order_relaxed) ||
+           CallerGone(step.job.caller, Clock::now()) != ControlCode::kOk;
+  });
+  if (complete && alarm_.empty()) ++step.moved;
+  if (!alarm_.empty()) {
+    FinishStep(ControlResult{}, "the simulation diverged");
+  } else if (step.moved == step.count) {
+    FinishStep(ControlResult{}, "");
+  }
+}
+
+void SimulationHost::FinishStep(ControlResult result, const std::string& why) {
+  ActiveStep step = std::move(*step_);
+  step_.reset();
+  if (!why.empty()) {
+    Log("Step of " + std::to_string(step.count) + " frames ended after " +
+        std::to_string(step.moved) + ": " + why);
+  }
+  result.frames_moved = step.moved;
+  Answer(step.job, std::move(result));
+}
+
+bool SimulationHost::AdvanceFrame(const std::function<bool()>& interrupted) {
+  const bool complete = sim_->StepFrame(interrupted);
   if (!sim_->alarm().empty()) {
     // The core stopped at the first step that diverged.
     alarm_ = sim_->alarm() + " (frame " + std::to_string(sim_->frame()) +
@@ -174,15 +317,22 @@ void SimulationHost::AdvanceFrame() {
     running_ = false;
     Log("alarm: " + alarm_);
     RefreshStatus();
-    return;  // never recorded, never streamed
+    return false;  // never recorded, never streamed
   }
-  history_.Record(*sim_);
+  if (!complete) return false;
+  if (params_changed_in_frame_) {
+    history_.RecordParameterChange(*sim_);
+    params_changed_in_frame_ = false;
+  } else {
+    history_.Record(*sim_);
+  }
   recent_frames_.push_back(Clock::now());
   while (recent_frames_.front() < recent_frames_.back() - std::chrono::seconds(1)) {
     recent_frames_.pop_front();
   }
   Publish(/*force=*/!running_, /*discontinuity=*/false);
   RefreshStatus();
+  return true;
 }
 
 ControlResult SimulationHost::Apply(Control& control) {
@@ -202,23 +352,9 @@ ControlResult SimulationHost::Apply(Control& control) {
             running_ = true;
             return ControlResult{};
           },
-          [&](StepControl& c) {
-            if (c.count < 1 || c.count > kMaxStepCount) {
-              return Error(
-                  ControlCode::kInvalidArgument,
-                  "count: allowed range [1, " + std::to_string(kMaxStepCount) + "] frames");
-            }
-            if (!alarm_.empty()) {
-              return Error(ControlCode::kFailedPrecondition,
-                           "cannot step: " + alarm_ + " (StepBack or Reset first)");
-            }
-            running_ = false;
-            ControlResult r;
-            for (uint32_t i = 0; i < c.count && alarm_.empty(); ++i) {
-              AdvanceFrame();
-              if (alarm_.empty()) ++r.frames_moved;
-            }
-            return r;
+          [&](StepControl&) {
+            // Never reached: Handle hands Steps to BeginStep, which answers them later.
+            return Error(ControlCode::kFailedPrecondition, "Step is not applied at once");
           },
           [&](StepBackControl& c) {
             if (c.count < 1 || c.count > kMaxStepCount) {
@@ -230,7 +366,9 @@ ControlResult SimulationHost::Apply(Control& control) {
             // A diverged state is not in the history: the last good frame is the one before.
             const uint64_t from = sim_->frame();
             const uint64_t target = from > c.count ? from - c.count : 0;
+            // A frame in progress, and a parameter change within it, go with the rest.
             const uint64_t reached = history_.Restore(*sim_, target);
+            params_changed_in_frame_ = false;
             alarm_.clear();
             ControlResult r;
             r.frames_moved = uint32_t(from - reached);
@@ -260,6 +398,8 @@ ControlResult SimulationHost::Apply(Control& control) {
               if (r.reset) {
                 DescribeScene();
                 StartScene();
+              } else if (sim_->frame_in_progress()) {
+                params_changed_in_frame_ = true;  // recorded at the frame's end
               } else {
                 history_.RecordParameterChange(*sim_);
               }
@@ -289,9 +429,6 @@ ControlResult SimulationHost::Apply(Control& control) {
           },
       },
       control);
-  RefreshStatus();
-  result.status = Status();
-  result.params = sim_->params();
   return result;
 }
 
@@ -308,6 +445,7 @@ std::string SimulationHost::CheckParticleLimit(const Scene& scene, const Params&
 
 void SimulationHost::StartScene() {
   alarm_.clear();
+  params_changed_in_frame_ = false;
   history_.Start(*sim_);
   recent_frames_.clear();
   gather_ = {};

@@ -1,6 +1,7 @@
 #include "simulation_service.h"
 
 #include <algorithm>
+#include <chrono>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -9,6 +10,23 @@
 #include "proto_conversions.h"
 
 namespace dysa::service {
+namespace {
+
+// The call as the simulation thread sees it: when its caller stops waiting, and whether it has
+// gone. The context lives until the call is finished, which only the control's answer does.
+ControlCaller CallerOf(grpc::CallbackServerContext* context) {
+  ControlCaller caller;
+  const auto left = context->deadline() - std::chrono::system_clock::now();
+  // No deadline reads as the far future (system_clock's max): never.
+  if (left < std::chrono::hours(24 * 365)) {
+    caller.deadline = std::chrono::steady_clock::now() +
+                      std::chrono::duration_cast<std::chrono::steady_clock::duration>(left);
+  }
+  caller.cancelled = [context] { return context->IsCancelled(); };
+  return caller;
+}
+
+}  // namespace
 
 SimulationService::SimulationService(SimulationHost& host, AccessPolicy access)
     : host_(host), access_(std::move(access)) {
@@ -45,14 +63,17 @@ grpc::ServerUnaryReactor* SimulationService::SubmitControl(grpc::CallbackServerC
     reactor->Finish(s);
     return reactor;
   }
-  host_.Submit(std::move(control), [reactor, reply](ControlResult r) {
-    if (r.code == ControlCode::kOk) {
-      ToProto(r.status, *reply->mutable_status());
-      reply->set_reset(r.reset);
-      reply->set_frames_moved(r.frames_moved);
-    }
-    reactor->Finish(ToGrpc(r.code, r.message));
-  });
+  host_.Submit(
+      std::move(control),
+      [reactor, reply](ControlResult r) {
+        if (r.code == ControlCode::kOk) {
+          ToProto(r.status, *reply->mutable_status());
+          reply->set_reset(r.reset);
+          reply->set_frames_moved(r.frames_moved);
+        }
+        reactor->Finish(ToGrpc(r.code, r.message));
+      },
+      CallerOf(context));
   return reactor;
 }
 
@@ -119,14 +140,17 @@ grpc::ServerUnaryReactor* SimulationService::UpdateParams(grpc::CallbackServerCo
     reactor->Finish(s);
     return reactor;
   }
-  host_.Submit(std::move(control), [reactor, reply](ControlResult r) {
-    if (r.code == ControlCode::kOk) {
-      reply->set_reset(r.reset);
-      ToProto(r.params, *reply->mutable_params());
-      ToProto(r.status, *reply->mutable_status());
-    }
-    reactor->Finish(ToGrpc(r.code, r.message));
-  });
+  host_.Submit(
+      std::move(control),
+      [reactor, reply](ControlResult r) {
+        if (r.code == ControlCode::kOk) {
+          reply->set_reset(r.reset);
+          ToProto(r.params, *reply->mutable_params());
+          ToProto(r.status, *reply->mutable_status());
+        }
+        reactor->Finish(ToGrpc(r.code, r.message));
+      },
+      CallerOf(context));
   return reactor;
 }
 
@@ -143,13 +167,16 @@ grpc::ServerUnaryReactor* SimulationService::LoadScene(grpc::CallbackServerConte
     reactor->Finish(s);
     return reactor;
   }
-  host_.Submit(std::move(control), [reactor, reply](ControlResult r) {
-    if (r.code == ControlCode::kOk) {
-      ToProto(r.status, *reply->mutable_status());
-      reply->set_reset(true);
-    }
-    reactor->Finish(ToGrpc(r.code, r.message));
-  });
+  host_.Submit(
+      std::move(control),
+      [reactor, reply](ControlResult r) {
+        if (r.code == ControlCode::kOk) {
+          ToProto(r.status, *reply->mutable_status());
+          reply->set_reset(true);
+        }
+        reactor->Finish(ToGrpc(r.code, r.message));
+      },
+      CallerOf(context));
   return reactor;
 }
 

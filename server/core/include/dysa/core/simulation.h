@@ -1,6 +1,7 @@
 // A running simulation: scene, parameters, state, the pass list of the step and its profile.
 #pragma once
 
+#include <functional>
 #include <limits>
 #include <memory>
 #include <span>
@@ -102,6 +103,17 @@ class Simulation {
   // One displayed frame. Fixed step: iterations_per_frame steps, as in the thesis. Physical
   // solvers: as many adaptive steps as it takes to advance exactly model().FrameTime().
   void StepFrame();
+  // The same frame in pieces: steps until the frame is complete (then frame() counts it and it
+  // returns true), or returns false between two steps once `interrupted()` (asked before every
+  // step but the call's first, so each call makes progress) says so. The next call resumes that
+  // frame: the same end time for a physical solver, the steps still owed for a fixed step, so a
+  // frame stepped in any number of pieces ends in the same state as StepFrame(). A parameter
+  // change that needs no reset leaves the frame's end as it was; Reset(), RestoreCheckpoint() and
+  // a change that resets drop a partial frame.
+  bool StepFrame(const std::function<bool()>& interrupted);
+  // A frame was begun by StepFrame(interrupted) and not completed: the state lies between frame()
+  // and the next.
+  bool frame_in_progress() const { return frame_open_; }
   // The step the latest Step() took, s.
   double last_dt() const { return state_.dt; }
   // Empty while the state is healthy. Otherwise why the simulation stopped by itself: a NaN or
@@ -158,6 +170,11 @@ class Simulation {
   size_t sort_pass_ = 0;
   std::vector<PassProfile> profile_;
   std::string alarm_;
+  // The frame StepFrame is advancing, while frame_open_: where a physical solver's frame ends
+  // (s) or how many fixed steps it still owes.
+  bool frame_open_ = false;
+  double frame_end_time_ = 0;
+  int frame_steps_left_ = 0;
 };
 
 // Creates the particles of every fluid block (positions, velocities, ids) from the scene and

@@ -82,12 +82,12 @@ class Subscription {
  private:
   friend class FrameHub;
   FrameHub* hub_ = nullptr;
-  std::shared_ptr<FrameGroup> group_;
 
   std::mutex listener_mu_;  // held while the listener is called; Unsubscribe waits on it
   FrameListener* listener_ = nullptr;
 
   std::mutex frame_mu_;
+  std::shared_ptr<FrameGroup> group_;  // null once unsubscribed
   std::shared_ptr<const EncodedFrame> pending_;
   std::optional<uint64_t> last_seq_;  // the last frame taken
 };
@@ -100,12 +100,18 @@ class FrameHub {
   // The subscriber's first frame is a keyframe; the hub asks for one (see set_frame_needed).
   std::shared_ptr<Subscription> Subscribe(const SubscriptionOptions& options,
                                           FrameListener* listener);
-  // After it returns, the listener is never called again.
+  // After it returns, the listener is never called again, and the subscription holds no frame
+  // and takes none. Idempotent.
   void Unsubscribe(const std::shared_ptr<Subscription>& subscription);
   // Ends every stream (OnHubClosed) and refuses new subscribers.
   void Close();
 
   size_t subscribers() const;
+  // Distinct stream configurations subscribed to: each holds an encoder. A configuration and
+  // its buffers are freed when its last subscriber leaves (and the memory handed back).
+  size_t configurations() const;
+  // Bytes the configurations' encoders hold between frames.
+  size_t configuration_bytes() const;
   // The codec fields some subscriber wants; 0 when no one subscribes (nothing to publish).
   uint32_t NeededFields() const;
   uint64_t frames_encoded() const;

@@ -2,6 +2,7 @@
 // dysa-server and the integration tests.
 #pragma once
 
+#include <chrono>
 #include <memory>
 #include <string>
 
@@ -32,9 +33,14 @@ class Server {
   ~Server();  // Shutdown()
 
   int port() const { return port_; }
-  // Ends every frame stream with UNAVAILABLE, stops the simulation thread, waits up to
-  // `grace_ms` for calls in flight and cancels what is left.
-  void Shutdown(int grace_ms = 2000);
+  // Ends every frame stream with UNAVAILABLE, answers queued controls UNAVAILABLE, stops the
+  // simulation thread at its next step boundary, then stops accepting calls and cancels those
+  // still in flight at `deadline` (a stream's write to a stalled reader). Returns false, without
+  // shutting gRPC down, when the simulation thread is still inside a solver step at `deadline`:
+  // a step cannot be interrupted, so a process that must end then exits without waiting
+  // (dysa-server does). Idempotent: later calls return the first one's result.
+  bool Shutdown(std::chrono::steady_clock::time_point deadline = std::chrono::steady_clock::now() +
+                                                                 std::chrono::seconds(2));
 
  private:
   SimulationHost& host_;
@@ -42,6 +48,7 @@ class Server {
   std::unique_ptr<grpc::Server> server_;
   int port_ = 0;
   bool shut_down_ = false;
+  bool stopped_ = false;  // the first Shutdown's result
 };
 
 }  // namespace dysa::service

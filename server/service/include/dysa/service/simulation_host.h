@@ -1,5 +1,13 @@
 // The simulation thread of the server: runs frames at the chosen rate, applies controls between
-// frames in the order they arrive, keeps the step-back history and publishes frames to the hub.
+// solver steps in the order they arrive, keeps the step-back history and publishes frames to the
+// hub.
+//
+// Controls act between steps, not only between frames: a frame of a physical solver is many
+// adaptive steps, and a scene can make each of them slow. A running frame is advanced in pieces
+// (Simulation::StepFrame(interrupted)) and interrupted as soon as a control is queued; it goes on
+// from where it stopped once the control is applied, unless the control moved the state
+// elsewhere. A control whose caller has given up (its deadline passed, or it cancelled) before
+// the thread got to it is answered kDeadlineExceeded or kCancelled and not applied.
 //
 // No RPC types here: the gRPC adapter (simulation_service.cc) converts its requests into
 // Controls and ControlResults back into replies. Nothing a caller does waits for a step:
@@ -7,12 +15,15 @@
 // by the simulation thread.
 #pragma once
 
+#include <atomic>
+#include <chrono>
 #include <condition_variable>
 #include <cstdint>
 #include <deque>
 #include <functional>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <thread>
 #include <utility>
@@ -92,9 +103,13 @@ struct HostScene {
   uint64_t scene_version = 0;  // HostStatus::scene_version of this description
 };
 
-// Controls, applied between two frames.
+// Controls, applied between two solver steps.
 struct PauseControl {};
 struct ResumeControl {};
+// Runs `count` frames, then pauses; answered when they are done, or earlier, with the frames it
+// moved, when another control but a parameter change arrives (which is then applied), when the
+// caller is about to stop waiting (kReplyMargin before its deadline) or has gone, or when the
+// simulation diverges. A parameter change is applied between its steps and the Step goes on.
 struct StepControl {
   uint32_t count = 1;  // frames
 };
@@ -111,13 +126,34 @@ struct LoadSceneControl {
 using Control = std::variant<PauseControl, ResumeControl, StepControl, StepBackControl,
                              ResetControl, UpdateParamsControl, LoadSceneControl>;
 
+// "Pause", "Step", ...: for the log.
+const char* ControlName(const Control& control);
+
 enum class ControlCode {
   kOk,
   kInvalidArgument,
   kResourceExhausted,
   kFailedPrecondition,
-  kUnavailable
+  kUnavailable,
+  kDeadlineExceeded,  // not applied: the caller's deadline passed (or left no time to answer)
+  kCancelled          // not applied (or a Step ended): the caller cancelled the call
 };
+
+// The caller waiting for a control's answer, as the simulation thread sees it when it gets to
+// the control.
+struct ControlCaller {
+  // When the caller stops waiting for the answer; max(): never.
+  std::chrono::steady_clock::time_point deadline = std::chrono::steady_clock::time_point::max();
+  // True once the caller has gone (it cancelled the call, or its connection broke); empty: never
+  // goes. Called on the simulation thread, before the control is answered.
+  std::function<bool()> cancelled;
+};
+
+// A control is applied only while at least this much is left before its caller's deadline, so
+// that the answer of a control applied reaches the caller in time (a control that is applied is
+// reported applied); with less left, it is answered kDeadlineExceeded and not applied. A Step
+// ends this long before its caller's deadline, answered with the frames it moved.
+inline constexpr std::chrono::milliseconds kReplyMargin{100};
 
 struct ControlResult {
   ControlCode code = ControlCode::kOk;
@@ -146,7 +182,16 @@ class SimulationHost {
   SimulationHost& operator=(const SimulationHost&) = delete;
 
   void Start();
-  // Stops the thread after the current frame; queued controls are answered kUnavailable.
+  // Asks the thread to stop at its next step boundary, without waiting for it: queued controls
+  // are answered kUnavailable at once (on the calling thread), a Step in progress by the
+  // simulation thread as it stops, and later ones when submitted.
+  void RequestStop();
+  // RequestStop(), then waits until `deadline` for the thread to return. True: it returned and is
+  // joined, and nothing is published any more. False: it is still inside a solver step (a step
+  // cannot be interrupted); the host cannot be destroyed before the step ends (the destructor
+  // waits for it), so a process that must end now exits without destroying it.
+  bool StopWithin(std::chrono::steady_clock::time_point deadline);
+  // StopWithin with no deadline.
   void Stop();
 
   FrameHub& hub() { return hub_; }
@@ -155,18 +200,40 @@ class SimulationHost {
   HostScene CurrentScene() const;
   const HostOptions& options() const { return options_; }
 
-  // Queues a control; `done` runs on the simulation thread once it is applied (or refused).
-  void Submit(Control control, std::function<void(ControlResult)> done);
+  // Queues a control; `done` runs once it is applied, refused or skipped (its caller gone): on
+  // the simulation thread, or on RequestStop's caller for a control still queued then.
+  void Submit(Control control, std::function<void(ControlResult)> done, ControlCaller caller = {});
 
  private:
   struct Job {
     Control control;
     std::function<void(ControlResult)> done;
+    ControlCaller caller;
+    std::chrono::steady_clock::time_point queued;
+  };
+  // A Step control being carried out between other controls.
+  struct ActiveStep {
+    Job job;
+    uint32_t count = 0;
+    uint32_t moved = 0;  // frames completed so far
   };
 
   void Loop();
+  // Applies a dequeued control, or answers it unapplied when its caller is gone.
+  void Handle(Job& job);
+  // Validates a Step and makes it the active one (answered later, by FinishStep).
+  void BeginStep(Job& job);
+  // Advances the active Step by a frame, or part of one when something interrupts it.
+  void ContinueStep();
+  // Answers the active Step with `result` (frames_moved filled in) and ends it.
+  void FinishStep(ControlResult result, const std::string& why);
+  // Fills the result's status and parameters, then answers the job.
+  void Answer(Job& job, ControlResult result);
   ControlResult Apply(Control& control);
-  void AdvanceFrame();
+  // Advances the running frame until it completes (true) or `interrupted()` stops it between two
+  // steps (false; the next call goes on with the same frame). A completed frame is recorded and
+  // published; a diverged one raises the alarm and pauses.
+  bool AdvanceFrame(const std::function<bool()>& interrupted);
   // A scene or parameter set over the particle limit: the message, or "" when it fits.
   std::string CheckParticleLimit(const Scene& scene, const Params& params) const;
   void StartScene();
@@ -186,6 +253,11 @@ class SimulationHost {
   History history_;
   bool running_ = false;
   std::string alarm_;
+  std::optional<ActiveStep> step_;
+  // Parameters changed (without a reset) while a frame was partly stepped: the frame's end gets
+  // the checkpoint that tells re-simulation of the change (History::RecordParameterChange), so
+  // that stepping back and forward again repeats the frame with the change where it was made.
+  bool params_changed_in_frame_ = false;
   FrameSnapshot snapshot_;  // reused buffers
   std::deque<std::chrono::steady_clock::time_point> recent_frames_;
   StageTiming gather_;  // gathering frames for subscribers
@@ -198,6 +270,11 @@ class SimulationHost {
   std::condition_variable wake_;
   std::deque<Job> queue_;
   bool stop_ = false;
+  bool finished_ = false;  // Loop has returned
+  std::condition_variable finished_cv_;
+  // queue_ holds a control or stop_ is set: a running frame or a Step yields to it between two
+  // steps. Written under mu_, read by the solver's step loop without it.
+  std::atomic<bool> attention_{false};
   bool frame_needed_ = false;  // a subscriber waits for a frame (see FrameHub::set_frame_needed)
 
   mutable std::mutex status_mu_;
