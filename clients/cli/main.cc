@@ -9,6 +9,7 @@
 #include "dysa/core/params.h"
 #include "dysa/core/scene.h"
 #include "dysa/core/solver.h"
+#include "dysa/core/text.h"
 #include "dysa/core/types.h"
 #include "run_command.h"
 #include "validate_command.h"
@@ -63,6 +64,33 @@ CLI::Validator DeviceValidator() {
         }
       },
       "cpu|cuda[:N]");
+}
+
+// --set NAME=VALUE of `dysa run` and `dysa validate`: a malformed assignment or a value a double
+// cannot hold is a usage error (2), as for `dysa set`; the name and the range are checked when
+// the run starts (1, as the server's check of `dysa set`).
+CLI::Validator AssignmentValidator() {
+  return CLI::Validator(
+      [](std::string& text) -> std::string {
+        try {
+          dysa::ParseAssignment(text);
+          return "";
+        } catch (const dysa::ConfigError& e) {
+          return e.what();
+        }
+      },
+      "NAME=VALUE");
+}
+
+// `dysa WORD` with no command WORD: CLI11 would only say that a command is required.
+int UnknownCommand(CLI::App& app) {
+  std::string commands;
+  for (const CLI::App* command : app.get_subcommands([](CLI::App*) { return true; })) {
+    commands += (commands.empty() ? "" : ", ") + command->get_name();
+  }
+  std::cerr << "dysa: error: unknown command '" << dysa::SafeText(app.remaining().front())
+            << "'; the commands are " << commands << " (dysa --help)\n";
+  return 2;
 }
 
 // An error of `dysa run` or `dysa validate`; a device that cannot run (no GPU, no driver, a build
@@ -126,13 +154,13 @@ class RemoteCommands {
         Add(app, "step", "Advance N frames (default 1), then pause", [this](remote::Client& c) {
           remote::RunControl(c, remote::ControlVerb::kStep, count_, json_, std::cout);
         });
-    step->add_option("N", count_, "Frames")->check(CLI::Range(1u, 1000000u));
+    step->add_option("N", count_, "Frames")->check(CLI::Range(1u, remote::kMaxStepFrames));
     CLI::App* back =
         Add(app, "back", "Go back N frames (default 1) in the history, then pause",
             [this](remote::Client& c) {
               remote::RunControl(c, remote::ControlVerb::kStepBack, count_, json_, std::cout);
             });
-    back->add_option("N", count_, "Frames")->check(CLI::Range(1u, 1000000u));
+    back->add_option("N", count_, "Frames")->check(CLI::Range(1u, remote::kMaxStepFrames));
     Add(app, "reset", "Re-spawn the fluid of the current scene; time goes to 0",
         [this](remote::Client& c) {
           remote::RunControl(c, remote::ControlVerb::kReset, 0, json_, std::cout);
@@ -290,7 +318,8 @@ int main(int argc, char** argv) {
       "run", "Simulate a scene offline (no server): progress, per-pass timings, probes.csv, VTK");
   run_cmd->add_option("scene", run.scene, "Built-in scene name or path to a scene JSON file")
       ->required();
-  run_cmd->add_option("--set", run.sets, "Override a parameter, NAME=VALUE (repeatable)");
+  run_cmd->add_option("--set", run.sets, "Override a parameter, NAME=VALUE (repeatable)")
+      ->check(AssignmentValidator());
   auto* end_opt = run_cmd
                       ->add_option("--end-time", end_time,
                                    "Simulated seconds to run (default: the scene's end_time)")
@@ -314,12 +343,13 @@ int main(int argc, char** argv) {
   dysa::ValidateOptions validate;
   CLI::App* validate_cmd = app.add_subcommand(
       "validate",
-      "Run the validation cases (hydrostatic tank, Martin & Moyce dam break) offline and print "
-      "their errors; exits 1 when a target is missed");
+      "Run the validation cases (hydrostatic tank, Martin & Moyce dam break, Poiseuille flow) "
+      "offline and print their errors; exits 1 when a target is missed");
   validate_cmd->add_flag("--quick", validate.quick,
                          "Coarse resolutions with the CI test's bounds (about a minute)");
   validate_cmd->add_option("--solver", validate.solver, "Solver instead of the scenes' (wcsph)");
-  validate_cmd->add_option("--set", validate.sets, "Override a parameter, NAME=VALUE (repeatable)");
+  validate_cmd->add_option("--set", validate.sets, "Override a parameter, NAME=VALUE (repeatable)")
+      ->check(AssignmentValidator());
   validate_cmd->add_option("--threads", validate.threads, "OpenMP threads (default: all cores)")
       ->check(CLI::Range(1, 1024));
   std::string validate_device = "cpu";
@@ -337,6 +367,10 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
+    if (dynamic_cast<const CLI::RequiredError*>(&e) && app.get_subcommands().empty() &&
+        !app.remaining().empty() && !app.remaining().front().starts_with("-")) {
+      return UnknownCommand(app);
+    }
     // --help exits 0; every usage error exits 2, whatever CLI11's own code for it.
     return app.exit(e) == 0 ? 0 : 2;
   }

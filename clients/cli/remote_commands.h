@@ -23,6 +23,10 @@ class UsageError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+// The most frames `dysa step` and `dysa back` ask for: the server's limit on one Step or
+// StepBack (kMaxStepCount, server/service/include/dysa/service/simulation_host.h).
+inline constexpr uint32_t kMaxStepFrames = 10000;
+
 void PrintStatus(Client& client, bool json, std::ostream& out);
 
 enum class ControlVerb { kPause, kResume, kStep, kStepBack, kReset };
@@ -41,7 +45,10 @@ void SetParams(Client& client, const std::vector<std::string>& assignments, bool
                std::ostream& out);
 
 // `scene` is an existing file (its text is sent) or a built-in scene name. `solver`: a
-// registered solver to run it with instead of its own; "": the scene's.
+// registered solver to run it with instead of its own; "": the scene's. Throws
+// std::runtime_error saying "no such file" for a missing path (a name with a '/' or ending in
+// .json), "is a directory" for one, and "neither a file here nor a built-in scene" for a name
+// the server does not know.
 void LoadScene(Client& client, const std::string& scene, const std::string& solver, bool json,
                std::ostream& out);
 
@@ -71,7 +78,8 @@ void Watch(Client& client, const WatchOptions& options, std::ostream& out);
 struct RecordOptions {
   StreamOptions stream;
   uint64_t frames = 1;  // complete decoded frames to write
-  std::string out;      // npz: the file; vtk: OUT.pvd (or OUT if it ends in .pvd) and OUT/
+  std::string out;      // npz: the file; vtk: OUT.pvd (or OUT if it ends in .pvd) and OUT/; missing
+                        // directories on the way are made
   std::string format;   // "vtk" or "npz"; "" picks npz for a .npz file name, vtk otherwise
   bool json = false;
   bool progress = false;  // a live "k/N frames" line on `err`

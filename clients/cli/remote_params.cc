@@ -1,13 +1,12 @@
 // dysa params, dysa set NAME=VALUE...
-#include <charconv>
-#include <cmath>
 #include <ostream>
 #include <set>
 #include <string>
-#include <system_error>
 #include <utility>
 #include <vector>
 
+#include "dysa/core/params.h"
+#include "dysa/core/types.h"
 #include "remote_commands.h"
 #include "remote_format.h"
 
@@ -57,18 +56,13 @@ std::vector<std::pair<std::string, double>> ParseAssignments(
   std::vector<std::pair<std::string, double>> values;
   std::set<std::string> seen;
   for (const std::string& assignment : assignments) {
-    const size_t eq = assignment.find('=');
-    if (eq == std::string::npos || eq == 0) {
-      throw UsageError("expected NAME=VALUE, got '" + assignment + "'");
+    std::pair<std::string, double> parsed;
+    try {
+      parsed = ParseAssignment(assignment);  // names and ranges are the server's to check
+    } catch (const ConfigError& e) {
+      throw UsageError(e.what());
     }
-    const std::string name = assignment.substr(0, eq);
-    const std::string text = assignment.substr(eq + 1);
-    double value = 0;
-    const char* end = text.data() + text.size();
-    const auto [ptr, ec] = std::from_chars(text.data(), end, value);
-    if (text.empty() || ec != std::errc() || ptr != end || !std::isfinite(value)) {
-      throw UsageError(name + ": '" + text + "' is not a finite number");
-    }
+    const auto& [name, value] = parsed;
     if (!seen.insert(name).second) throw UsageError(name + ": given more than once");
     values.emplace_back(name, value);
   }

@@ -117,9 +117,12 @@ void Record(Client& client, const RecordOptions& options, std::ostream& out, std
   }
   if (options.frames == 0) throw UsageError("--frames: must be at least 1");
   if (path.filename().empty()) throw UsageError("--out: '" + options.out + "' names no file");
+  // Missing directories are made, as `dysa run --out` makes its own, before any frame arrives.
   const fs::path parent = path.parent_path();
-  if (!parent.empty() && !fs::is_directory(parent)) {
-    throw std::runtime_error("cannot write " + options.out + ": no directory " + parent.string());
+  std::error_code error;
+  if (!parent.empty() && !fs::create_directories(parent, error) && !fs::is_directory(parent)) {
+    throw std::runtime_error("cannot write " + options.out + ": cannot make the directory " +
+                             parent.string() + (error ? ": " + error.message() : ""));
   }
 
   // vtk: OUT.pvd and OUT/frame_NNNNNN.vtp, written as frames arrive.

@@ -53,7 +53,15 @@ std::string Point(const std::array<double, 3>& v) {
 void LoadScene(Client& client, const std::string& scene, const std::string& solver, bool json,
                std::ostream& out) {
   std::error_code error;
-  const bool is_file = fs::is_regular_file(scene, error);
+  const fs::file_status status = fs::status(scene, error);
+  // A file (or a pipe: `dysa load <(...)`) is sent as text; anything else is a built-in name.
+  const bool is_file = fs::exists(status) && !fs::is_directory(status);
+  if (fs::is_directory(status)) {
+    throw std::runtime_error("'" + scene + "' is a directory, not a scene file");
+  }
+  // What can only be a path, the server would call an unknown name.
+  const bool path_like = scene.find('/') != std::string::npos || scene.ends_with(".json");
+  if (!is_file && path_like) throw std::runtime_error("no such file '" + scene + "'");
   ControlResult r;
   if (is_file) {
     std::ifstream file(scene, std::ios::binary);
@@ -62,7 +70,15 @@ void LoadScene(Client& client, const std::string& scene, const std::string& solv
     if (!file) throw std::runtime_error("cannot read " + scene);
     r = client.LoadSceneText(text.str(), solver);
   } else {
-    r = client.LoadSceneByName(scene, solver);
+    try {
+      r = client.LoadSceneByName(scene, solver);
+    } catch (const RpcError& e) {
+      // The server's "name: no built-in scene ..." speaks of the API's json_text.
+      if (e.code_name() != "INVALID_ARGUMENT" || !e.message().starts_with("name:")) throw;
+      throw std::runtime_error("'" + scene +
+                               "' is neither a file here nor a built-in scene of the server "
+                               "(dysa scenes lists them)");
+    }
   }
   if (json) return PrintJson(ToJson(r), out);
   const ServerStatus& s = r.status;

@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "dysa/client/client.h"
+#include "dysa/service/simulation_host.h"
 #include "support/server_process.h"
 #include "support/temp_dir.h"
 
@@ -131,7 +132,7 @@ TEST(ParseAssignmentsTest, AcceptsNumbersAndRejectsTheRestNamingTheParameter) {
   EXPECT_EQ(values[1].second, -9.81);
   EXPECT_EQ(values[3].second, 0.1);
   for (const char* bad : {"viscosity=abc", "viscosity=", "viscosity=1x", "viscosity=nan",
-                          "viscosity=inf", "viscosity= 1"}) {
+                          "viscosity=inf", "viscosity= 1", "viscosity=1e-400", "viscosity=1e999"}) {
     try {
       ParseAssignments({bad});
       ADD_FAILURE() << bad << ": no error";
@@ -207,12 +208,27 @@ TEST(DysaRemoteBinaryTest, UsageErrorsExitWithTwoBeforeAnyCall) {
        {"step 0", "back -1", "set", "set viscosity", "set viscosity=abc", "load",
         "record --frames 5", "record --out x.npz", "record --frames 0 --out x.npz",
         "record --frames 1 --out x.npz --format csv", "watch --fields pressure",
-        "watch --seconds 0", "status --no-such-flag", "frobnicate"}) {
+        "watch --seconds 0", "status --no-such-flag", "frobnicate", "step 10001", "back 10001",
+        "set viscosity=1e-400", "set viscosity=1e999", "set viscosity=inf"}) {
     const Result r = RunDysa(dir.path(), server + args);
     EXPECT_EQ(r.exit_code, 2) << args << "\n" << r.err << r.out;
   }
-  const Result r = RunDysa(dir.path(), server + "set viscosity=abc");
-  EXPECT_THAT(r.err, HasSubstr("dysa set: error: viscosity: 'abc' is not a finite number"));
+  Result r = RunDysa(dir.path(), server + "set viscosity=abc");
+  EXPECT_THAT(r.err, HasSubstr("dysa set: error: viscosity: 'abc' is not a number"));
+  // An underflow is not "not a finite number" (it was).
+  r = RunDysa(dir.path(), server + "set viscosity=1e-400");
+  EXPECT_THAT(r.err, HasSubstr("dysa set: error: viscosity: '1e-400' is too close to 0 for a "
+                               "double (it would round to 0)"));
+  r = RunDysa(dir.path(), server + "set viscosity=1e999");
+  EXPECT_THAT(r.err, HasSubstr("'1e999' is out of the range of a double"));
+  // The server's limit, not 1,000,000 the server refuses.
+  EXPECT_EQ(kMaxStepFrames, service::kMaxStepCount);
+  r = RunDysa(dir.path(), server + "step 10001");
+  EXPECT_THAT(r.err + r.out, HasSubstr("not in range 1 to 10000"));
+  // Not "A subcommand is required".
+  r = RunDysa(dir.path(), server + "frobnicate");
+  EXPECT_THAT(r.err, HasSubstr("dysa: error: unknown command 'frobnicate'; the commands are run, "
+                               "validate, status,"));
   // --help lists the verbs.
   const Result help = RunDysa(dir.path(), "--help");
   EXPECT_EQ(help.exit_code, 0);
@@ -220,6 +236,8 @@ TEST(DysaRemoteBinaryTest, UsageErrorsExitWithTwoBeforeAnyCall) {
                            "set", "load", "scenes", "scene", "watch", "record"}) {
     EXPECT_THAT(help.out, HasSubstr(verb));
   }
+  // validate names each of its cases.
+  EXPECT_THAT(help.out, HasSubstr("(hydrostatic tank, Martin & Moyce dam break, Poiseuille flow)"));
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -414,8 +432,19 @@ TEST_F(RemoteTest, LoadSceneByNameAndFromAFile) {
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_THAT(r.err, HasSubstr("INVALID_ARGUMENT"));
   r = Dysa("load no_such_scene");
-  EXPECT_NE(r.exit_code, 0);
-  EXPECT_THAT(r.err, HasSubstr("no_such_scene"));
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.err, HasSubstr("dysa load: error: 'no_such_scene' is neither a file here nor a "
+                               "built-in scene of the server (dysa scenes lists them)"));
+  // A missing file is not an unknown built-in name to send as json_text (it was).
+  r = Dysa("load missing.json");
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.err, HasSubstr("dysa load: error: no such file 'missing.json'"));
+  EXPECT_THAT(r.err, Not(HasSubstr("json_text")));
+  r = Dysa("load '" + (dir_.path() / "no_dir" / "x").string() + "'");
+  EXPECT_THAT(r.err, HasSubstr("no such file"));
+  r = Dysa("load '" + dir_.path().string() + "'");
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.err, HasSubstr("is a directory, not a scene file"));
 
   const Json s = DysaJson("status");
   EXPECT_EQ(s["scene"], "small_from_file");
@@ -651,12 +680,21 @@ TEST_F(RemoteTest, RecordVtkWritesASeries) {
   EXPECT_TRUE(fs::exists(dir_.path() / "one" / "frame_000000.vtp"));
 }
 
-TEST_F(RemoteTest, RecordIntoAMissingDirectoryFailsBeforeStreaming) {
-  const Result r =
-      Dysa("record --frames 1 --out '" + (dir_.path() / "no_such_dir" / "x.npz").string() + "'");
+// As `dysa run --out` does; it failed with "no directory".
+TEST_F(RemoteTest, RecordMakesMissingDirectories) {
+  Result r =
+      Dysa("record --frames 1 --out '" + (dir_.path() / "new" / "sub" / "x.npz").string() + "'");
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_TRUE(fs::exists(dir_.path() / "new" / "sub" / "x.npz"));
+  r = Dysa("record --frames 1 --out '" + (dir_.path() / "vtk_new" / "series").string() + "'");
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_TRUE(fs::exists(dir_.path() / "vtk_new" / "series.pvd"));
+  // A directory that cannot be made fails before streaming.
+  std::ofstream(dir_.path() / "a_file") << "x";
+  r = Dysa("record --frames 1 --out '" + (dir_.path() / "a_file" / "x.npz").string() + "'");
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_THAT(r.err, HasSubstr("dysa record: error: cannot write"));
-  EXPECT_THAT(r.err, HasSubstr("no_such_dir"));
+  EXPECT_THAT(r.err, HasSubstr("cannot make the directory"));
 }
 
 TEST_F(RemoteTest, TokenIsNeededForControlsWhenTheServerHasOne) {

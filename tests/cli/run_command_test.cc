@@ -22,8 +22,8 @@
 #include "dysa/core/types.h"
 #include "support/temp_dir.h"
 
-#ifndef DYSA_BINARY
-#error "DYSA_BINARY must name the dysa executable (tests/CMakeLists.txt defines it)"
+#if !defined(DYSA_BINARY) || !defined(DYSA_DOCS_DIR)
+#error "tests/CMakeLists.txt defines DYSA_BINARY (the dysa executable) and DYSA_DOCS_DIR"
 #endif
 
 namespace dysa {
@@ -266,6 +266,52 @@ TEST(DysaBinaryTest, OutOfRangeSetFailsNamingTheParameterAndRange) {
   EXPECT_THAT(r.err, HasSubstr("viscosity"));
   EXPECT_THAT(r.err, HasSubstr(FindParam("viscosity")->RangeText()));
   EXPECT_FALSE(fs::exists(out_dir / "probes.csv"));
+}
+
+// A malformed --set is a usage error (2), as for `dysa set NAME` (it exited 1); a value out of
+// the parameter's range fails the run (1), as the server's refusal fails `dysa set`.
+TEST(DysaBinaryTest, SetExitsAsDysaSetDoes) {
+  TempDir dir;
+  const std::string run = "run seed_basic --steps 1 --out '" + (dir.path() / "out").string() + "' ";
+  Result r = RunDysa(dir.path(), run + "--set viscosity");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_THAT(r.err, HasSubstr("--set: expected NAME=VALUE, got 'viscosity'"));
+  r = RunDysa(dir.path(), run + "--set viscosity=1e-400");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_THAT(r.err, HasSubstr("viscosity: '1e-400' is too close to 0 for a double"));
+  r = RunDysa(dir.path(), run + "--set viscosity=abc");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_EQ(RunDysa(dir.path(), "validate --quick --set viscosity").exit_code, 2);
+  r = RunDysa(dir.path(), run + "--set iterations_per_frame=2.0000000001");
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.err, HasSubstr("iterations_per_frame: 2.0000000001 is not an integer; allowed "
+                               "range [1, 100] (integer)"));
+}
+
+// A number a double cannot hold gave a raw "[json.exception.out_of_range.406]"; a directory was
+// "malformed JSON".
+TEST(DysaBinaryTest, SceneFileErrorsNameTheFieldOrThePath) {
+  TempDir dir;
+  const fs::path scene = dir.path() / "huge.json";
+  std::ofstream(scene) << R"({"params": {"viscosity": 1e999}})";
+  const std::string out = " --steps 1 --out '" + (dir.path() / "out").string() + "'";
+  Result r = RunDysa(dir.path(), "run '" + scene.string() + "'" + out);
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.err, HasSubstr("dysa run: error: params.viscosity: 1e999 is out of the range of a "
+                               "double (at most 1.8e308 in magnitude) (in " +
+                               scene.string() + ")"));
+  EXPECT_THAT(r.err, Not(HasSubstr("json.exception")));
+  r = RunDysa(dir.path(), "run '" + dir.path().string() + "'" + out);
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.err, HasSubstr("is a directory, not a scene file"));
+}
+
+// docs/cli.md's table of built-in scenes lists every one (it lacked poiseuille_flow).
+TEST(DysaDocsTest, TheBuiltInScenesTableListsEveryScene) {
+  const std::string docs = ReadFile(fs::path(DYSA_DOCS_DIR) / "cli.md");
+  for (const std::string& scene : BuiltinSceneNames()) {
+    EXPECT_THAT(docs, HasSubstr("| `" + scene + "` |")) << scene;
+  }
 }
 
 TEST(DysaBinaryTest, BogusFlagFails) {

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "dysa/core/solver.h"
+#include "dysa/core/text.h"
 #include "dysa/core/types.h"
 
 namespace dysa {
@@ -168,6 +169,50 @@ TEST(SetParamTest, RejectsNonIntegersForIntegerParameters) {
   EXPECT_GE(integer_params, 2);
 }
 
+// The value in a message is the value refused, with every digit it needs: 2.0000000001 is not
+// shown as 2, which would look allowed.
+TEST(SetParamTest, MessagesShowTheValueRefusedAndWhy) {
+  auto message = [](std::string_view name, double value) {
+    Params p;
+    try {
+      SetParam(p, name, value);
+    } catch (const ConfigError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no ConfigError");
+  };
+  EXPECT_EQ(message("iterations_per_frame", 2.0000000001),
+            "iterations_per_frame: 2.0000000001 is not an integer; allowed range [1, 100] "
+            "(integer)");
+  EXPECT_EQ(message("viscosity", std::nextafter(10.0, 11.0)),
+            "viscosity: 10.000000000000002 is outside the allowed range [0, 10] m^3/s");
+  EXPECT_EQ(message("viscosity", -1e-300),
+            "viscosity: -1e-300 is outside the allowed range [0, 10] m^3/s");
+  EXPECT_EQ(message("viscosity", std::numeric_limits<double>::infinity()),
+            "viscosity: inf is not a finite number; allowed range [0, 10] m^3/s");
+  EXPECT_EQ(message("particle_quantity", 600),
+            "particle_quantity: 600 is outside the allowed "
+            "range [1, 500] (integer)");
+}
+
+TEST(SetParamTest, AnUnknownNameIsQuotedBoundedAndEscaped) {
+  Params p;
+  try {
+    SetParam(p, std::string(3'900'000, 'x') + "\n", 1);
+    FAIL() << "no ConfigError";
+  } catch (const ConfigError& e) {
+    EXPECT_LE(e.field().size(), kMaxQuotedBytes);
+    EXPECT_THAT(e.field(), HasSubstr("(3900001 bytes)"));
+    EXPECT_LT(std::string(e.what()).size(), 2000u);
+  }
+  try {
+    SetParam(p, "a\nb\x1b", 1);
+    FAIL() << "no ConfigError";
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.field(), "a\\nb\\x1b");
+  }
+}
+
 TEST(SetParamTest, UnknownNameThrowsNamingIt) {
   Params p = NonDefaultParams();
   const std::vector<double> before = AllValues(p);
@@ -228,6 +273,49 @@ TEST(SetParamFromStringTest, RejectsANonNumber) {
   ExpectFromStringRejected("viscosity= 0.1", "viscosity");
   ExpectFromStringRejected("viscosity=nan", "viscosity");
   ExpectFromStringRejected("viscosity=inf", "viscosity");
+}
+
+// A value a double cannot hold is not called "not a finite number": overflow and underflow
+// say which they are.
+TEST(SetParamFromStringTest, SaysWhyAValueIsNotADouble) {
+  EXPECT_THAT(ExpectFromStringRejected("viscosity=abc", "viscosity"),
+              HasSubstr("viscosity: 'abc' is not a number; allowed range [0, 10] m^3/s"));
+  EXPECT_THAT(ExpectFromStringRejected("viscosity=1e999", "viscosity"),
+              HasSubstr("'1e999' is out of the range of a double"));
+  EXPECT_THAT(ExpectFromStringRejected("viscosity=-1e999", "viscosity"),
+              HasSubstr("'-1e999' is out of the range of a double"));
+  EXPECT_THAT(ExpectFromStringRejected("viscosity=1e-400", "viscosity"),
+              HasSubstr("'1e-400' is too close to 0 for a double"));
+  EXPECT_THAT(ExpectFromStringRejected("viscosity=inf", "viscosity"),
+              HasSubstr("'inf' is not a finite number"));
+  EXPECT_THAT(ExpectFromStringRejected("iterations_per_frame=2.0000000001", "iterations_per_frame"),
+              HasSubstr("2.0000000001 is not an integer"));
+  // A subnormal is a double: it is in range or not like any other value.
+  EXPECT_THAT(ExpectFromStringRejected("viscosity=-1e-310", "viscosity"),
+              HasSubstr("-1e-310 is outside the allowed range"));
+}
+
+TEST(ParseAssignmentTest, SplitsAndReadsWithoutLookingUpTheName) {
+  EXPECT_EQ(ParseAssignment("viscosity=0.25"), std::make_pair(std::string("viscosity"), 0.25));
+  EXPECT_EQ(ParseAssignment("from_a_newer_server=1e-3"),
+            std::make_pair(std::string("from_a_newer_server"), 1e-3));
+  auto field_and_message = [](std::string_view assignment) {
+    try {
+      ParseAssignment(assignment);
+    } catch (const ConfigError& e) {
+      return e.field() + " | " + e.message();
+    }
+    return std::string("no ConfigError");
+  };
+  EXPECT_EQ(field_and_message("viscosity"), " | expected NAME=VALUE, got 'viscosity'");
+  EXPECT_EQ(field_and_message("=1"), " | expected NAME=VALUE, got '=1'");
+  EXPECT_EQ(field_and_message("viscosity=1e-400"),
+            "viscosity | '1e-400' is too close to 0 for a double (it would round to 0)");
+  EXPECT_EQ(field_and_message("viscosity=1e400"),
+            "viscosity | '1e400' is out of the range of a double (at most 1.8e308 in magnitude)");
+  EXPECT_EQ(field_and_message("viscosity=nan"), "viscosity | 'nan' is not a finite number");
+  EXPECT_EQ(field_and_message("viscosity=0.1x"), "viscosity | '0.1x' is not a number");
+  EXPECT_EQ(field_and_message("a\x1b=\n"), "a\\x1b | '\\n' is not a number");
 }
 
 TEST(SetParamFromStringTest, RejectsTrailingGarbage) {

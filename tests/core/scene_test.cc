@@ -378,6 +378,137 @@ TEST(ParseSceneTest, OutOfRangeNumbersAreNamed) {
   ExpectConfigError(R"({"domain": {"min": [-1e300, 0, 0], "max": [1, 1, 1]}})", "domain.min[0]");
 }
 
+// json::parse throws out_of_range for 1e999, which escaped as "[json.exception.out_of_range.406]"
+// (and UNIMPLEMENTED through LoadScene); 1e-400 silently became 0.
+TEST(ParseSceneTest, NumbersADoubleCannotHoldAreNamedByTheirPath) {
+  EXPECT_EQ(
+      std::string(
+          ExpectConfigError(R"({"params": {"viscosity": 1e999}})", "params.viscosity").what()),
+      "params.viscosity: 1e999 is out of the range of a double (at most 1.8e308 in "
+      "magnitude)");
+  EXPECT_EQ(
+      std::string(
+          ExpectConfigError(R"({"params": {"viscosity": 1e-400}})", "params.viscosity").what()),
+      "params.viscosity: 1e-400 is too close to 0 for a double (it would round to 0)");
+  ExpectConfigError(R"({"fluid_blocks": [{}, {"size": [1, -1e999, 1]}]})",
+                    "fluid_blocks[1].size[1]");
+  ExpectConfigError(R"({"fluid_blocks": [{}, {"size": [1, -1e-999, 1]}]})",
+                    "fluid_blocks[1].size[1]");
+  ExpectConfigError(R"({"end_time": 1E400})", "end_time");
+  ExpectConfigError(R"({"probes": [{"type": "height", "point": [0, 0, 7e-999]}]})",
+                    "probes[0].point[2]");
+  ExpectConfigError("1e999", "");
+  // A 400,000-digit number is quoted, not copied.
+  const std::string digits = "1" + std::string(400'000, '0');
+  const ConfigError long_number =
+      ExpectConfigError(R"({"params": {"gravity": )" + digits + "}}", "params.gravity");
+  EXPECT_LT(std::string(long_number.what()).size(), 300u);
+  EXPECT_THAT(long_number.what(), HasSubstr("(400001 bytes)"));
+  // Zero written any way, and subnormals, are doubles.
+  EXPECT_EQ(ParseScene(R"({"params": {"viscosity": 0e-999}})").params.viscosity, 0.0);
+  EXPECT_EQ(ParseScene(R"({"params": {"viscosity": 0.000e5}})").params.viscosity, 0.0);
+  EXPECT_GT(ParseScene(R"({"params": {"viscosity": 4.9e-324}})").params.viscosity, 0.0);
+}
+
+// Whatever the text, ParseScene throws a ConfigError with a bounded message, never another
+// exception (nor a crash from the depth of the text).
+TEST(ParseSceneTest, HostileTextGivesABoundedConfigErrorOnly) {
+  const std::string huge(3'900'000, 'k');
+  const std::vector<std::string> texts = {
+      "{\"name\": \"a\xff\"}",                                // not UTF-8
+      "{\"name\": \"a\x01\"}",                                // an unescaped control character
+      R"({"name": "\ud800"})",                                // a lone surrogate
+      std::string(100'000, '['),                              // unbalanced, deep
+      std::string(100'000, '[') + std::string(100'000, ']'),  // balanced, deep
+      "{\"" + huge + "\": 1}",                                // a huge unknown field
+      "{\"params\": {\"" + huge + "\": 1}}",                  // a huge unknown parameter
+      "{\"name\": \"" + huge + "\x02\"}",                     // a huge string the lexer refuses
+      "{\"end_time\": t" + huge + "}",                        // a huge invalid literal
+      "{\"solver\": \"" + huge + "\"}",                       // a huge unknown solver
+      "{\"obstacles\": [{\"type\": \"" + huge + "\"}]}",
+      "{\"probes\": [{\"type\": \"" + huge + "\"}]}",
+      "{\"probes\": [{\"type\": \"front\", \"axis\": \"" + huge + "\"}]}",
+  };
+  for (const std::string& text : texts) {
+    SCOPED_TRACE(text.substr(0, 40));
+    try {
+      ParseScene(text);
+      ADD_FAILURE() << "parsed";
+    } catch (const ConfigError& e) {
+      EXPECT_LT(std::string(e.what()).size(), 1000u) << std::string(e.what()).substr(0, 2000);
+    } catch (const std::exception& e) {
+      ADD_FAILURE() << "not a ConfigError: " << std::string(e.what()).substr(0, 200);
+    }
+  }
+  // The root, fluid_blocks and its block are 3 levels: the 30th array of size is the 33rd.
+  std::string deep_path = "fluid_blocks[0].size";
+  for (int level = 4; level <= 32; ++level) deep_path += "[0]";
+  const ConfigError deep =
+      ExpectConfigError(R"({"fluid_blocks": [{"size": )" + std::string(40, '[') + "}]}", deep_path);
+  EXPECT_THAT(deep.what(), HasSubstr("nested deeper than 32 levels"));
+}
+
+TEST(ParseSceneTest, ClientTextInMessagesIsEscaped) {
+  EXPECT_THAT(ExpectConfigError(R"({"col\nour\u001b[2J": 1})", "col\\nour\\x1b[2J").what(),
+              HasSubstr("unknown field"));
+  ExpectConfigError(R"({"params": {"visc\u0000osity": 1}})", "params.visc\\x00osity");
+  EXPECT_THAT(ExpectConfigError(R"({"solver": "se\ned"})", "solver").what(),
+              HasSubstr("unknown solver \"se\\ned\""));
+  EXPECT_THAT(
+      ExpectConfigError(R"({"obstacles": [{"type": "co\rne"}]})", "obstacles[0].type").what(),
+      HasSubstr("got \"co\\rne\""));
+  EXPECT_THAT(
+      ExpectConfigError(R"({"probes": [{"type": "front", "axis": "\u009b"}]})", "probes[0].axis")
+          .what(),
+      HasSubstr("got \"\\u009b\""));
+}
+
+// A name and a description are kept by a server and sent in every status reply: bounded, and
+// without control characters that would forge log lines or drive a terminal.
+TEST(ParseSceneTest, NamesAndDescriptionsAreBoundedAndPrintable) {
+  const std::string name(kMaxSceneNameBytes, 'n');
+  EXPECT_EQ(ParseScene(R"({"name": ")" + name + "\"}").name, name);
+  EXPECT_EQ(std::string(ExpectConfigError(R"({"name": ")" + name + "n\"}", "name").what()),
+            "name: at most 256 bytes; got 257");
+  EXPECT_THAT(ExpectConfigError(R"({"name": "a\nb"})", "name").what(),
+              HasSubstr("control characters are not allowed; got \"a\\nb\""));
+  ExpectConfigError(R"({"name": "a\u001b[31m"})", "name");
+  ExpectConfigError(R"({"name": "\u0085"})", "name");
+  EXPECT_EQ(ParseScene(R"({"name": "Stau\u00dfe \u6c34"})").name,
+            "Stau\xc3\x9f"
+            "e \xe6\xb0\xb4");
+
+  const std::string description(kMaxSceneDescriptionBytes - 2, 'd');
+  EXPECT_EQ(ParseScene(R"({"description": "\t)" + description + R"(\n"})").description,
+            "\t" + description + "\n");
+  EXPECT_EQ(
+      std::string(
+          ExpectConfigError(R"({"description": ")" + description + "ddd\"}", "description").what()),
+      "description: at most 4096 bytes; got 4097");
+  EXPECT_THAT(ExpectConfigError(R"({"description": "a\u001b[2J"})", "description").what(),
+              HasSubstr("control characters other than newlines and tabs are not allowed"));
+
+  EXPECT_EQ(
+      ParseScene(R"({"probes": [{"type": "density", "name": ")" + name + "\"}]}").probes[0].name,
+      name);
+  ExpectConfigError(R"({"probes": [{"type": "density", "name": ")" + name + "n\"}]}",
+                    "probes[0].name");
+  ExpectConfigError(R"({"probes": [{"type": "density", "name": "a\tb"}]})", "probes[0].name");
+}
+
+TEST(ParseSceneTest, ObstaclesAreBounded) {
+  std::string obstacles;
+  for (size_t i = 0; i < kMaxObstacles; ++i) {
+    obstacles += std::string(i ? "," : "") + R"({"type": "sphere", "radius": 0.1})";
+  }
+  EXPECT_EQ(ParseScene(R"({"obstacles": [)" + obstacles + "]}").spheres.size(), kMaxObstacles);
+  EXPECT_EQ(
+      std::string(ExpectConfigError(R"({"obstacles": [)" + obstacles + R"(, {"type": "box"}]})",
+                                    "obstacles")
+                      .what()),
+      "obstacles: at most 10000 obstacles; got 10001");
+}
+
 class TempFile {
  public:
   explicit TempFile(const std::string& name, const std::string& text)
@@ -421,6 +552,43 @@ TEST(LoadSceneTest, MissingFileIsNamed) {
     EXPECT_THAT(e.what(), HasSubstr("seed_basic"));  // lists the built-in scenes
   }
   EXPECT_THROW(LoadScene("seed_basics"), ConfigError);
+}
+
+// A directory was reported as malformed JSON; a missing file as "neither a readable file nor a
+// built-in scene".
+TEST(LoadSceneTest, ADirectoryOrAMissingFileIsReportedAsSuch) {
+  const std::string dir = ::testing::TempDir();
+  try {
+    LoadScene(dir);
+    FAIL() << "no ConfigError";
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.field(), "scene");
+    EXPECT_EQ(std::string(e.what()), "scene: '" + dir + "' is a directory, not a scene file");
+  }
+  try {
+    LoadScene("/nonexistent/x.json");
+    FAIL() << "no ConfigError";
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.field(), "scene");
+    EXPECT_THAT(e.what(), HasSubstr("'/nonexistent/x.json': no such file, and no built-in scene"));
+  }
+}
+
+// A device (or a pipe) has no size to check first: reading stops at the bound.
+TEST(LoadSceneTest, AFileLargerThanTheBoundIsRefusedWhileReading) {
+  try {
+    LoadScene("/dev/zero");
+    FAIL() << "no ConfigError";
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "scene: '/dev/zero' is larger than 64 MiB, the most a scene file may be");
+  }
+}
+
+TEST(LoadSceneTest, ANameTakenFromTheFileIsMadePrintable) {
+  TempFile file("a\nb\x1b.json", "{}");
+  const Scene scene = LoadScene(file.path());
+  EXPECT_EQ(scene.name, std::to_string(::getpid()) + "_a\\nb\\x1b");
 }
 
 TEST(LoadSceneTest, ReadsAFileAndNamesTheSceneAfterIt) {
@@ -468,7 +636,7 @@ TEST(ParseSceneTest, PeriodicAndNoSlipAxes) {
                                    "fluid_blocks": [{"size": 0.2, "center": [0.25, 0.5, 0.5]}]})",
                                 "smoothing_radius")
                   .what(),
-              HasSubstr("at most 0.166667 m"));
+              HasSubstr("at most 0.16666666666666666 m"));
   ExpectConfigError(R"({"domain": {"min": [0, 0, 0], "max": [1, 1, 1],
                        "periodic": [true, false, false]},
                        "obstacles": [{"type": "sphere", "center": [0.9, 0.5, 0.5], "radius": 0.05}]})",

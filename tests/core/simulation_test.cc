@@ -330,7 +330,9 @@ TEST(FrameInPiecesTest, AFrameInterruptedAtEveryStepEndsAsOneSteppedWhole) {
       ASSERT_EQ(pieces.time(), whole.time());  // the same end, to the bit
       ASSERT_EQ(StateHash(pieces.state()), StateHash(whole.state())) << "frame " << f;
     }
-    if (scene.solver == "wcsph") EXPECT_GT(whole.step(), 3u * 20);  // many steps per frame
+    if (scene.solver == "wcsph") {
+      EXPECT_GT(whole.step(), 3u * 20);  // many steps per frame
+    }
   }
 }
 

@@ -12,6 +12,7 @@ CTest sets both (tests/CMakeLists.txt).
 
 import csv
 import os
+import re
 import shutil
 import signal
 import socket
@@ -533,6 +534,49 @@ class ClientTest(unittest.TestCase):
                 for key in ("time", "step", "frame"):
                     self.assertEqual(data[key].shape, (3,))
                 self.assertTrue(np.all(np.diff(data["frame"]) > 0))
+
+
+def _python_block(markdown: Path, marker: str) -> str:
+    """The ```python block of `markdown` that contains `marker`, as written."""
+    for block in re.findall(r"```python\n(.*?)```", markdown.read_text(encoding="utf-8"), re.S):
+        if marker in block:
+            return block
+    raise AssertionError("no python block with %r in %s" % (marker, markdown))
+
+
+class DocumentationTest(unittest.TestCase):
+    """The documentation's client examples, as written, run from a checkout whose build is in
+    neither build/release nor DYSA_PYTHON_STUBS (they failed unless it was in build/release)."""
+
+    def test_snippets_run_from_any_build_directory(self) -> None:
+        snippets = [
+            (_REPO / "docs" / "server.md", "from dysa.client import Client\n"),
+            (_CLIENT / "README.md", "from dysa.client import Client, DysaError\n"),
+        ]
+        stubs = Path(os.environ.get("DYSA_PYTHON_STUBS", _REPO / "build" / "release" / "python"))
+        server = Server("--threads", "2", "--paused")
+        try:
+            with tempfile.TemporaryDirectory() as tmp:
+                checkout = Path(tmp)
+                shutil.copytree(_CLIENT / "dysa", checkout / "clients" / "python" / "dysa",
+                                ignore=shutil.ignore_patterns("__pycache__"))
+                shutil.copytree(stubs / "dysa" / "v1",
+                                checkout / "build" / "gcc-debug" / "python" / "dysa" / "v1")
+                env = {k: v for k, v in os.environ.items()
+                       if k not in ("DYSA_PYTHON_STUBS", "PYTHONPATH")}
+                env["PYTHONPATH"] = "clients/python"  # as the documentation says
+                for markdown, marker in snippets:
+                    code = _python_block(markdown, marker).replace("127.0.0.1:50051",
+                                                                   server.address)
+                    result = subprocess.run(["/usr/bin/python3", "-c", code], cwd=checkout,
+                                            env=env, capture_output=True, text=True, timeout=120)
+                    self.assertEqual(result.returncode, 0, "%s:\n%s%s" % (
+                        markdown, result.stdout, result.stderr))
+        finally:
+            code = server.stop()
+            log = server.log()
+            server.close()
+        self.assertEqual(code, 0, log)
 
 
 class TokenTest(unittest.TestCase):

@@ -477,5 +477,35 @@ TEST(SimulationHostThreadsTest, TheSolverThreadCountReachesTheSimulationThread) 
   EXPECT_EQ(r.status.solver_threads, 3u);
 }
 
+// A scene built in code (or named after a file) may hold any text: each log line stays one
+// line, bounded, whatever the scene's name holds.
+TEST(SimulationHostLogTest, LogLinesEscapeControlCharactersAndStayBounded) {
+  std::vector<std::string> lines;
+  std::mutex mu;
+  HostOptions options = Paused();
+  options.log = [&](const std::string& line) {
+    std::lock_guard lock(mu);
+    lines.push_back(line);
+  };
+  Scene forged = SmallScene();
+  forged.name = "a\n2026-01-01T00:00:00.000Z dysa-server: stopped\x1b[2J";
+  SimulationHost host(std::move(forged), options);
+  host.Start();
+  Scene huge = SmallScene();
+  huge.name = std::string(1'000'000, 'n');
+  ASSERT_EQ(Apply(host, LoadSceneControl{std::move(huge)}).code, ControlCode::kOk);
+  host.Stop();
+  std::lock_guard lock(mu);
+  ASSERT_GE(lines.size(), 2u);
+  EXPECT_NE(lines[0].find("scene 'a\\n2026-01-01T00:00:00.000Z dysa-server: stopped\\x1b[2J'"),
+            std::string::npos)
+      << lines[0];
+  for (const std::string& line : lines) {
+    EXPECT_LE(line.size(), kMaxLogLineBytes);
+    for (char c : line) EXPECT_FALSE(static_cast<unsigned char>(c) < 0x20) << line;
+  }
+  EXPECT_NE(lines.back().find("bytes)"), std::string::npos) << lines.back().substr(0, 200);
+}
+
 }  // namespace
 }  // namespace dysa::service

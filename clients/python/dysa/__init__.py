@@ -10,12 +10,16 @@ not live next to this file, the package path is extended with, in this order:
 
 1. $DYSA_PYTHON_STUBS/dysa, where DYSA_PYTHON_STUBS is a directory that contains dysa/v1;
 2. the dysa/ directory of every sys.path entry that has one (pkgutil.extend_path);
-3. this repository's build/release/python/dysa, then build/asan/python/dysa.
+3. this checkout's build directories: build/release/python/dysa, build/asan/python/dysa, then
+   those of any other build directory, build/*/python/dysa, build-*/python/dysa and
+   build/python/dysa, in name order.
 
-Only existing directories are added. Nothing here imports grpc or the stubs, so
+Only existing directories are added, so the stubs are found wherever in this checkout the build
+is; a build elsewhere needs DYSA_PYTHON_STUBS. Nothing here imports grpc or the stubs, so
 ``import dysa.codec`` works without them.
 """
 
+import glob as _glob
 import os as _os
 import pkgutil as _pkgutil
 from typing import List as _List
@@ -23,7 +27,8 @@ from typing import List as _List
 
 def _stub_candidates() -> _List[str]:
     """Every dysa/ directory that may hold the generated v1/ stubs, in search order, whether
-    it exists or not (dysa.client names them when the stubs are missing)."""
+    it exists or not (dysa.client names them when the stubs are missing); some are glob
+    patterns."""
     candidates = []
     env = _os.environ.get("DYSA_PYTHON_STUBS")
     if env:
@@ -31,9 +36,20 @@ def _stub_candidates() -> _List[str]:
     candidates.append("<sys.path entries>/dysa")
     # This file is clients/python/dysa/__init__.py: three levels below the repository root.
     root = _os.path.abspath(_os.path.join(_os.path.dirname(__file__), "..", "..", ".."))
-    for preset in ("release", "asan"):
-        candidates.append(_os.path.join(root, "build", preset, "python", "dysa"))
+    pattern_root = _glob.escape(root)  # the checkout's own path is no pattern
+    for build in (_os.path.join(root, "build", "release"), _os.path.join(root, "build", "asan"),
+                  _os.path.join(pattern_root, "build", "*"), _os.path.join(pattern_root, "build-*"),
+                  _os.path.join(root, "build")):
+        candidates.append(_os.path.join(build, "python", "dysa"))
     return candidates
+
+
+def _existing(candidate: str) -> _List[str]:
+    """The existing directories `candidate` names (a glob pattern when it has a "*": in name
+    order)."""
+    if "*" in candidate:
+        return [d for d in sorted(_glob.glob(candidate)) if _os.path.isdir(d)]
+    return [candidate] if _os.path.isdir(candidate) else []
 
 
 def _extended_path(path: _List[str]) -> _List[str]:
@@ -45,13 +61,13 @@ def _extended_path(path: _List[str]) -> _List[str]:
     candidates = _stub_candidates()
     split = candidates.index("<sys.path entries>/dysa")
     extended = list(path)
-    for d in candidates[:split]:
-        if _os.path.isdir(d) and d not in extended:
+    for d in [d for c in candidates[:split] for d in _existing(c)]:
+        if d not in extended:
             extended.append(d)
     # Appends the sys.path entries' dysa/ directories that are not in the list yet.
     extended = _pkgutil.extend_path(extended, __name__)
-    for d in candidates[split + 1:]:
-        if _os.path.isdir(d) and d not in extended:
+    for d in [d for c in candidates[split + 1:] for d in _existing(c)]:
+        if d not in extended:
             extended.append(d)
     return extended
 

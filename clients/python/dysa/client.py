@@ -43,8 +43,9 @@ try:
 except ImportError as _error:
     raise ImportError(
         "dysa.client cannot import the generated gRPC stubs dysa.v1 (%s). They are generated "
-        "by the build: run scripts/build.sh (it writes build/release/python/dysa/v1), or set "
-        "DYSA_PYTHON_STUBS to a directory that contains dysa/v1/simulation_pb2.py. Searched: %s"
+        "by the build: run scripts/build.sh (it writes build/release/python/dysa/v1), or, for a "
+        "build outside this checkout, set DYSA_PYTHON_STUBS to its python directory, which "
+        "contains dysa/v1/simulation_pb2.py. Searched: %s"
         % (_error, ", ".join(_dysa.STUB_SEARCH_PATH))) from _error
 
 from dysa.codec import Frame, FrameDecoder

@@ -4,8 +4,10 @@
 #include <array>
 #include <charconv>
 #include <cmath>
-#include <sstream>
+#include <cstdlib>
+#include <utility>
 
+#include "dysa/core/text.h"
 #include "dysa/core/types.h"
 
 namespace dysa {
@@ -85,20 +87,39 @@ const std::array kParamTable = {
 };
 #undef DYSA_PARAM
 
-std::string FormatNumber(double v) {
-  std::ostringstream s;
-  s << v;
-  return s.str();
+// Reads `text`, which must be a number written in full ("1e-3", not "1e-3x" or " 1e-3"), into
+// `value`; returns "" or why it is not a number a double holds, quoting it.
+std::string ReadNumber(std::string_view text, double& value) {
+  const char* end = text.data() + text.size();
+  const auto [ptr, ec] = std::from_chars(text.data(), end, value);
+  std::string quoted = "'";  // "'" + SafeText(...) draws a false -Wrestrict from GCC 12
+  quoted += SafeText(text) + "'";
+  if (text.empty() || ptr != end || (ec != std::errc() && ec != std::errc::result_out_of_range)) {
+    return quoted + " is not a number";
+  }
+  if (ec == std::errc::result_out_of_range) {
+    // from_chars leaves `value` alone; strtod tells overflow (+-HUGE_VAL) from underflow (0).
+    const double rounded = std::strtod(std::string(text).c_str(), nullptr);
+    return quoted + (std::isinf(rounded)
+                         ? " is out of the range of a double (at most 1.8e308 in magnitude)"
+                         : " is too close to 0 for a double (it would round to 0)");
+  }
+  if (!std::isfinite(value)) return quoted + " is not a finite number";
+  return "";
 }
 
 }  // namespace
 
 std::string ParamDecl::RangeText() const {
-  std::ostringstream text;
-  text << '[' << min << ", " << max << ']';
-  if (!unit.empty()) text << ' ' << unit;
-  if (integer) text << " (integer)";
-  return text.str();
+  // Appended piece by piece: "[" + ExactNumber(...) draws a false -Wrestrict from GCC 12.
+  std::string text = "[";
+  text += ExactNumber(min);
+  text += ", ";
+  text += ExactNumber(max);
+  text += "]";
+  if (!unit.empty()) text.append(" ").append(unit);
+  if (integer) text += " (integer)";
+  return text;
 }
 
 bool ParamDecl::ReadBy(std::string_view solver) const {
@@ -127,17 +148,25 @@ static const ParamDecl& RequireParam(std::string_view name) {
     std::string known;
     for (const ParamDecl& d : kParamTable)
       known += (known.empty() ? "" : ", ") + std::string(d.name);
-    throw ConfigError(std::string(name), "unknown parameter; known parameters: " + known);
+    throw ConfigError(SafeText(name), "unknown parameter; known parameters: " + known);
   }
   return *decl;
 }
 
 void SetParam(Params& params, std::string_view name, double value) {
   const ParamDecl& decl = RequireParam(name);
-  const bool in_range = std::isfinite(value) && value >= decl.min && value <= decl.max;
-  if (!in_range || (decl.integer && value != std::floor(value))) {
+  const std::string shown = ExactNumber(value);
+  if (!std::isfinite(value)) {
     throw ConfigError(std::string(name),
-                      FormatNumber(value) + " is outside the allowed range " + decl.RangeText());
+                      shown + " is not a finite number; allowed range " + decl.RangeText());
+  }
+  if (value < decl.min || value > decl.max) {
+    throw ConfigError(std::string(name),
+                      shown + " is outside the allowed range " + decl.RangeText());
+  }
+  if (decl.integer && value != std::floor(value)) {
+    throw ConfigError(std::string(name),
+                      shown + " is not an integer; allowed range " + decl.RangeText());
   }
   decl.set(params, value);
 }
@@ -146,21 +175,29 @@ double GetParam(const Params& params, std::string_view name) {
   return RequireParam(name).get(params);
 }
 
+std::pair<std::string, double> ParseAssignment(std::string_view assignment) {
+  const size_t eq = assignment.find('=');
+  if (eq == std::string_view::npos || eq == 0) {
+    throw ConfigError("", "expected NAME=VALUE, got '" + SafeText(assignment) + "'");
+  }
+  const std::string_view name = assignment.substr(0, eq);
+  double value = 0;
+  if (const std::string why = ReadNumber(assignment.substr(eq + 1), value); !why.empty()) {
+    throw ConfigError(SafeText(name), why);
+  }
+  return {std::string(name), value};
+}
+
 void SetParamFromString(Params& params, std::string_view assignment) {
   const size_t eq = assignment.find('=');
   if (eq == std::string_view::npos || eq == 0) {
-    throw ConfigError("--set", "expected NAME=VALUE, got '" + std::string(assignment) + "'");
+    throw ConfigError("--set", "expected NAME=VALUE, got '" + SafeText(assignment) + "'");
   }
   const std::string_view name = assignment.substr(0, eq);
-  const std::string value_text(assignment.substr(eq + 1));
   const ParamDecl& decl = RequireParam(name);
   double value = 0;
-  const char* begin = value_text.data();
-  const char* end = begin + value_text.size();
-  auto [ptr, ec] = std::from_chars(begin, end, value);
-  if (ec != std::errc() || ptr != end || value_text.empty()) {
-    throw ConfigError(std::string(name),
-                      "'" + value_text + "' is not a number; allowed range " + decl.RangeText());
+  if (const std::string why = ReadNumber(assignment.substr(eq + 1), value); !why.empty()) {
+    throw ConfigError(std::string(name), why + "; allowed range " + decl.RangeText());
   }
   SetParam(params, name, value);
 }

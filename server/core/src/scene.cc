@@ -1,25 +1,47 @@
 #include "dysa/core/scene.h"
 
+#include <cerrno>
 #include <cmath>
+#include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <limits>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <set>
-#include <sstream>
 
 #include "dysa/core/neighbor_grid.h"
 #include "dysa/core/solver.h"
+#include "dysa/core/text.h"
+#include "scene_json.h"
 
 namespace dysa {
 namespace {
 
 using nlohmann::json;
 
-std::string Num(double v) {
-  std::ostringstream s;
-  s << v;
-  return s.str();
+std::string Num(double v) { return ExactNumber(v); }
+
+// Client text quoted in a message: escaped and bounded (SafeText).
+std::string Quoted(std::string_view text) { return "\"" + SafeText(text) + "\""; }
+
+// A name or description the scene keeps and every status reply and log line may show: at most
+// `max_bytes` long and without control characters (but for newlines and tabs, when
+// `multiline`), so that replies stay far below gRPC's message limit and a name cannot forge log
+// lines or drive a terminal.
+void CheckKeptText(const std::string& text, const std::string& path, size_t max_bytes,
+                   bool multiline) {
+  if (text.size() > max_bytes) {
+    throw ConfigError(path, "at most " + std::to_string(max_bytes) + " bytes; got " +
+                                std::to_string(text.size()));
+  }
+  std::string checked = text;
+  if (multiline) std::erase_if(checked, [](char c) { return c == '\n' || c == '\t'; });
+  if (HasUnsafeCharacters(checked)) {
+    throw ConfigError(path, std::string("control characters ") +
+                                (multiline ? "other than newlines and tabs " : "") +
+                                "are not allowed; got " + Quoted(text));
+  }
 }
 
 std::string TypeName(const json& j) { return j.type_name(); }
@@ -92,7 +114,7 @@ class ObjectReader {
       if (known_.count(key) != 0) continue;
       std::string allowed;
       for (const std::string& k : known_) allowed += (allowed.empty() ? "" : ", ") + k;
-      throw ConfigError(PathOf(key), "unknown field; allowed fields here: " + allowed);
+      throw ConfigError(PathOf(SafeText(key)), "unknown field; allowed fields here: " + allowed);
     }
   }
 
@@ -236,7 +258,7 @@ void ParseObstacle(const json& j, const std::string& path, Scene& scene) {
     const Vec3d size = r.Vector("size", 1e-6, kMaxCoord, "m", true).value_or(Vec3d::Ones());
     scene.boxes.push_back({Aabb{center - 0.5 * size, center + 0.5 * size}});
   } else {
-    throw ConfigError(r.PathOf("type"), "expected \"sphere\" or \"box\", got \"" + type + "\"");
+    throw ConfigError(r.PathOf("type"), "expected \"sphere\" or \"box\", got " + Quoted(type));
   }
   r.RejectUnknown();
 }
@@ -260,19 +282,20 @@ ProbeSpec ParseProbe(const json& j, const std::string& path) {
   if (kind == ProbeKinds().end()) {
     std::string names;
     for (const auto& [name, k] : ProbeKinds()) names += (names.empty() ? "" : ", ") + name;
-    throw ConfigError(r.PathOf("type"), "unknown probe type \"" + type + "\"; known: " + names);
+    throw ConfigError(r.PathOf("type"), "unknown probe type " + Quoted(type) + "; known: " + names);
   }
   ProbeSpec p;
   p.kind = kind->second;
   p.name = r.String("name").value_or(type);
-  if (p.name.empty() || p.name.find_first_of(",\"\n") != std::string::npos) {
-    throw ConfigError(r.PathOf("name"), "must be non-empty without commas, quotes or newlines");
+  CheckKeptText(p.name, r.PathOf("name"), kMaxSceneNameBytes, /*multiline=*/false);
+  if (p.name.empty() || p.name.find_first_of(",\"") != std::string::npos) {
+    throw ConfigError(r.PathOf("name"), "must be non-empty without commas or quotes");
   }
   switch (p.kind) {
     case ProbeKind::kFront: {
       const std::string axis = r.String("axis").value_or("x");
       if (axis != "x" && axis != "y" && axis != "z") {
-        throw ConfigError(r.PathOf("axis"), "expected \"x\", \"y\" or \"z\", got \"" + axis + "\"");
+        throw ConfigError(r.PathOf("axis"), "expected \"x\", \"y\" or \"z\", got " + Quoted(axis));
       }
       p.axis = axis[0] - 'x';
       break;
@@ -297,33 +320,39 @@ ProbeSpec ParseProbe(const json& j, const std::string& path) {
 
 }  // namespace
 
-Scene ParseScene(std::string_view json_text) {
-  json root;
-  try {
-    root = json::parse(json_text);
-  } catch (const json::parse_error& e) {
-    throw ConfigError("", std::string("malformed JSON: ") + e.what());
-  }
+namespace {
+
+Scene ParseSceneDocument(const json& root) {
   ObjectReader r(root, "");
   Scene scene;
   scene.name = r.String("name").value_or("");
+  CheckKeptText(scene.name, "name", kMaxSceneNameBytes, /*multiline=*/false);
   scene.description = r.String("description").value_or("");
+  CheckKeptText(scene.description, "description", kMaxSceneDescriptionBytes, /*multiline=*/true);
   if (const json* domain = r.Get("domain")) {
     scene.domain = ParseBox(*domain, "domain", &scene);
   }
   ForEachElement(r, "fluid_blocks", [&](const json& j, const std::string& path) {
     scene.fluid_blocks.push_back(ParseFluidBlock(j, path));
   });
+  if (const json* obstacles = r.Get("obstacles");
+      obstacles && obstacles->is_array() && obstacles->size() > kMaxObstacles) {
+    throw ConfigError("obstacles", "at most " + std::to_string(kMaxObstacles) + " obstacles; got " +
+                                       std::to_string(obstacles->size()));
+  }
   ForEachElement(r, "obstacles",
                  [&](const json& j, const std::string& path) { ParseObstacle(j, path, scene); });
   scene.solver = r.String("solver").value_or(scene.solver);
-  FindSolver(scene.solver);  // throws ConfigError("solver", ...) naming the known solvers
+  // Throws ConfigError("solver", ...) quoting the name and listing the known solvers. It is
+  // given the name as a message may quote it: that is the name itself for every registered
+  // solver (short and printable), and never a registered name otherwise.
+  FindSolver(SafeText(scene.solver));
   if (const json* params = r.Get("params")) {
     if (!params->is_object()) {
       throw ConfigError("params", "expected an object, got " + TypeName(*params));
     }
     for (const auto& [key, value] : params->items()) {
-      const std::string path = "params." + key;
+      const std::string path = "params." + SafeText(key);
       if (FindParam(key) == nullptr) {
         std::string known;
         for (const ParamDecl& d : ParamTable())
@@ -347,7 +376,7 @@ Scene ParseScene(std::string_view json_text) {
   ForEachElement(r, "probes", [&](const json& j, const std::string& path) {
     ProbeSpec p = ParseProbe(j, path);
     if (!probe_names.insert(p.name).second) {
-      throw ConfigError(path + ".name", "duplicate probe name \"" + p.name + "\"");
+      throw ConfigError(path + ".name", "duplicate probe name " + Quoted(p.name));
     }
     scene.probes.push_back(std::move(p));
   });
@@ -356,6 +385,19 @@ Scene ParseScene(std::string_view json_text) {
   BlockParticleCounts(scene, scene.params);  // rejects counts that would exhaust memory
   CheckPeriodicDomain(scene, scene.params);
   return scene;
+}
+
+}  // namespace
+
+Scene ParseScene(std::string_view json_text) {
+  const json root = ParseSceneJson(json_text);
+  try {
+    return ParseSceneDocument(root);
+  } catch (const json::exception& e) {
+    // The reader checks every type before it reads a value, so this is a bug; still an error
+    // that names the scene, not an exception a caller does not expect.
+    throw ConfigError("", "invalid scene: " + SafeText(e.what(), 400));
+  }
 }
 
 void CheckPeriodicDomain(const Scene& scene, const Params& params) {
@@ -492,6 +534,44 @@ std::vector<std::string> BuiltinSceneNames() {
   return names;
 }
 
+namespace {
+
+// The text of the scene file at `path`. Throws ConfigError("scene", ...) saying why there is
+// none: no such file (nor a built-in scene of that name), a directory, unreadable, too large.
+std::string ReadSceneFile(const std::string& path) {
+  namespace fs = std::filesystem;
+  const std::string shown = "'" + SafeText(path, 1024) + "'";
+  std::error_code error;
+  const fs::file_type type = fs::status(path, error).type();
+  if (type == fs::file_type::not_found) {
+    std::string names;
+    for (const std::string& n : BuiltinSceneNames()) names += (names.empty() ? "" : ", ") + n;
+    throw ConfigError(
+        "scene", shown + ": no such file, and no built-in scene (" + names + ") has that name");
+  }
+  if (error) throw ConfigError("scene", "cannot read " + shown + ": " + error.message());
+  if (type == fs::file_type::directory) {
+    throw ConfigError("scene", shown + " is a directory, not a scene file");
+  }
+  std::ifstream file(path, std::ios::binary);
+  if (!file) throw ConfigError("scene", "cannot read " + shown + ": " + std::strerror(errno));
+  // Read in pieces up to the bound: a pipe or device has no size to check first.
+  std::string text;
+  char piece[1 << 16];
+  while (file.read(piece, sizeof(piece)) || file.gcount() > 0) {
+    text.append(piece, size_t(file.gcount()));
+    if (text.size() > kMaxSceneFileBytes) {
+      throw ConfigError("scene", shown + " is larger than " +
+                                     std::to_string(kMaxSceneFileBytes >> 20) +
+                                     " MiB, the most a scene file may be");
+    }
+  }
+  if (file.bad()) throw ConfigError("scene", "cannot read " + shown + ": " + std::strerror(errno));
+  return text;
+}
+
+}  // namespace
+
 Scene LoadScene(std::string_view name_or_path) {
   for (const BuiltinSceneText& s : BuiltinSceneTexts()) {
     if (name_or_path == s.name) {
@@ -501,25 +581,17 @@ Scene LoadScene(std::string_view name_or_path) {
     }
   }
   const std::string path(name_or_path);
-  std::ifstream file(path, std::ios::binary);
-  if (!file) {
-    std::string names;
-    for (const std::string& n : BuiltinSceneNames()) names += (names.empty() ? "" : ", ") + n;
-    throw ConfigError(
-        "scene", "'" + path + "' is neither a readable file nor a built-in scene (" + names + ")");
-  }
-  std::stringstream text;
-  text << file.rdbuf();
+  const std::string text = ReadSceneFile(path);
   try {
-    Scene scene = ParseScene(text.str());
+    Scene scene = ParseScene(text);
     if (scene.name.empty()) {
-      const size_t slash = path.find_last_of('/');
-      std::string base = slash == std::string::npos ? path : path.substr(slash + 1);
-      scene.name = base.substr(0, base.rfind(".json"));
+      // Named after the file: made a name ParseScene would accept.
+      const std::string base = std::filesystem::path(path).filename().string();
+      scene.name = SafeText(base.substr(0, base.rfind(".json")), kMaxSceneNameBytes);
     }
     return scene;
   } catch (const ConfigError& e) {
-    throw ConfigError(e.field(), e.message() + " (in " + path + ")");
+    throw ConfigError(e.field(), e.message() + " (in " + SafeText(path, 1024) + ")");
   }
 }
 

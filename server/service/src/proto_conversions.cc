@@ -6,6 +6,8 @@
 #include <vector>
 
 #include "dysa/core/solver.h"
+#include "dysa/core/text.h"
+#include "rpc_status.h"
 
 namespace dysa::service {
 namespace {
@@ -87,19 +89,19 @@ grpc::Status ToGrpc(ControlCode code, const std::string& message) {
     case ControlCode::kOk:
       return grpc::Status::OK;
     case ControlCode::kInvalidArgument:
-      return {grpc::StatusCode::INVALID_ARGUMENT, message};
+      return BoundedStatus(grpc::StatusCode::INVALID_ARGUMENT, message);
     case ControlCode::kResourceExhausted:
-      return {grpc::StatusCode::RESOURCE_EXHAUSTED, message};
+      return BoundedStatus(grpc::StatusCode::RESOURCE_EXHAUSTED, message);
     case ControlCode::kFailedPrecondition:
-      return {grpc::StatusCode::FAILED_PRECONDITION, message};
+      return BoundedStatus(grpc::StatusCode::FAILED_PRECONDITION, message);
     case ControlCode::kUnavailable:
-      return {grpc::StatusCode::UNAVAILABLE, message};
+      return BoundedStatus(grpc::StatusCode::UNAVAILABLE, message);
     case ControlCode::kDeadlineExceeded:
-      return {grpc::StatusCode::DEADLINE_EXCEEDED, message};
+      return BoundedStatus(grpc::StatusCode::DEADLINE_EXCEEDED, message);
     case ControlCode::kCancelled:
-      return {grpc::StatusCode::CANCELLED, message};
+      return BoundedStatus(grpc::StatusCode::CANCELLED, message);
   }
-  return {grpc::StatusCode::INTERNAL, message};
+  return BoundedStatus(grpc::StatusCode::INTERNAL, message);
 }
 
 void ToProto(const HostStatus& s, v1::Status& out) {
@@ -205,7 +207,7 @@ grpc::Status ToControl(const v1::UpdateParamsRequest& request, UpdateParamsContr
       const auto it = values.find(name);
       if (it == values.end()) {
         return {grpc::StatusCode::INVALID_ARGUMENT,
-                "update_mask: '" + path + "' has no value in params.values"};
+                "update_mask: '" + SafeText(path) + "' has no value in params.values"};
       }
       control.values.emplace_back(name, it->second);
     }
@@ -224,7 +226,10 @@ grpc::Status ToControl(const v1::LoadSceneRequest& request, LoadSceneControl& co
   // never makes the server read its files.
   if (!request.solver().empty()) {
     try {
-      CreateSolver(request.solver());  // throws ConfigError("solver", ...) listing the names
+      // Throws ConfigError("solver", ...) quoting the name it is given and listing the known
+      // ones. SafeText(name) is the name itself for every registered solver (short, printable)
+      // and never a registered name otherwise.
+      FindSolver(SafeText(request.solver()));
     } catch (const ConfigError& e) {
       return {grpc::StatusCode::INVALID_ARGUMENT, e.what()};
     }
@@ -238,8 +243,8 @@ grpc::Status ToControl(const v1::LoadSceneRequest& request, LoadSceneControl& co
           std::string known;
           for (const std::string& n : names) known += (known.empty() ? "" : ", ") + n;
           return {grpc::StatusCode::INVALID_ARGUMENT,
-                  "name: no built-in scene '" + request.name() + "' (known: " + known +
-                      "); send a scene file's content as json_text"};
+                  "name: no built-in scene '" + SafeText(request.name()) + "' (known: " + known +
+                      "); to load a scene file, send its content as json_text"};
         }
         scene = dysa::LoadScene(request.name());
         break;

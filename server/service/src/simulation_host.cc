@@ -8,6 +8,7 @@
 #include <limits>
 #include <sstream>
 
+#include "dysa/core/text.h"
 #include "dysa/core/types.h"
 
 namespace dysa::service {
@@ -539,7 +540,8 @@ void SimulationHost::RefreshStatus() {
 }
 
 void SimulationHost::Log(const std::string& line) const {
-  if (options_.log) options_.log(line);
+  // Lines quote client text (scene names): one line each, whatever the text holds.
+  if (options_.log) options_.log(SafeText(line, kMaxLogLineBytes));
 }
 
 }  // namespace dysa::service

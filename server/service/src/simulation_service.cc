@@ -1,13 +1,16 @@
 #include "simulation_service.h"
 
 #include <algorithm>
+#include <cctype>
 #include <chrono>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <utility>
 
 #include "frame_stream_reactor.h"
 #include "proto_conversions.h"
+#include "rpc_status.h"
 
 namespace dysa::service {
 namespace {
@@ -33,6 +36,26 @@ SimulationService::SimulationService(SimulationHost& host, AccessPolicy access)
   host_.hub().set_transport_builder(BuildWireFrame);
 }
 
+namespace {
+
+// RFC 6750 section 2.1: credentials = "Bearer" 1*SP b64token, the scheme case-insensitive
+// (RFC 9110 section 11.1). The token as given, or nullopt when the scheme is another.
+std::optional<std::string_view> BearerToken(std::string_view credentials) {
+  constexpr std::string_view kScheme = "bearer";
+  if (credentials.size() <= kScheme.size() || credentials[kScheme.size()] != ' ') {
+    return std::nullopt;
+  }
+  for (size_t i = 0; i < kScheme.size(); ++i) {
+    if (std::tolower(static_cast<unsigned char>(credentials[i])) != kScheme[i]) {
+      return std::nullopt;
+    }
+  }
+  const std::string_view rest = credentials.substr(kScheme.size());
+  return rest.substr(std::min(rest.find_first_not_of(' '), rest.size()));
+}
+
+}  // namespace
+
 grpc::Status SimulationService::CheckAccess(const grpc::CallbackServerContext* context,
                                             Access access) const {
   if (access_.token.empty() || (access == Access::kWatch && !access_.protect_watch)) {
@@ -44,47 +67,61 @@ grpc::Status SimulationService::CheckAccess(const grpc::CallbackServerContext* c
     return {grpc::StatusCode::UNAUTHENTICATED,
             "this server needs a token: metadata 'authorization: Bearer <token>' (dysa --token)"};
   }
-  const std::string expected = "Bearer " + access_.token;
-  const std::string_view given(it->second.data(), it->second.size());
+  const std::optional<std::string_view> given =
+      BearerToken(std::string_view(it->second.data(), it->second.size()));
+  if (!given) {
+    return {grpc::StatusCode::UNAUTHENTICATED,
+            "the authorization metadata must be 'Bearer <token>'"};
+  }
+  const std::string& expected = access_.token;
   // Compare in time independent of where the first difference is.
-  unsigned diff = given.size() != expected.size();
-  for (size_t i = 0; i < std::min(given.size(), expected.size()); ++i) {
-    diff |= unsigned(given[i] ^ expected[i]);
+  unsigned diff = given->size() != expected.size();
+  for (size_t i = 0; i < std::min(given->size(), expected.size()); ++i) {
+    diff |= unsigned((*given)[i] ^ expected[i]);
   }
   if (diff != 0) return {grpc::StatusCode::UNAUTHENTICATED, "wrong token"};
   return grpc::Status::OK;
 }
 
+template <class Body>
+grpc::ServerUnaryReactor* SimulationService::Unary(grpc::CallbackServerContext* context,
+                                                   Access access, Body&& body) {
+  grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
+  const std::optional<grpc::Status> status = Guarded([&]() -> std::optional<grpc::Status> {
+    if (grpc::Status s = CheckAccess(context, access); !s.ok()) return s;
+    return body(reactor);
+  });
+  if (status) reactor->Finish(BoundedStatus(*status));
+  return reactor;
+}
+
 grpc::ServerUnaryReactor* SimulationService::SubmitControl(grpc::CallbackServerContext* context,
                                                            Control control,
                                                            v1::ControlReply* reply) {
-  grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
-  if (grpc::Status s = CheckAccess(context, Access::kControl); !s.ok()) {
-    reactor->Finish(s);
-    return reactor;
-  }
-  host_.Submit(
-      std::move(control),
-      [reactor, reply](ControlResult r) {
-        if (r.code == ControlCode::kOk) {
-          ToProto(r.status, *reply->mutable_status());
-          reply->set_reset(r.reset);
-          reply->set_frames_moved(r.frames_moved);
-        }
-        reactor->Finish(ToGrpc(r.code, r.message));
-      },
-      CallerOf(context));
-  return reactor;
+  return Unary(context, Access::kControl,
+               [&](grpc::ServerUnaryReactor* reactor) -> std::optional<grpc::Status> {
+                 host_.Submit(
+                     std::move(control),
+                     [reactor, reply](ControlResult r) {
+                       if (r.code == ControlCode::kOk) {
+                         ToProto(r.status, *reply->mutable_status());
+                         reply->set_reset(r.reset);
+                         reply->set_frames_moved(r.frames_moved);
+                       }
+                       reactor->Finish(ToGrpc(r.code, r.message));
+                     },
+                     CallerOf(context));
+                 return std::nullopt;  // the control finishes the call once applied
+               });
 }
 
 grpc::ServerUnaryReactor* SimulationService::GetStatus(grpc::CallbackServerContext* context,
                                                        const v1::GetStatusRequest*,
                                                        v1::Status* reply) {
-  grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
-  grpc::Status s = CheckAccess(context, Access::kWatch);
-  if (s.ok()) ToProto(host_.Status(), *reply);
-  reactor->Finish(s);
-  return reactor;
+  return Unary(context, Access::kWatch, [&](grpc::ServerUnaryReactor*) {
+    ToProto(host_.Status(), *reply);
+    return std::optional(grpc::Status::OK);
+  });
 }
 
 grpc::ServerUnaryReactor* SimulationService::Pause(grpc::CallbackServerContext* context,
@@ -120,105 +157,87 @@ grpc::ServerUnaryReactor* SimulationService::Reset(grpc::CallbackServerContext* 
 grpc::ServerUnaryReactor* SimulationService::GetParams(grpc::CallbackServerContext* context,
                                                        const v1::GetParamsRequest*,
                                                        v1::ParamsReply* reply) {
-  grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
-  grpc::Status s = CheckAccess(context, Access::kWatch);
-  if (s.ok()) ToProto(host_.CurrentParams(), *reply->mutable_params());
-  reactor->Finish(s);
-  return reactor;
+  return Unary(context, Access::kWatch, [&](grpc::ServerUnaryReactor*) {
+    ToProto(host_.CurrentParams(), *reply->mutable_params());
+    return std::optional(grpc::Status::OK);
+  });
 }
 
 grpc::ServerUnaryReactor* SimulationService::UpdateParams(grpc::CallbackServerContext* context,
                                                           const v1::UpdateParamsRequest* request,
                                                           v1::UpdateParamsReply* reply) {
-  grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
-  if (grpc::Status s = CheckAccess(context, Access::kControl); !s.ok()) {
-    reactor->Finish(s);
-    return reactor;
-  }
-  UpdateParamsControl control;
-  if (grpc::Status s = ToControl(*request, control); !s.ok()) {
-    reactor->Finish(s);
-    return reactor;
-  }
-  host_.Submit(
-      std::move(control),
-      [reactor, reply](ControlResult r) {
-        if (r.code == ControlCode::kOk) {
-          reply->set_reset(r.reset);
-          ToProto(r.params, *reply->mutable_params());
-          ToProto(r.status, *reply->mutable_status());
-        }
-        reactor->Finish(ToGrpc(r.code, r.message));
-      },
-      CallerOf(context));
-  return reactor;
+  return Unary(context, Access::kControl,
+               [&](grpc::ServerUnaryReactor* reactor) -> std::optional<grpc::Status> {
+                 UpdateParamsControl control;
+                 if (grpc::Status s = ToControl(*request, control); !s.ok()) return s;
+                 host_.Submit(
+                     std::move(control),
+                     [reactor, reply](ControlResult r) {
+                       if (r.code == ControlCode::kOk) {
+                         reply->set_reset(r.reset);
+                         ToProto(r.params, *reply->mutable_params());
+                         ToProto(r.status, *reply->mutable_status());
+                       }
+                       reactor->Finish(ToGrpc(r.code, r.message));
+                     },
+                     CallerOf(context));
+                 return std::nullopt;
+               });
 }
 
 grpc::ServerUnaryReactor* SimulationService::LoadScene(grpc::CallbackServerContext* context,
                                                        const v1::LoadSceneRequest* request,
                                                        v1::ControlReply* reply) {
-  grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
-  if (grpc::Status s = CheckAccess(context, Access::kControl); !s.ok()) {
-    reactor->Finish(s);
-    return reactor;
-  }
-  LoadSceneControl control;
-  if (grpc::Status s = ToControl(*request, control); !s.ok()) {
-    reactor->Finish(s);
-    return reactor;
-  }
-  host_.Submit(
-      std::move(control),
-      [reactor, reply](ControlResult r) {
-        if (r.code == ControlCode::kOk) {
-          ToProto(r.status, *reply->mutable_status());
-          reply->set_reset(true);
-        }
-        reactor->Finish(ToGrpc(r.code, r.message));
-      },
-      CallerOf(context));
-  return reactor;
+  return Unary(context, Access::kControl,
+               [&](grpc::ServerUnaryReactor* reactor) -> std::optional<grpc::Status> {
+                 LoadSceneControl control;
+                 if (grpc::Status s = ToControl(*request, control); !s.ok()) return s;
+                 host_.Submit(
+                     std::move(control),
+                     [reactor, reply](ControlResult r) {
+                       if (r.code == ControlCode::kOk) {
+                         ToProto(r.status, *reply->mutable_status());
+                         reply->set_reset(true);
+                       }
+                       reactor->Finish(ToGrpc(r.code, r.message));
+                     },
+                     CallerOf(context));
+                 return std::nullopt;
+               });
 }
 
 grpc::ServerUnaryReactor* SimulationService::ListScenes(grpc::CallbackServerContext* context,
                                                         const v1::ListScenesRequest*,
                                                         v1::ListScenesReply* reply) {
-  grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
-  if (grpc::Status s = CheckAccess(context, Access::kWatch); !s.ok()) {
-    reactor->Finish(s);
-    return reactor;
-  }
-  for (const BuiltinSceneText& builtin : BuiltinSceneTexts()) {
-    ToProto(builtin, *reply->add_scenes());
-  }
-  reply->set_current(host_.Status().scene);
-  reactor->Finish(grpc::Status::OK);
-  return reactor;
+  return Unary(context, Access::kWatch, [&](grpc::ServerUnaryReactor*) {
+    for (const BuiltinSceneText& builtin : BuiltinSceneTexts()) {
+      ToProto(builtin, *reply->add_scenes());
+    }
+    reply->set_current(host_.Status().scene);
+    return std::optional(grpc::Status::OK);
+  });
 }
 
 grpc::ServerUnaryReactor* SimulationService::GetScene(grpc::CallbackServerContext* context,
                                                       const v1::GetSceneRequest*,
                                                       v1::SceneDescription* reply) {
-  grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
-  grpc::Status s = CheckAccess(context, Access::kWatch);
-  if (s.ok()) ToProto(host_.CurrentScene(), *reply);
-  reactor->Finish(s);
-  return reactor;
+  return Unary(context, Access::kWatch, [&](grpc::ServerUnaryReactor*) {
+    ToProto(host_.CurrentScene(), *reply);
+    return std::optional(grpc::Status::OK);
+  });
 }
 
 grpc::ServerWriteReactor<grpc::ByteBuffer>* SimulationService::StreamFrames(
     grpc::CallbackServerContext* context, const grpc::ByteBuffer* request) {
   auto* stream = new FrameStreamReactor(host_.hub(), write_starter_);  // deleted in OnDone
-  if (grpc::Status s = CheckAccess(context, Access::kWatch); !s.ok()) {
-    stream->FinishNow(s);
-    return stream;
-  }
-  SubscriptionOptions options;
-  if (grpc::Status s = ToOptions(*request, options); !s.ok()) {
-    stream->FinishNow(s);
-    return stream;
-  }
-  stream->Begin(options);
+  const std::optional<grpc::Status> status = Guarded([&]() -> std::optional<grpc::Status> {
+    if (grpc::Status s = CheckAccess(context, Access::kWatch); !s.ok()) return s;
+    SubscriptionOptions options;
+    if (grpc::Status s = ToOptions(*request, options); !s.ok()) return s;
+    stream->Begin(options);
+    return std::nullopt;  // the stream finishes itself
+  });
+  if (status) stream->FinishNow(BoundedStatus(*status));
   return stream;
 }
 

@@ -63,8 +63,14 @@ class SimulationService final
 
  private:
   enum class Access { kWatch, kControl };
-  // OK, or UNAUTHENTICATED when the call lacks the token the policy asks for.
+  // OK, or UNAUTHENTICATED when the call lacks the token the policy asks for ('authorization:
+  // Bearer <token>', the scheme in any case).
   grpc::Status CheckAccess(const grpc::CallbackServerContext* context, Access access) const;
+  // A unary call: checks access, then runs `body(reactor)`, which returns the status to finish
+  // the call with, or nullopt when it queued a control that finishes it. An exception from the
+  // body finishes the call as Guarded (rpc_status.h) says; every message is bounded.
+  template <class Body>
+  grpc::ServerUnaryReactor* Unary(grpc::CallbackServerContext* context, Access access, Body&& body);
   // Queues a control; the reply is filled and the call finished once it is applied.
   grpc::ServerUnaryReactor* SubmitControl(grpc::CallbackServerContext* context, Control control,
                                           v1::ControlReply* reply);

@@ -9,6 +9,7 @@
 #include <span>
 #include <string>
 #include <string_view>
+#include <utility>
 
 namespace dysa {
 
@@ -86,12 +87,19 @@ std::span<const ParamDecl> ParamTable();
 const ParamDecl* FindParam(std::string_view name);
 
 // Checks value against the declaration of `name` (known name, finite, in range, integral where
-// required) and stores it. Throws ConfigError naming the parameter and its range; `params` is
-// unchanged on error.
+// required) and stores it. Throws ConfigError naming the parameter, the value (every digit it
+// needs: ExactNumber) and its range; `params` is unchanged on error.
 void SetParam(Params& params, std::string_view name, double value);
 double GetParam(const Params& params, std::string_view name);
 
-// Parses "name=value" (as given to --set). Throws ConfigError.
+// Splits "NAME=VALUE" (as `dysa set` takes them) and reads VALUE, which must be a number written
+// in full ("1e-3", not "1e-3x"). Throws ConfigError: with no field when there is no NAME=, else
+// naming NAME when VALUE is not a number, not finite, out of the range of a double (above about
+// 1.8e308 in magnitude) or so close to 0 that a double would hold 0. NAME is not looked up.
+std::pair<std::string, double> ParseAssignment(std::string_view assignment);
+
+// Parses "name=value" (as given to --set) and sets it: ParseAssignment's checks, then
+// SetParam's. Throws ConfigError naming --set when there is no NAME=, else the parameter.
 void SetParamFromString(Params& params, std::string_view assignment);
 
 }  // namespace dysa

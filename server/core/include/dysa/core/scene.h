@@ -1,6 +1,7 @@
 // Scenes: what to simulate, read from JSON. scenes/README.md documents every field.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -17,6 +18,16 @@ namespace dysa {
 // memory (bench/gpu_bench), so this is about 30 GB of host and 62 GB of GPU memory; ids and
 // indices stay 32-bit.
 inline constexpr uint64_t kMaxParticles = 500'000'000;
+// What a scene keeps of client text, and its obstacles, are bounded: every reply that describes
+// the running scene (status, GetScene) then stays far below gRPC's 4 MiB message limit whatever
+// a scene holds, and every log line naming it stays one short line (ParseScene refuses more,
+// naming the field and the bound; names and descriptions without control characters, but for
+// a description's newlines and tabs). A box obstacle is 60 bytes of a GetScene reply.
+inline constexpr size_t kMaxSceneNameBytes = 256;  // name, and each probe's name
+inline constexpr size_t kMaxSceneDescriptionBytes = 4096;
+inline constexpr size_t kMaxObstacles = 10'000;
+// LoadScene reads no more of a file (the server takes at most 4 MiB of scene text from a call).
+inline constexpr size_t kMaxSceneFileBytes = size_t{64} << 20;
 // The most a server simulates and streams by default (dysa-server --max-particles): the frame
 // codec's decoders allocate for at most this many.
 inline constexpr uint64_t kMaxStreamedParticles = 20'000'000;
@@ -83,11 +94,15 @@ struct Scene {
   std::vector<ProbeSpec> probes;
 };
 
-// Parses a scene from JSON text. Every field is optional and has a default; an unknown field, a
-// wrong type or an out-of-range value throws ConfigError naming the field and the allowed range.
+// Parses a scene from JSON text. Every field is optional and has a default; malformed JSON, an
+// unknown field, a wrong type or an out-of-range value (a number a double cannot hold included)
+// throws ConfigError naming the field and the allowed range, quoting client text through
+// SafeText; no other exception escapes.
 Scene ParseScene(std::string_view json_text);
 
-// A scene name (built-in) or a path to a JSON file.
+// A scene name (built-in) or a path to a JSON file. Throws ConfigError: field "scene" when there
+// is no such built-in scene or file, or the path is a directory, unreadable or over
+// kMaxSceneFileBytes; ParseScene's errors with " (in PATH)" added.
 Scene LoadScene(std::string_view name_or_path);
 
 struct BuiltinSceneText {

@@ -55,7 +55,8 @@ struct HostOptions {
   // Where every simulation of the host steps, including the scenes LoadScene brings: the CPU, or
   // a CUDA GPU (dysa-server --device). Scenes whose solver has no GPU backend are refused there.
   Device device;
-  // One line per significant event (scene loaded, reset, alarm, ...); may be empty.
+  // One line per significant event (scene loaded, reset, alarm, ...), at most kMaxLogLineBytes
+  // with control characters escaped (SafeText); may be empty.
   std::function<void(const std::string&)> log;
 };
 
@@ -167,6 +168,9 @@ struct ControlResult {
 // Fills `snapshot` from the simulation's current frame: positions, and velocities or densities
 // when `fields` (codec fields) need them, scattered from storage order into id order.
 void GatherSnapshot(const Simulation& sim, uint32_t fields, FrameSnapshot& snapshot);
+
+// The longest line SimulationHost logs; a longer one is cut, stating its length.
+inline constexpr size_t kMaxLogLineBytes = 4096;
 
 // Frames one Step control may advance at most (the thread does nothing else meanwhile).
 inline constexpr uint32_t kMaxStepCount = 10000;
