@@ -5,6 +5,7 @@
 
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <span>
 #include <stdexcept>
@@ -131,9 +132,19 @@ class DecodeError : public std::runtime_error {
 
 // A chunk's parsed header (src/chunk_header.h), for FrameDecoder's private stages.
 struct ChunkHeader;
+// The threads that decode a frame's chunks (src/task_pool.h).
+class TaskPool;
 
 class FrameDecoder {
  public:
+  FrameDecoder();
+  ~FrameDecoder();
+  // A copy or a moved-to decoder has the state of the stream, and threads of its own.
+  FrameDecoder(const FrameDecoder& other);
+  FrameDecoder& operator=(const FrameDecoder& other);
+  FrameDecoder(FrameDecoder&& other) noexcept;
+  FrameDecoder& operator=(FrameDecoder&& other) noexcept;
+
   // Adds one chunk. Returns the frame once all its chunks have arrived. Throws DecodeError with
   // a clear message for malformed, truncated or hostile input and for a newer format version;
   // the decoder then waits for the next keyframe.
@@ -171,6 +182,8 @@ class FrameDecoder {
   std::vector<std::vector<std::vector<uint32_t>>> history_;
   std::vector<std::vector<std::vector<uint32_t>>> spare_;  // recycled buffers
   bool have_previous_ = false;
+  // Started with the first frame of more than one chunk; threads that sleep between frames.
+  std::unique_ptr<TaskPool> workers_;
 };
 
 }  // namespace dysa::codec
