@@ -1,21 +1,24 @@
 #!/usr/bin/env bash
 # How much a client on the same machine slows the server (issue 21, defect 8): the simulated
 # frames per second of `dysa-server --threads T --frame-rate 0` on the thesis scene, alone and
-# with one `dysa watch` streaming from it, each timed over the same FRAMES frames after a reset
-# from the server's frame counter (`dysa status`). Extra cases (the environment a client runs with) come as arguments
-# of the form 'LABEL=ENV...' and run `dysa watch` under `env ENV...`.
+# with one `dysa watch` (decoding every frame) beside it. Each measurement resets the
+# simulation, lets the client settle for 30 frames, and times the next FRAMES frames from the
+# server's frame counter (`dysa status`), so every case covers the same stretch of simulated
+# time. The cases alternate for ROUNDS rounds (machine noise hits them alike) and the median is
+# reported. Extra cases, 'LABEL=ENV...', run `dysa watch` under `env ENV...`.
 #
-#   bench/client_interference.sh [BUILD_DIR] [THREADS] [FRAMES] [OUT_DIR] [CASE...]
-#   bench/client_interference.sh build/release 15 300 bench/results 'passive=OMP_WAIT_POLICY=PASSIVE'
+#   bench/client_interference.sh [BUILD_DIR] [THREADS] [FRAMES] [ROUNDS] [OUT_DIR] [CASE...]
+#   bench/client_interference.sh build/release 15 200 3 bench/results 'passive=OMP_WAIT_POLICY=PASSIVE'
 #
-# Prints one line per case and writes OUT_DIR/client_interference.csv.
+# Prints every measurement and the medians; writes OUT_DIR/client_interference.csv.
 set -euo pipefail
 
 build="${1:-build/release}"
 threads="${2:-$(($(nproc) - 1))}"
-frames="${3:-300}"
-out="${4:-bench/results}"
-shift $(($# < 4 ? $# : 4))
+frames="${3:-200}"
+rounds="${4:-3}"
+out="${5:-bench/results}"
+shift $(($# < 5 ? $# : 5))
 server_bin="$build/server/dysa-server"
 dysa="$build/clients/cli/dysa"
 for bin in "$server_bin" "$dysa"; do
@@ -40,9 +43,6 @@ export DYSA_SERVER="127.0.0.1:$(cat "$work/port")"
 frame() { "$dysa" status | awk '$1 == "frame" { print $2 }'; }
 now() { date +%s.%N; }
 wait_for_frame() { while (($(frame) < $1)); do sleep 0.05; done; }
-# Frames per wall second over the same stretch of simulated time in every case (the cost of a
-# frame changes as the fluid moves): reset, let the client connect and settle for 30 frames,
-# then time the next $frames.
 measure() {
   "$dysa" reset > /dev/null
   wait_for_frame 30
@@ -50,32 +50,41 @@ measure() {
   t0=$(now)
   wait_for_frame $((30 + frames))
   t1=$(now)
-  awk -v n="$frames" -v t0="$t0" -v t1="$t1" 'BEGIN { print n / (t1 - t0) }'
+  awk -v n="$frames" -v t0="$t0" -v t1="$t1" 'BEGIN { printf "%.2f", n / (t1 - t0) }'
 }
 
-echo "case,client_env,frames_per_second" > "$out/client_interference.csv"
-run_case() {
-  local label="$1"
-  shift
-  local client_pid=""
-  if [[ "$label" != "alone" ]]; then
-    env "$@" "$dysa" watch > "$work/watch_$label.log" 2>&1 &
-    client_pid=$!
-  fi
-  local fps
-  fps=$(measure)
-  [[ -n "$client_pid" ]] && { kill "$client_pid" 2> /dev/null || true; wait "$client_pid" 2> /dev/null || true; }
-  printf '%-24s %8.1f frames/s  (server --threads %s, client env: %s)\n' "$label" "$fps" "$threads" "${*:-none}"
-  echo "$label,${*:-},$fps" >> "$out/client_interference.csv"
-}
-
-run_case alone
-run_case watch
+labels=(alone watch)
+envs=("" "")
 for spec in "$@"; do
-  label="${spec%%=*}"
-  env_text="${spec#*=}"
-  # shellcheck disable=SC2086
-  run_case "$label" $env_text
+  labels+=("${spec%%=*}")
+  envs+=("${spec#*=}")
 done
-run_case alone_again
-echo "wrote $out/client_interference.csv"
+
+csv="$out/client_interference.csv"
+echo "round,case,client_env,frames_per_second" > "$csv"
+for round in $(seq "$rounds"); do
+  for k in "${!labels[@]}"; do
+    label="${labels[$k]}"
+    client_pid=""
+    if [[ "$label" != "alone" ]]; then
+      # shellcheck disable=SC2086
+      env ${envs[$k]} "$dysa" watch > "$work/watch.log" 2>&1 &
+      client_pid=$!
+    fi
+    fps=$(measure)
+    if [[ -n "$client_pid" ]]; then
+      kill "$client_pid" 2> /dev/null || true
+      wait "$client_pid" 2> /dev/null || true
+    fi
+    printf 'round %d  %-16s %8s frames/s  (client env: %s)\n' "$round" "$label" "$fps" \
+      "${envs[$k]:-none}"
+    echo "$round,$label,${envs[$k]},$fps" >> "$csv"
+  done
+done
+echo "medians over $rounds rounds (dysa-server --threads $threads, $frames frames after a reset):"
+for label in "${labels[@]}"; do
+  awk -F, -v c="$label" '$2 == c { print $4 }' "$csv" | sort -g |
+    awk -v c="$label" '{ v[NR] = $1 } END { m = NR % 2 ? v[(NR + 1) / 2] : (v[NR / 2] + v[NR / 2 + 1]) / 2;
+      printf "  %-16s %8.2f frames/s\n", c, m }'
+done
+echo "wrote $csv"
