@@ -2,6 +2,7 @@
 
 #include <cerrno>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -21,6 +22,13 @@ namespace {
 using nlohmann::json;
 
 std::string Num(double v) { return ExactNumber(v); }
+
+// A derived quantity (not a value the client gave), to 4 significant digits.
+std::string Approx(double v) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.4g", v);
+  return text;
+}
 
 // Client text quoted in a message: escaped and bounded (SafeText).
 std::string Quoted(std::string_view text) { return "\"" + SafeText(text) + "\""; }
@@ -466,9 +474,11 @@ void CheckParticlesPerCell(const Scene& scene, const Params& params, const Fluid
   const std::string cause = physical ? "params.particle_spacing" : "the block's spacing";
   throw ConfigError(
       path,
-      "about " + Num(per_cell) + " particles (" + cause + " " + Num(closest) +
-          " m) would share one neighbour-grid cell of edge " + Num(grid.cell_sizes().minCoeff()) +
-          " m; at most " + std::to_string(NeighborGrid::kMaxParticlesPerCell) +
+      "about " + (per_cell < 1e15 ? std::to_string(uint64_t(per_cell)) : Approx(per_cell)) +
+          " particles (" + cause + " " + Approx(closest) +
+          " m) would share one neighbour-grid cell of edge " +
+          Approx(grid.cell_sizes().minCoeff()) + " m; at most " +
+          std::to_string(NeighborGrid::kMaxParticlesPerCell) +
           " can, or every step costs O(n^2): space the particles further apart" +
           (physical ? std::string(" or shrink the domain")
                     : " (size, particles_per_axis, spacing) or lower params.smoothing_radius"));
