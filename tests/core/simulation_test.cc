@@ -109,40 +109,6 @@ TEST(SimulationTest, ANonFiniteStateStopsTheSimulationWithAnAlarm) {
   EXPECT_TRUE(StateIsFinite(sim.state().particles));
 }
 
-// Particles collapsed to one point (a valid checkpoint of any scene): every neighbour pass
-// would test every pair, O(n^2). The neighbour sort finds the crowded cell and the step stops
-// before those passes with an alarm naming the limit; nothing advances until a reset.
-TEST(SimulationTest, ParticlesCrowdedIntoOneCellStopTheStepWithAnAlarm) {
-  for (const char* solver : {"seed", "wcsph", "dfsph"}) {
-    SCOPED_TRACE(solver);
-    Scene scene = ParseScene(R"({
-      "domain": {"min": [0, 0, 0], "max": [0.4, 0.4, 0.4]},
-      "fluid_blocks": [{"center": [0.2, 0.2, 0.2], "size": [0.3, 0.3, 0.3]}],
-      "params": {"particle_spacing": 0.02, "particle_quantity": 15}
-    })");
-    scene.solver = solver;
-    Simulation sim(scene);
-    ASSERT_GT(sim.particle_count(), size_t(NeighborGrid::kMaxParticlesPerCell));
-    sim.Step();
-    ASSERT_EQ(sim.alarm(), "");
-    Checkpoint collapsed = sim.SaveCheckpoint();
-    for (Vec3& x : collapsed.position) x = Vec3(0.3f, 0.3f, 0.3f);  // inside one cell
-    sim.RestoreCheckpoint(collapsed);
-    const double time = sim.time();
-    sim.Step();
-    EXPECT_THAT(sim.alarm(), ::testing::HasSubstr("particles crowd one neighbour-grid cell"));
-    EXPECT_THAT(sim.alarm(),
-                ::testing::HasSubstr(std::to_string(NeighborGrid::kMaxParticlesPerCell)));
-    EXPECT_EQ(sim.time(), time);
-    sim.StepFrame();
-    EXPECT_EQ(sim.time(), time);
-    sim.Reset();
-    EXPECT_EQ(sim.alarm(), "");
-    sim.Step();
-    EXPECT_EQ(sim.alarm(), "");
-  }
-}
-
 TEST(SimulationTest, ResetRestoresTimeStepAndTheInitialState) {
   Simulation sim(BasicScene(8));
   const uint64_t initial = StateHash(sim.state());

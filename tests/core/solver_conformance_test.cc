@@ -13,6 +13,7 @@
 #include <string>
 
 #include "dysa/core/device.h"
+#include "dysa/core/neighbor_grid.h"
 #include "dysa/core/scene.h"
 #include "dysa/core/simulation.h"
 #include "dysa/core/solver.h"
@@ -98,6 +99,42 @@ TEST_P(SolverConformanceTest, ResetRespawnsTheInitialState) {
   EXPECT_EQ(sim.time(), 0);
   EXPECT_EQ(sim.step(), 0u);
   EXPECT_EQ(StateHash(sim.state()), initial);
+}
+
+// Particles collapsed to one point (a valid checkpoint of any scene): every neighbour pass
+// would test every pair, O(n^2). The neighbour sort finds the crowded cell and the step stops
+// with an alarm naming the limit (on the CPU before the neighbour passes, the state as it was;
+// on a GPU after the first of them, or after the seed's whole step); nothing advances until a
+// reset.
+TEST_P(SolverConformanceTest, ParticlesCrowdedIntoOneCellRaiseTheAlarm) {
+  Scene scene = ParseScene(R"({
+    "domain": {"min": [0, 0, 0], "max": [0.4, 0.4, 0.4]},
+    "fluid_blocks": [{"center": [0.2, 0.2, 0.2], "size": [0.3, 0.3, 0.3]}],
+    "params": {"particle_spacing": 0.02, "particle_quantity": 15}
+  })");
+  scene.solver = GetParam();
+  Simulation sim(scene, kDevice);
+  ASSERT_GT(sim.particle_count(), size_t(NeighborGrid::kMaxParticlesPerCell));
+  sim.Step();
+  ASSERT_EQ(sim.alarm(), "");
+  Checkpoint collapsed = sim.SaveCheckpoint();
+  for (Vec3& x : collapsed.position) x = Vec3(0.3f, 0.3f, 0.3f);  // inside one cell
+  sim.RestoreCheckpoint(collapsed);
+  const double before = sim.time();
+  sim.Step();
+  EXPECT_THAT(sim.alarm(), ::testing::HasSubstr("particles crowd one neighbour-grid cell"));
+  EXPECT_THAT(sim.alarm(),
+              ::testing::HasSubstr(std::to_string(NeighborGrid::kMaxParticlesPerCell)));
+  if (!kDevice.is_cuda()) {
+    EXPECT_EQ(sim.time(), before);  // stopped before the neighbour passes
+  }
+  const double time = sim.time();
+  sim.StepFrame();
+  EXPECT_EQ(sim.time(), time);
+  sim.Reset();
+  EXPECT_EQ(sim.alarm(), "");
+  sim.Step();
+  EXPECT_EQ(sim.alarm(), "");
 }
 
 std::vector<std::string> RegisteredSolvers() {

@@ -43,6 +43,11 @@ class GpuBackend {
     std::vector<double> pass_ms;  // per pass, from CUDA events
     bool finite = true;           // every position and velocity finite afterwards
     uint64_t limited = 0;         // particles slowed by the velocity limiter
+    // The most particles one grid cell held at the step's neighbour sort. Beyond
+    // NeighborGrid::kMaxParticlesPerCell the physical solvers stop the step after the sort and
+    // its first neighbour pass, before they integrate (stopped); the seed's step completes.
+    uint32_t max_cell_count = 0;
+    bool stopped = false;  // the step stopped before it changed the particles' motion
   };
   // One step of state.dt (set by the caller for a fixed-step solver).
   virtual StepReport Step(const Model& model, State& state) = 0;

@@ -100,6 +100,10 @@ void Simulation::Step(double until) {
       RecordPassTime(k, report.pass_ms[k]);
     }
     host_stale_ = true;
+    if (report.max_cell_count > NeighborGrid::kMaxParticlesPerCell) {
+      alarm_ = CrowdedAlarm(report.max_cell_count, start_time);
+      if (report.stopped) return;
+    }
     if (report.limited > 0) {
       state_.warning = seed::VelocityLimiterWarning(report.limited, model_, state_.step + 1);
     }
@@ -112,12 +116,7 @@ void Simulation::Step(double until) {
       if (k == sort_pass_ && state_.grid.max_cell_count() > NeighborGrid::kMaxParticlesPerCell) {
         // The neighbour passes would cost O(n^2): stop before them, the state as it was (only
         // reordered), and say why.
-        alarm_ = std::to_string(state_.grid.max_cell_count()) +
-                 " particles crowd one neighbour-grid cell at step " +
-                 std::to_string(state_.step + 1) + " (t = " + std::to_string(start_time) +
-                 " s; at most " + std::to_string(NeighborGrid::kMaxParticlesPerCell) +
-                 " can, or each step costs O(n^2)): the fluid collapsed; reset, or space the "
-                 "particles further apart";
+        alarm_ = CrowdedAlarm(state_.grid.max_cell_count(), start_time);
         return;
       }
     }
@@ -130,6 +129,14 @@ void Simulation::Step(double until) {
   state_.time = model_.physical && state_.dt >= state_.max_dt ? until : start_time + state_.dt;
   ++state_.step;
   CheckStep(finite, start_time);
+}
+
+std::string Simulation::CrowdedAlarm(uint32_t count, double start_time) const {
+  return std::to_string(count) + " particles crowd one neighbour-grid cell at step " +
+         std::to_string(state_.step + 1) + " (t = " + std::to_string(start_time) + " s; at most " +
+         std::to_string(NeighborGrid::kMaxParticlesPerCell) +
+         " can, or each step costs O(n^2)): the fluid collapsed; reset, or space the particles "
+         "further apart";
 }
 
 void Simulation::CheckStep(bool finite, double start_time) {

@@ -27,6 +27,14 @@ static_assert(sizeof(Vec3) == 3 * sizeof(float), "Vec3 arrays are copied as xyz 
 float* Floats(std::vector<Vec3>& v) { return v.empty() ? nullptr : v.front().data(); }
 const float* Floats(const std::vector<Vec3>& v) { return v.empty() ? nullptr : v.front().data(); }
 
+// A step stopped before it integrated: a grid cell held `count` particles, over the limit.
+GpuBackend::StepReport Crowded(uint32_t count) {
+  GpuBackend::StepReport report;
+  report.max_cell_count = count;
+  report.stopped = true;
+  return report;
+}
+
 cuda::GridLayout Layout(const NeighborGrid& grid) {
   cuda::GridLayout layout;
   for (int a = 0; a < 3; ++a) {
@@ -107,7 +115,8 @@ class SeedGpuBackend final : public GpuBackend {
 
   StepReport Step(const Model&, State&) override {
     cuda::StepOutcome outcome = pipeline_.Step();
-    return StepReport{std::move(outcome.pass_ms), outcome.finite, outcome.limited};
+    return StepReport{std::move(outcome.pass_ms), outcome.finite, outcome.limited,
+                      pipeline_.max_cell_count()};
   }
 
   uint64_t DeviceBytes() const override { return pipeline_.DeviceBytes(); }
@@ -215,6 +224,9 @@ class WcsphGpuBackend final : public GpuBackend {
   StepReport Step(const Model& model, State& state) override {
     const Real gravity = Real(physical::GravityAt(model.params, state.time));
     const cuda::StepMaxima maxima = pipeline_.Forces(gravity);
+    if (pipeline_.max_cell_count() > NeighborGrid::kMaxParticlesPerCell) {
+      return Crowded(pipeline_.max_cell_count());
+    }
     // ChooseTimeStepPass (cfl_time_step.cc) from the GPU's maxima.
     const TimeStepLimits limits =
         CflLimits(model, std::sqrt(double(maxima.speed2)), std::sqrt(double(maxima.acceleration2)),
@@ -292,7 +304,10 @@ class DfsphGpuBackend final : public GpuBackend {
     SolverStats& stats = stats_;
     const uint64_t step = state.step + 1;
     // DivergenceSolve's step: the one the time_step pass will choose from these velocities.
-    const float speed2 = pipeline_.Prepare(gravity);
+    const float speed2 = pipeline_.Prepare(gravity, NeighborGrid::kMaxParticlesPerCell);
+    if (pipeline_.max_cell_count() > NeighborGrid::kMaxParticlesPerCell) {
+      return Crowded(pipeline_.max_cell_count());
+    }
     const double divergence_dt =
         std::min(CflLimits(model, std::sqrt(double(speed2)), std::abs(prm.gravity), false).Min(),
                  prm.max_time_step);

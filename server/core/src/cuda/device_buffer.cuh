@@ -122,6 +122,7 @@ class PinnedBuffer {
               "downloading");
   }
   T* data() { return data_; }
+  const T* data() const { return data_; }
 
  private:
   T* data_ = nullptr;

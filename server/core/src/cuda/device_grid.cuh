@@ -8,7 +8,9 @@
 // order they are added in) and an exclusive scan, as on the CPU.
 #pragma once
 
+#include <algorithm>
 #include <cub/device/device_radix_sort.cuh>
+#include <cub/device/device_reduce.cuh>
 #include <cub/device/device_scan.cuh>
 
 #include "cuda/device_buffer.cuh"
@@ -129,7 +131,14 @@ class GridSorter {
     CheckCuda(cub::DeviceScan::ExclusiveSum(nullptr, scan_bytes, count_.data(), cell_start_.data(),
                                             int64_t(cells_ + 1)),
               "sizing the cell scan");
-    temp_.Resize(scan_bytes > 0 ? scan_bytes : 1);
+    size_t max_bytes = 0;
+    CheckCuda(cub::DeviceReduce::Max(nullptr, max_bytes, count_.data(), max_count_.data(),
+                                     int64_t(cells_ + 1)),
+              "sizing the cell maximum");
+    temp_.Resize(std::max<size_t>({scan_bytes, max_bytes, 1}));
+    max_count_.Resize(1);
+    max_count_host_.Resize(1);
+    max_count_host_.data()[0] = 0;
   }
 
   void Reserve(uint32_t n) {
@@ -161,6 +170,12 @@ class GridSorter {
     CheckCuda(cudaMemsetAsync(count_.data(), 0, (cells_ + 1) * sizeof(uint32_t), stream),
               "clearing the cell counts");
     if (n > 0) CellCountKernel<<<blocks, kBlock, 0, stream>>>(sorted_key_, count_.data(), n);
+    // The fullest cell, read by the host at the step's next synchronisation (max_count()).
+    size_t max_bytes = temp_.capacity();
+    CheckCuda(cub::DeviceReduce::Max(temp_.data(), max_bytes, count_.data(), max_count_.data(),
+                                     int64_t(cells_ + 1), stream),
+              "finding the fullest cell");
+    max_count_host_.CopyFrom(max_count_, 1, stream);
     size_t bytes = temp_.capacity();
     CheckCuda(cub::DeviceScan::ExclusiveSum(temp_.data(), bytes, count_.data(), cell_start_.data(),
                                             int64_t(cells_ + 1), stream),
@@ -168,6 +183,9 @@ class GridSorter {
   }
 
   const uint32_t* order() const { return order_; }
+  // The most particles one cell held at the latest Sort(), once the stream has synchronised
+  // since (NeighborGrid::max_cell_count on the CPU).
+  uint32_t max_count() const { return max_count_host_.data()[0]; }
   DeviceGrid View() const {
     DeviceGrid g;
     g.layout = layout_;
@@ -187,7 +205,8 @@ class GridSorter {
   uint64_t cells_ = 1;
   int end_bit_ = 1;
   DeviceBuffer<uint32_t> key_, key_alt_, index_, index_alt_;
-  DeviceBuffer<uint32_t> count_, cell_start_;
+  DeviceBuffer<uint32_t> count_, cell_start_, max_count_;
+  PinnedBuffer<uint32_t> max_count_host_;
   DeviceBuffer<unsigned char> temp_;
   const uint32_t* sorted_key_ = nullptr;
   const uint32_t* order_ = nullptr;

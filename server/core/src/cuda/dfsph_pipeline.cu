@@ -667,7 +667,7 @@ void DfsphPipeline::Download(uint32_t* id, float* position, float* velocity, flo
   CheckCuda(cudaStreamSynchronize(s), "downloading particles");
 }
 
-float DfsphPipeline::Prepare(float gravity) {
+float DfsphPipeline::Prepare(float gravity, uint32_t max_per_cell) {
   Impl& m = *impl_;
   DeviceScope scope(m.device);
   cudaStream_t s = m.s();
@@ -704,6 +704,7 @@ float DfsphPipeline::Prepare(float gravity) {
               "a total");
     m.totals.CopyFrom(m.device_totals, 2, s);
     CheckCuda(cudaStreamSynchronize(s), "counting the pairs");
+    if (m.sorter.max_count() > max_per_cell) return 0;
   } else {
     m.totals.data()[0] = m.totals.data()[1] = 0;
   }
@@ -846,6 +847,8 @@ StepOutcome DfsphPipeline::Integrate(float dt, float speed_limit) {
   outcome.finite = m.flags.data()[1] == 0;
   return outcome;
 }
+
+uint32_t DfsphPipeline::max_cell_count() const { return impl_->sorter.max_count(); }
 
 uint64_t DfsphPipeline::DeviceBytes() const {
   const Impl& m = *impl_;

@@ -61,8 +61,10 @@ class DfsphPipeline {
 
   // neighbour_grid, density (the pair lists), boundary_pressure (the walls' Shepard weights and
   // hydrostatic acceleration, with gravity `gravity`); returns the largest |v|^2, from which
-  // the caller sizes the divergence solve's step.
-  float Prepare(float gravity);
+  // the caller sizes the divergence solve's step. Stops after counting the pairs, before
+  // listing them, when a grid cell holds more than `max_per_cell` particles
+  // (max_cell_count()): the lists would hold n^2 pairs.
+  float Prepare(float gravity, uint32_t max_per_cell);
   // divergence_solve with the step dt (s).
   SolveResult DivergenceSolve(double dt, const SolveSettings& settings);
   // external_forces, viscosity, wall_viscosity, and the time_step pass's maxima.
@@ -76,6 +78,9 @@ class DfsphPipeline {
   // any pointer may be null (not copied).
   void DownloadById(float* position, float* velocity, float* density) const;
   size_t size() const;
+  // The most particles one grid cell held at the latest step's neighbour sort (read after the
+  // step, or for dfsph after Prepare).
+  uint32_t max_cell_count() const;
   uint64_t DeviceBytes() const;
 
  private:

@@ -1035,6 +1035,8 @@ void SeedPipeline::DownloadById(float* position, float* velocity, float* density
   }
 }
 
+uint32_t SeedPipeline::max_cell_count() const { return impl_->sorter.max_count(); }
+
 uint64_t SeedPipeline::DeviceBytes() const {
   const Impl& m = *impl_;
   // 22 float arrays (positions, velocities, predictions, their permutation targets, densities,

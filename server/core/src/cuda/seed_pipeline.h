@@ -76,6 +76,9 @@ class SeedPipeline {
   void DownloadById(float* position, float* velocity, float* density) const;
   size_t size() const;
   // Device memory held, bytes (particles, the grid, the neighbour list, scratch).
+  // The most particles one grid cell held at the latest step's neighbour sort (read after the
+  // step, or for dfsph after Prepare).
+  uint32_t max_cell_count() const;
   uint64_t DeviceBytes() const;
 
  private:

@@ -373,6 +373,8 @@ StepOutcome WcsphPipeline::Integrate(float dt) {
   return outcome;
 }
 
+uint32_t WcsphPipeline::max_cell_count() const { return impl_->sorter.max_count(); }
+
 uint64_t WcsphPipeline::DeviceBytes() const {
   const Impl& m = *impl_;
   return uint64_t(m.x.capacity()) * (20 * sizeof(float) + 2 * sizeof(uint32_t)) +

@@ -64,6 +64,9 @@ class WcsphPipeline {
   // any pointer may be null (not copied).
   void DownloadById(float* position, float* velocity, float* density) const;
   size_t size() const;
+  // The most particles one grid cell held at the latest step's neighbour sort (read after the
+  // step, or for dfsph after Prepare).
+  uint32_t max_cell_count() const;
   uint64_t DeviceBytes() const;
 
  private:

@@ -118,9 +118,9 @@ class Simulation {
   double last_dt() const { return state_.dt; }
   // Empty while the state is healthy. Otherwise why the simulation stopped by itself: a NaN or
   // Inf in a position or velocity after a step, an adaptive step that collapsed to zero, or
-  // (CPU) particles crowded into one neighbour-grid cell beyond
-  // NeighborGrid::kMaxParticlesPerCell, found by the neighbour sort before the passes that
-  // would cost O(n^2).
+  // particles crowded into one neighbour-grid cell beyond NeighborGrid::kMaxParticlesPerCell,
+  // found by the neighbour sort: the CPU stops before the passes that would cost O(n^2), a GPU
+  // after the sort's first neighbour pass (wcsph, dfsph) or after the step (seed).
   // Step() and StepFrame() then do nothing (nothing integrates or shows garbage) until Reset(),
   // RestoreCheckpoint() or a parameter change that resets.
   const std::string& alarm() const { return alarm_; }
@@ -148,6 +148,8 @@ class Simulation {
  private:
   void Rebuild();
   void RecordPassTime(size_t pass, double ms);
+  // The alarm of a step whose neighbour sort found `count` particles in one cell.
+  std::string CrowdedAlarm(uint32_t count, double start_time) const;
   // After a step: the alarm when it diverged, from `finite` and the step's dt.
   void CheckStep(bool finite, double start_time);
   // The particles changed on the host (spawn, restore): hand them and the solver's arrays
