@@ -21,6 +21,10 @@ template <class... Ts>
 struct Overloaded : Ts... {
   using Ts::operator()...;
 };
+// C++20 deduces this for aggregates, but Clang only from version 17, and the fuzz build
+// (scripts/fuzz.sh) uses Debian 12's Clang 14.
+template <class... Ts>
+Overloaded(Ts...) -> Overloaded<Ts...>;
 
 ControlResult Error(ControlCode code, std::string message) {
   ControlResult result;
