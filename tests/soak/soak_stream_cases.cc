@@ -46,6 +46,11 @@ v1::StreamFramesRequest Configuration(int i) {
 
 }  // namespace
 
+size_t ChurnGrowthBound() {
+  const unsigned threads = std::max(2u, std::thread::hardware_concurrency());
+  return 16 * kMiB + 2 * kMiB * (threads - 2);
+}
+
 SoakResult SubscriberChurn(const SoakEnv& env, const ChurnSize& size) {
   SoakResult result;
   result.case_name = "subscriber_churn";
