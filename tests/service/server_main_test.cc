@@ -104,6 +104,13 @@ struct OpenStream {
 // Issue 21, defect 7: 64 stream configurations of 27,000 particles took memory (470 MB with the
 // history) that stayed in the server after every stream closed. Their buffers must go back.
 TEST(ServerMainTest, StreamBuffersGoBackToTheSystemWhenTheirStreamsClose) {
+#if defined(__SANITIZE_ADDRESS__)
+  // ASan's allocator keeps freed memory in its quarantine instead of returning it (472 MB stayed
+  // 467 MB): resident memory measures the glibc allocator's behaviour, which the release suite
+  // checks.
+  GTEST_SKIP() << "resident memory is ASan's quarantine under AddressSanitizer; the release "
+                  "build checks it";
+#endif
   const testing::TempDir dir("server_main_streams");
   // Paused, with the shortest history: nothing else grows meanwhile.
   testing::ServerProcess server(

@@ -3,6 +3,7 @@
 // are bench/soak_bench's.
 #include <gtest/gtest.h>
 
+#include <cstdint>
 #include <iostream>
 
 #include "soak/soak_cases.h"
@@ -14,6 +15,19 @@
 
 namespace dysa::soak {
 namespace {
+
+// Under AddressSanitizer (the asan preset) the server allocates through ASan's allocator, which
+// keeps freed memory in its quarantine (256 MB) instead of returning it: resident memory tells
+// nothing about leaks there (ASan's own leak check does, at the server's exit), and it grew by
+// 43 to 200 MiB in every case. The memory bounds are the glibc allocator's, asserted by the
+// release suite; here the figures are printed and not bounded. Everything runs about 3 times
+// slower too, so the readers stall 3 times longer to fill their buffers.
+#if defined(__SANITIZE_ADDRESS__)
+constexpr bool kSanitized = true;
+#else
+constexpr bool kSanitized = false;
+#endif
+size_t MemoryBound(size_t bound) { return kSanitized ? SIZE_MAX : bound; }
 
 class SoakTest : public ::testing::Test {
  protected:
@@ -29,15 +43,16 @@ class SoakTest : public ::testing::Test {
 };
 
 TEST_F(SoakTest, MixedRpcsFromFourThreadsAllSucceedAndMemoryStaysBounded) {
-  Expect(RpcSoak(env(), {.rpcs = 2000, .threads = 4}));
+  Expect(RpcSoak(env(), {.rpcs = 2000, .threads = 4, .max_growth = MemoryBound(8 * kMiB)}));
 }
 
 TEST_F(SoakTest, SubscriberChurnLeavesNoStreamAndTheCapRefusesOneMore) {
-  Expect(SubscriberChurn(env(), {.cycles = 20, .cap = 8}));
+  Expect(SubscriberChurn(env(),
+                         {.cycles = 20, .cap = 8, .max_growth = MemoryBound(ChurnGrowthBound())}));
 }
 
 TEST_F(SoakTest, StalledReadersNeitherSlowTheSimulationNorStopStatus) {
-  Expect(StalledReaders(env(), {.readers = 4, .seconds = 4}));
+  Expect(StalledReaders(env(), {.readers = 4, .seconds = kSanitized ? 12.0 : 4.0}));
 }
 
 TEST_F(SoakTest, HostileScenesAreRefusedAndTheOldSceneRunsOn) {
@@ -49,7 +64,7 @@ TEST_F(SoakTest, SigtermUnderLoadEndsTheServerWithinTwoSeconds) {
 }
 
 TEST_F(SoakTest, AClientKilledMidStreamIsReleased) {
-  Expect(ClientKilledMidStream(env(), {.cycles = 6}));
+  Expect(ClientKilledMidStream(env(), {.cycles = 6, .max_growth = MemoryBound(8 * kMiB)}));
 }
 
 }  // namespace
