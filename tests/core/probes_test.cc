@@ -94,6 +94,7 @@ TEST(ProbesTest, HeightAtAPointWithARadius) {
   ProbeSpec probe = Probe(ProbeKind::kHeight, "h");
   probe.point = Vec3d(2, 100, 2);  // the y of the point does not matter
   probe.radius = 0.3;
+  probe.gap = 2;  // these sparse columns are connected
   EXPECT_NEAR(Evaluate1(probe, model, state), 1.5 - (-1.0), 1e-6);
   probe.radius = 1.0;  // now reaches the column at x = 3
   EXPECT_NEAR(Evaluate1(probe, model, state), 2.5 - (-1.0), 1e-6);
@@ -104,6 +105,30 @@ TEST(ProbesTest, HeightAtAPointWithARadius) {
   probe.point = Vec3d(0.2, 0, 0.2);
   probe.radius = 0.3;
   EXPECT_EQ(Evaluate1(probe, model, state), 0.0);
+}
+
+TEST(ProbesTest, HeightCountsTheConnectedColumnAndNotTheSprayAboveIt) {
+  const Model model = TestModel();  // floor at y = -1, kernel support 0.5
+  // A column every 0.1 m from the floor up to 0.6 m, and drops at 1.2 m and 2.0 m above it.
+  std::vector<Vec3> positions;
+  for (int k = 0; k <= 6; ++k) positions.push_back(Vec3(1.0f, -1.0f + 0.1f * float(k), 1.0f));
+  positions.push_back(Vec3(1.05f, 0.2f, 1.0f));
+  positions.push_back(Vec3(0.95f, 1.0f, 1.0f));
+  const State state = MakeState(positions);
+  ProbeSpec probe = Probe(ProbeKind::kHeight, "h");
+  probe.point = Vec3d(1, 0, 1);
+  probe.radius = 0.2;
+  EXPECT_NEAR(Evaluate1(probe, model, state), 0.6, 1e-6);  // gap 0 = the support: drops apart
+  probe.gap = 0.7;  // reaches the first drop (0.6 above the column's top), not the second
+  EXPECT_NEAR(Evaluate1(probe, model, state), 1.2, 1e-6);
+  probe.gap = 0.8;
+  EXPECT_NEAR(Evaluate1(probe, model, state), 2.0, 1e-6);
+  // A sheet flying above a dry floor: no column.
+  const State spray = MakeState({Vec3(1.0f, 0.5f, 1.0f), Vec3(1.0f, 0.6f, 1.0f)});
+  probe.gap = 0;
+  EXPECT_EQ(Evaluate1(probe, model, spray), 0.0);
+  EXPECT_NEAR(ConnectedColumnHeight(state.particles, model, Vec3d(1, 0, 1), 0.2, 0.5, -1.0), 0.6,
+              1e-6);
 }
 
 TEST(ProbesTest, PressureOfAUniformFieldIsThatPressure) {

@@ -149,7 +149,8 @@ TEST(ParseSceneTest, ReadsEveryField) {
     "params": {"viscosity": 0.5, "particle_quantity": 7},
     "end_time": 2.5, "probe_interval": 0.1,
     "probes": [{"type": "front", "name": "fz", "axis": "z"},
-               {"type": "height", "name": "h", "point": [0.5, 0, 0.5], "radius": 0.2},
+               {"type": "height", "name": "h", "point": [0.5, 0, 0.5], "radius": 0.2,
+                "gap": 0.05},
                {"type": "pressure", "name": "p", "point": [0, -1, 0]},
                {"type": "density", "name": "rho"},
                {"type": "kinetic_energy"},
@@ -187,6 +188,7 @@ TEST(ParseSceneTest, ReadsEveryField) {
   EXPECT_EQ(scene.probes[1].kind, ProbeKind::kHeight);
   EXPECT_EQ(scene.probes[1].point, Vec3d(0.5, 0, 0.5));
   EXPECT_EQ(scene.probes[1].radius, 0.2);
+  EXPECT_EQ(scene.probes[1].gap, 0.05);
   EXPECT_EQ(scene.probes[2].kind, ProbeKind::kPressure);
   EXPECT_EQ(scene.probes[3].kind, ProbeKind::kDensity);
   EXPECT_EQ(scene.probes[4].kind, ProbeKind::kKineticEnergy);
@@ -351,6 +353,7 @@ TEST(ParseSceneTest, BadProbesAreNamed) {
   ExpectConfigError(R"({"probes": [{"type": "density", "name": "a,b"}]})", "probes[0].name");
   ExpectConfigError(R"({"probes": [{"type": "density", "name": ""}]})", "probes[0].name");
   ExpectConfigError(R"({"probes": [{"type": "height", "radius": -1}]})", "probes[0].radius");
+  ExpectConfigError(R"({"probes": [{"type": "height", "gap": -1}]})", "probes[0].gap");
 }
 
 TEST(ParseSceneTest, DuplicateProbeNamesAreRejected) {

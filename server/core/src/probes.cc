@@ -33,12 +33,8 @@ double Front(const ParticleArrays& p, int axis) {
 
 double Height(const ParticleArrays& p, const Model& model, const ProbeSpec& probe) {
   const double radius = probe.radius > 0 ? probe.radius : model.kernel_support;
-  double top = model.domain.min.y();
-  for (const Vec3& x : p.position) {
-    const Vec3d d = model.MinimumImage(Vec3d(x.cast<double>() - probe.point));
-    if (d.x() * d.x() + d.z() * d.z() <= radius * radius) top = std::max(top, double(x.y()));
-  }
-  return top - model.domain.min.y();
+  const double gap = probe.gap > 0 ? probe.gap : model.kernel_support;
+  return ConnectedColumnHeight(p, model, probe.point, radius, gap, model.domain.min.y());
 }
 
 // Shepard interpolation sum_j p_j W(r_j) / sum_j W(r_j) with the poly6 kernel; 0 where no
@@ -57,6 +53,22 @@ double PressureAt(const ParticleArrays& p, const Model& model, const Vec3d& poin
 }
 
 }  // namespace
+
+double ConnectedColumnHeight(const ParticleArrays& particles, const Model& model,
+                             const Vec3d& point, double radius, double gap, double floor) {
+  std::vector<double> heights;
+  for (const Vec3& x : particles.position) {
+    const Vec3d d = model.MinimumImage(Vec3d(x.cast<double>() - point));
+    if (d.x() * d.x() + d.z() * d.z() <= radius * radius) heights.push_back(double(x.y()) - floor);
+  }
+  std::sort(heights.begin(), heights.end());
+  double top = 0;
+  for (double h : heights) {
+    if (h - top > gap) break;
+    top = std::max(top, h);
+  }
+  return top;
+}
 
 std::vector<double> EvaluateProbes(std::span<const ProbeSpec> probes, const Model& model,
                                    const State& state) {

@@ -311,6 +311,7 @@ ProbeSpec ParseProbe(const json& j, const std::string& path) {
     case ProbeKind::kHeight:
       p.point = r.Vector("point", -kMaxCoord, kMaxCoord, "m").value_or(Vec3d::Zero());
       p.radius = r.Number("radius", 0, kMaxCoord, "m").value_or(0);
+      p.gap = r.Number("gap", 0, kMaxCoord, "m").value_or(0);
       break;
     case ProbeKind::kPressure:
       p.point = r.Vector("point", -kMaxCoord, kMaxCoord, "m").value_or(Vec3d::Zero());

@@ -14,6 +14,15 @@ namespace dysa {
 // Column names, in order: one per probe, two for a density probe (NAME_mean, NAME_max).
 std::vector<std::string> ProbeColumns(std::span<const ProbeSpec> probes);
 
+// The height above `floor` of the water column standing at (x, z) of `point`: the particles
+// within `radius` of it horizontally, taken upwards from the floor while each is at most `gap`
+// above the one below it (the first at most `gap` above the floor). A drop or a sheet of spray
+// separated from the column by more than `gap` is not counted, however high it flies. Returns
+// the highest counted particle's centre above the floor (a caller adds the half spacing to
+// the surface it stands for), 0 when no particle is within `gap` of the floor there.
+double ConnectedColumnHeight(const ParticleArrays& particles, const Model& model,
+                             const Vec3d& point, double radius, double gap, double floor);
+
 // The values of every probe for the current state, in ProbeColumns() order.
 std::vector<double> EvaluateProbes(std::span<const ProbeSpec> probes, const Model& model,
                                    const State& state);

@@ -58,7 +58,7 @@ struct BoxObstacle {
 
 enum class ProbeKind {
   kFront,          // largest coordinate of any particle along `axis` (surge front), m
-  kHeight,         // fluid height above the domain floor at (x, z) of `point`, m
+  kHeight,         // height of the connected water column at (x, z) of `point`, m
   kPressure,       // pressure interpolated at `point`, Pa
   kDensity,        // mean and max density of all particles, kg/m^3 (two columns)
   kKineticEnergy,  // sum of m |v|^2 / 2, J
@@ -70,7 +70,10 @@ struct ProbeSpec {
   std::string name;  // column name in probes.csv
   int axis = 0;      // kFront: 0, 1, 2 for x, y, z
   Vec3d point = Vec3d::Zero();
-  double radius = 0;  // kHeight: horizontal search radius, m; 0 = smoothing radius
+  double radius = 0;  // kHeight: horizontal search radius, m; 0 = the kernel support
+  // kHeight: the largest vertical gap, m, between particles of one connected column (0 = the
+  // kernel support); spray above a larger gap is not the column's.
+  double gap = 0;
   std::optional<Aabb> region;
 };
 
