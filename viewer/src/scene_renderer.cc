@@ -207,11 +207,11 @@ SceneRenderer::SceneRenderer()
   glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float),
                         reinterpret_cast<const void*>(3 * sizeof(float)));
   glBindBuffer(GL_ARRAY_BUFFER, solid_buffer_.get());
-  for (GLuint corner : {2u, 3u}) {
-    glEnableVertexAttribArray(corner);
-    glVertexAttribPointer(corner, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float),
-                          reinterpret_cast<const void*>((corner - 2) * 3 * sizeof(float)));
-    glVertexAttribDivisor(corner, 1);
+  for (GLuint location : {2u, 3u}) {  // lo, then hi, per instance
+    glEnableVertexAttribArray(location);
+    glVertexAttribPointer(location, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float),
+                          reinterpret_cast<const void*>((location - 2) * 3 * sizeof(float)));
+    glVertexAttribDivisor(location, 1);
   }
   glBindVertexArray(0);
   glBindBuffer(GL_ARRAY_BUFFER, 0);

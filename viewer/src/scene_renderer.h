@@ -75,6 +75,8 @@ class SceneRenderer {
   std::vector<remote::BoxObstacle> boxes_;
   bool obstacles_move_ = false;
   double obstacle_time_ = 0;  // s
+
+  // Uploads the obstacles' instance data at simulated time `time`.
   void PlaceObstacles(double time);
 
   float particle_radius_ = 0.05f;  // m
