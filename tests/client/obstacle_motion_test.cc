@@ -37,13 +37,13 @@ void ExpectSameAsCore(const Keys& keys, const std::vector<double>& times) {
   }
 }
 
-TEST(ObstacleMotionTest, StaticIsNoDisplacement) {
+TEST(ClientObstacleMotionTest, StaticIsNoDisplacement) {
   const dysa::remote::ObstacleMotion none;
   EXPECT_FALSE(none.moving());
   EXPECT_EQ(none.DisplacementAt(3.0), (std::array<double, 3>{0, 0, 0}));
 }
 
-TEST(ObstacleMotionTest, VelocityFormRestsMovesAndStopsAsTheCoreHasIt) {
+TEST(ClientObstacleMotionTest, VelocityFormRestsMovesAndStopsAsTheCoreHasIt) {
   // "velocity": [2, 0, -1], "start": 0.5, "end": 1.5.
   const Keys keys = {{0.5, 0, 0, 0}, {1.5, 2, 0, -1}};
   ExpectSameAsCore(keys, {0, 0.25, 0.5, 0.75, 1.0, 1.4999, 1.5, 2, 1e6});
@@ -52,7 +52,7 @@ TEST(ObstacleMotionTest, VelocityFormRestsMovesAndStopsAsTheCoreHasIt) {
   EXPECT_DOUBLE_EQ(mid[2], -0.5);
 }
 
-TEST(ObstacleMotionTest, PathIsLinearBetweenKeysAndHeldOutsideThem) {
+TEST(ClientObstacleMotionTest, PathIsLinearBetweenKeysAndHeldOutsideThem) {
   const Keys path = {{0.1, 1, 0, 0}, {0.2, 1, 0.1, 0}, {0.4, 0, 0.4, -2}, {1.0, 0, 0, 0}};
   ExpectSameAsCore(path, {0, 0.1, 0.15, 0.2, 0.3, 0.39, 0.4, 0.7, 1.0, 5.0});
   const std::array<double, 3> before = ClientMotion(path).DisplacementAt(0);
@@ -61,7 +61,7 @@ TEST(ObstacleMotionTest, PathIsLinearBetweenKeysAndHeldOutsideThem) {
   ExpectSameAsCore({{2.0, 0.5, -0.5, 0.25}}, {0, 2.0, 3.0});
 }
 
-TEST(ObstacleMotionTest, AKeyTimeThatIsNotANumberGivesAFiniteDisplacement) {
+TEST(ClientObstacleMotionTest, AKeyTimeThatIsNotANumberGivesAFiniteDisplacement) {
   // dysa-server never sends one (ParseScene refuses it); from another server the obstacle must
   // still be drawn somewhere rather than at NaN.
   const dysa::remote::ObstacleMotion bad =
