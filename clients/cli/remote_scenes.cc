@@ -1,5 +1,7 @@
 // dysa load, dysa scenes, dysa scene.
+#include <algorithm>
 #include <array>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <ostream>
@@ -7,6 +9,7 @@
 #include <stdexcept>
 #include <string>
 #include <system_error>
+#include <utility>
 #include <vector>
 
 #include "remote_commands.h"
@@ -20,14 +23,29 @@ namespace fs = std::filesystem;
 // A vector as [x, y, z].
 Json ToJson(const std::array<double, 3>& v) { return Json::array({v[0], v[1], v[2]}); }
 
+// A moving obstacle's "motion" as a scene file writes a path: {"path": [[t, dx, dy, dz], ...]}
+// (s, m). Static obstacles have no "motion".
+void AddMotion(const ObstacleMotion& motion, Json& obstacle) {
+  if (!motion.moving()) return;
+  Json path = Json::array();
+  for (const ObstacleMotion::Key& k : motion.keys) {
+    path.push_back({k.time, k.displacement[0], k.displacement[1], k.displacement[2]});
+  }
+  obstacle["motion"] = {{"path", path}};
+}
+
 Json ToJson(const SceneDescription& s) {
   Json spheres = Json::array();
   for (const SphereObstacle& o : s.spheres) {
-    spheres.push_back({{"center", ToJson(o.center)}, {"radius", o.radius}});
+    Json sphere = {{"center", ToJson(o.center)}, {"radius", o.radius}};
+    AddMotion(o.motion, sphere);
+    spheres.push_back(std::move(sphere));
   }
   Json boxes = Json::array();
   for (const BoxObstacle& o : s.boxes) {
-    boxes.push_back({{"min", ToJson(o.min)}, {"max", ToJson(o.max)}});
+    Json box = {{"min", ToJson(o.min)}, {"max", ToJson(o.max)}};
+    AddMotion(o.motion, box);
+    boxes.push_back(std::move(box));
   }
   return {{"name", s.name},
           {"description", s.description},
@@ -46,6 +64,23 @@ std::string Point(const std::array<double, 3>& v) {
   std::string text = "[";  // "[" + Short(...) draws a false -Wrestrict from GCC 12
   text += Short(v[0]) + ", " + Short(v[1]) + ", " + Short(v[2]) + "]";
   return text;
+}
+
+// ", moves: 2 keys, t 0-0.4 s, up to 0.6 m away" for a moving obstacle, "" for a static one.
+std::string Moves(const ObstacleMotion& motion) {
+  if (!motion.moving()) return "";
+  // The path is linear between keys, so its farthest point is a key.
+  double farthest = 0;
+  for (const ObstacleMotion::Key& k : motion.keys) {
+    const auto& d = k.displacement;
+    farthest = std::max(farthest, std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]));
+  }
+  const size_t n = motion.keys.size();
+  const std::string first = Short(motion.keys.front().time);
+  const std::string last = Short(motion.keys.back().time);
+  return ", moves: " + std::to_string(n) +
+         (n == 1 ? " key, t " + first : " keys, t " + first + "-" + last) + " s, up to " +
+         Short(farthest) + " m away";
 }
 
 }  // namespace
@@ -127,11 +162,11 @@ void PrintScene(Client& client, bool json, std::ostream& out) {
   };
   if (!s.description.empty()) rows.insert(rows.begin() + 1, {"description", s.description});
   for (const SphereObstacle& o : s.spheres) {
-    rows.push_back(
-        {"sphere", "centre " + Point(o.center) + " m, radius " + Short(o.radius) + " m"});
+    rows.push_back({"sphere", "centre " + Point(o.center) + " m, radius " + Short(o.radius) + " m" +
+                                  Moves(o.motion)});
   }
   for (const BoxObstacle& o : s.boxes) {
-    rows.push_back({"box", Point(o.min) + " to " + Point(o.max) + " m"});
+    rows.push_back({"box", Point(o.min) + " to " + Point(o.max) + " m" + Moves(o.motion)});
   }
   if (s.spheres.empty() && s.boxes.empty()) rows.push_back({"obstacles", "none"});
   rows.push_back({"version", std::to_string(s.scene_version)});

@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "dysa/client/client.h"
+#include "dysa/core/scene.h"
 #include "dysa/service/simulation_host.h"
 #include "support/server_process.h"
 #include "support/temp_dir.h"
@@ -502,6 +503,92 @@ TEST_F(RemoteTest, SceneShowsTheGeometryAndJson) {
   EXPECT_EQ(j["boxes"][0]["min"].size(), 3u);
   EXPECT_DOUBLE_EQ(j["particle_radius"].get<double>(), 0.5 * 4.0 / 23);
   EXPECT_EQ(j["scene_version"], DysaJson("status")["scene_version"]);
+}
+
+// A sphere moving at 1.5 m/s over [0.1, 0.5] s, a static box, and a box on a keyframed path.
+constexpr const char* kMovingObstaclesScene = R"({
+  "name": "moving_obstacles",
+  "fluid_blocks": [{"center": [-3.5, -2, 0], "size": [1, 1, 1], "particles_per_axis": [5, 5, 5]}],
+  "obstacles": [
+    {"type": "sphere", "center": [2, 0, 0], "radius": 0.5,
+     "motion": {"velocity": [0, 1.5, 0], "start": 0.1, "end": 0.5}},
+    {"type": "box", "center": [0, -2, 0], "size": [1, 1, 1]},
+    {"type": "box", "center": [0, 1, 0], "size": [1, 0.5, 1],
+     "motion": {"path": [[0, 0, 0, 0], [0.2, 1, 0, 0.5], [0.4, -1, 0, 0]]}}
+  ]
+})";
+
+void ExpectSameMotion(const ObstacleMotion& got, const dysa::ObstacleMotion& sent) {
+  ASSERT_EQ(got.keys.size(), sent.keys.size());
+  for (size_t i = 0; i < got.keys.size(); ++i) {
+    EXPECT_EQ(got.keys[i].time, sent.keys[i].time) << "key " << i;
+    for (int a = 0; a < 3; ++a) {
+      EXPECT_EQ(got.keys[i].displacement[a], sent.keys[i].displacement[a]) << "key " << i;
+    }
+  }
+}
+
+// Scene text with motion, loaded over the RPC: GetScene gives every key back as ParseScene has
+// it, `dysa scene` says which obstacles move, and a bad motion fails naming its field.
+TEST_F(RemoteTest, SceneShowsObstacleMotion) {
+  const fs::path file = dir_.path() / "moving.json";
+  std::ofstream(file) << kMovingObstaclesScene;
+  Result r = Dysa("load '" + file.string() + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+
+  const dysa::Scene sent = dysa::ParseScene(kMovingObstaclesScene);
+  Client client(Connect());
+  const SceneDescription scene = client.GetScene();
+  ASSERT_EQ(scene.spheres.size(), 1u);
+  ASSERT_EQ(scene.boxes.size(), 2u);
+  EXPECT_TRUE(scene.spheres[0].motion.moving());
+  ExpectSameMotion(scene.spheres[0].motion, sent.spheres[0].motion);
+  EXPECT_FALSE(scene.boxes[0].motion.moving());
+  ExpectSameMotion(scene.boxes[1].motion, sent.boxes[1].motion);
+  // Positions stay the scene's, without displacement.
+  EXPECT_EQ(scene.boxes[1].min, (std::array<double, 3>{-0.5, 0.75, -0.5}));
+  // A reset and a re-spawn keep the motion.
+  ASSERT_EQ(Dysa("reset").exit_code, 0);
+  ASSERT_EQ(Dysa("set particle_quantity=6").exit_code, 0);
+  ExpectSameMotion(client.GetScene().boxes[1].motion, sent.boxes[1].motion);
+
+  r = Dysa("scene");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("centre [2, 0, 0] m, radius 0.5 m, moves: 2 keys, t 0.1-0.5 s, "
+                               "up to 0.6 m away\n"));
+  EXPECT_THAT(r.out, HasSubstr("[-0.5, -2.5, -0.5] to [0.5, -1.5, 0.5] m\n"));
+  EXPECT_THAT(r.out, HasSubstr("[-0.5, 0.75, -0.5] to [0.5, 1.25, 0.5] m, moves: 3 keys, "
+                               "t 0-0.4 s, up to 1.11803 m away\n"));
+
+  const Json j = DysaJson("scene");
+  EXPECT_EQ(j["spheres"][0]["motion"]["path"],
+            Json::parse("[[0.1, 0, 0, 0], [0.5, 0, 0.6000000000000001, 0]]"));
+  EXPECT_FALSE(j["boxes"][0].contains("motion"));
+  EXPECT_EQ(j["boxes"][1]["motion"]["path"],
+            Json::parse("[[0, 0, 0, 0], [0.2, 1, 0, 0.5], [0.4, -1, 0, 0]]"));
+
+  // The core parser's error reaches the client with the field's path; the scene stays.
+  const uint64_t version = client.GetStatus().scene_version;
+  Json bad = Json::parse(kMovingObstaclesScene);
+  bad["obstacles"][2]["motion"]["path"][1][0] = 0;
+  std::ofstream(dir_.path() / "bad.json") << bad.dump();
+  r = Dysa("load '" + (dir_.path() / "bad.json").string() + "'");
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(
+      r.err, HasSubstr("dysa load: error: INVALID_ARGUMENT: scene: obstacles[2].motion.path[1][0]: "
+                       "key times must strictly increase; 0 s follows 0 s"));
+  bad = Json::parse(kMovingObstaclesScene);
+  bad["obstacles"][0]["motion"]["velocity"] = {0, 2e4, 0};
+  try {
+    client.LoadSceneText(bad.dump(), "");
+    ADD_FAILURE() << "no error";
+  } catch (const RpcError& e) {
+    EXPECT_EQ(e.code_name(), "INVALID_ARGUMENT");
+    EXPECT_THAT(e.message(), HasSubstr("obstacles[0].motion.velocity[1]: 20000 is outside the "
+                                       "allowed range [-10000, 10000] m/s"));
+  }
+  EXPECT_EQ(client.GetStatus().scene_version, version);
+  EXPECT_EQ(client.GetScene().name, "moving_obstacles");
 }
 
 TEST_F(RemoteTest, InProcessVerbsPrintToTheirStream) {

@@ -650,5 +650,127 @@ TEST(ParseSceneTest, PeriodicAndNoSlipAxes) {
                                               "size": 0.2}]})"));
 }
 
+// obstacles[i].motion: a constant velocity over [start, end], or keyframes; both become keys of a
+// displacement that is linear between them and held before the first and after the last.
+TEST(ObstacleMotionTest, VelocityOverAnIntervalBecomesTwoKeys) {
+  const Scene s = ParseScene(R"({"obstacles": [
+      {"type": "box", "center": [0, 0, 0], "size": 0.1,
+       "motion": {"velocity": [0, 2, 0], "start": 0.5, "end": 1.5}},
+      {"type": "sphere", "radius": 0.1}]})");
+  ASSERT_EQ(s.boxes.size(), 1u);
+  const ObstacleMotion& m = s.boxes[0].motion;
+  EXPECT_TRUE(m.moving());
+  EXPECT_FALSE(s.spheres[0].motion.moving());
+  ASSERT_EQ(m.keys.size(), 2u);
+  EXPECT_EQ(m.keys[0].time, 0.5);
+  EXPECT_EQ(m.keys[1].displacement, Vec3d(0, 2, 0));
+  EXPECT_EQ(m.DisplacementAt(0), Vec3d::Zero());
+  EXPECT_EQ(m.DisplacementAt(0.5), Vec3d::Zero());
+  EXPECT_NEAR(m.DisplacementAt(1.0).y(), 1.0, 1e-15);
+  EXPECT_EQ(m.DisplacementAt(9), Vec3d(0, 2, 0));
+  EXPECT_EQ(m.VelocityAt(0.2), Vec3d::Zero());
+  EXPECT_EQ(m.VelocityAt(0.5), Vec3d(0, 2, 0));  // the segment that starts at the key
+  EXPECT_EQ(m.VelocityAt(1.0), Vec3d(0, 2, 0));
+  EXPECT_EQ(m.VelocityAt(1.5), Vec3d::Zero());
+  // The scene's box stays where the scene put it: the motion is a displacement from there.
+  EXPECT_EQ(s.boxes[0].box.min, Vec3d::Constant(-0.05));
+  // start defaults to 0; end to the longest run (1e6 s): a push that never stops.
+  const ObstacleMotion open = ParseScene(R"({"obstacles": [{"type": "sphere",
+      "motion": {"velocity": [1, 0, 0]}}]})")
+                                  .spheres[0]
+                                  .motion;
+  EXPECT_EQ(open.VelocityAt(0), Vec3d(1, 0, 0));
+  EXPECT_EQ(open.VelocityAt(1e5), Vec3d(1, 0, 0));
+}
+
+TEST(ObstacleMotionTest, PathIsLinearBetweenKeysAndHeldOutside) {
+  const ObstacleMotion m = ParseScene(R"({"obstacles": [{"type": "sphere",
+      "motion": {"path": [[1, 0, 0, 0], [2, 0, 1, 0], [4, 0, 1, -1]]}}]})")
+                               .spheres[0]
+                               .motion;
+  ASSERT_EQ(m.keys.size(), 3u);
+  EXPECT_EQ(m.DisplacementAt(-1), Vec3d::Zero());
+  EXPECT_EQ(m.DisplacementAt(1.5), Vec3d(0, 0.5, 0));
+  EXPECT_EQ(m.DisplacementAt(2), Vec3d(0, 1, 0));
+  EXPECT_EQ(m.DisplacementAt(3), Vec3d(0, 1, -0.5));
+  EXPECT_EQ(m.DisplacementAt(5), Vec3d(0, 1, -1));
+  EXPECT_EQ(m.VelocityAt(1.5), Vec3d(0, 1, 0));
+  EXPECT_EQ(m.VelocityAt(3), Vec3d(0, 0, -0.5));
+  EXPECT_EQ(m.VelocityAt(4), Vec3d::Zero());
+  // One key: a fixed offset from the scene's position.
+  const ObstacleMotion one =
+      ParseScene(R"({"obstacles": [{"type": "box", "motion": {"path": [[0, 0.5, 0, 0]]}}]})")
+          .boxes[0]
+          .motion;
+  EXPECT_EQ(one.DisplacementAt(0), Vec3d(0.5, 0, 0));
+  EXPECT_EQ(one.VelocityAt(0), Vec3d::Zero());
+  // No motion: static.
+  EXPECT_EQ(ObstacleMotion{}.DisplacementAt(3), Vec3d::Zero());
+  EXPECT_EQ(ObstacleMotion{}.VelocityAt(3), Vec3d::Zero());
+}
+
+TEST(ObstacleMotionTest, BadMotionsAreNamed) {
+  auto obstacle = [](const std::string& motion) {
+    return R"({"obstacles": [{"type": "box", "motion": )" + motion + "}]}";
+  };
+  ExpectConfigError(obstacle("[1, 0, 0]"), "obstacles[0].motion");
+  ExpectConfigError(obstacle("{}"), "obstacles[0].motion.velocity");
+  ExpectConfigError(obstacle(R"({"speed": 1})"), "obstacles[0].motion.speed");
+  ExpectConfigError(obstacle(R"({"velocity": [1, 0]})"), "obstacles[0].motion.velocity");
+  ExpectConfigError(obstacle(R"({"velocity": [1, 0, 1e5]})"), "obstacles[0].motion.velocity[2]");
+  ExpectConfigError(obstacle(R"({"velocity": [1, 0, 0], "start": -1})"),
+                    "obstacles[0].motion.start");
+  EXPECT_THAT(ExpectConfigError(obstacle(R"({"velocity": [1, 0, 0], "start": 2, "end": 2})"),
+                                "obstacles[0].motion.end")
+                  .what(),
+              HasSubstr("must exceed start"));
+  ExpectConfigError(obstacle(R"({"velocity": [1, 0, 0], "end": 0})"), "obstacles[0].motion.end");
+  ExpectConfigError(obstacle(R"({"velocity": [1, 0, 0], "path": [[0, 0, 0, 0]]})"),
+                    "obstacles[0].motion.velocity");
+  ExpectConfigError(obstacle(R"({"path": [[0, 0, 0, 0]], "end": 1})"), "obstacles[0].motion.end");
+  ExpectConfigError(obstacle(R"({"path": []})"), "obstacles[0].motion.path");
+  ExpectConfigError(obstacle(R"({"path": [0, 0, 0, 0]})"), "obstacles[0].motion.path[0]");
+  ExpectConfigError(obstacle(R"({"path": [[0, 0, 0]]})"), "obstacles[0].motion.path[0]");
+  ExpectConfigError(obstacle(R"({"path": [[0, 0, 0, "1"]]})"), "obstacles[0].motion.path[0][3]");
+  ExpectConfigError(obstacle(R"({"path": [[-1, 0, 0, 0]]})"), "obstacles[0].motion.path[0][0]");
+  ExpectConfigError(obstacle(R"({"path": [[0, 0, 2e6, 0]]})"), "obstacles[0].motion.path[0][2]");
+  EXPECT_THAT(ExpectConfigError(obstacle(R"({"path": [[0, 0, 0, 0], [1, 1, 0, 0], [1, 2, 0, 0]]})"),
+                                "obstacles[0].motion.path[2][0]")
+                  .what(),
+              HasSubstr("strictly increase"));
+  // A number too large for a double is out of range, not infinite.
+  ExpectConfigError(obstacle(R"({"path": [[1e999, 0, 0, 0]]})"), "obstacles[0].motion.path[0][0]");
+  // Key counts: per obstacle, and in all.
+  auto keys = [](size_t n) {
+    std::string path = "{\"path\": [";
+    for (size_t i = 0; i < n; ++i) path += (i ? ", [" : "[") + std::to_string(i) + ", 0, 0, 0]";
+    return path + "]}";
+  };
+  EXPECT_NO_THROW(ParseScene(obstacle(keys(kMaxMotionKeys))));
+  EXPECT_THAT(
+      ExpectConfigError(obstacle(keys(kMaxMotionKeys + 1)), "obstacles[0].motion.path").what(),
+      HasSubstr(std::to_string(kMaxMotionKeys)));
+  std::string many = R"({"obstacles": [)";
+  const size_t full = kMaxSceneMotionKeys / kMaxMotionKeys;
+  for (size_t i = 0; i <= full; ++i) {
+    many += std::string(i ? ", " : "") + R"({"type": "sphere", "motion": )" + keys(kMaxMotionKeys) +
+            "}";
+  }
+  ExpectConfigError(many + "]}", "obstacles[" + std::to_string(full) + "].motion");
+  // A sphere's motion is read as a box's.
+  ExpectConfigError(R"({"obstacles": [{"type": "sphere", "motion": {"path": 1}}]})",
+                    "obstacles[0].motion.path");
+}
+
+// An obstacle in a periodic domain must stay one support inside its faces along its whole path.
+TEST(ObstacleMotionTest, PeriodicDomainChecksTheWholePath) {
+  const std::string head = R"({"domain": {"min": [0, 0, 0], "max": [1, 1, 1],
+      "periodic": [true, false, false]},
+      "obstacles": [{"type": "box", "center": [0.5, 0.5, 0.5], "size": 0.2, "motion": )";
+  EXPECT_NO_THROW(ParseScene(head + R"({"path": [[0, 0, 0, 0], [1, 0.05, 0, 0]]}}]})"));
+  ExpectConfigError(head + R"({"path": [[0, 0, 0, 0], [1, 0.3, 0, 0]]}}]})", "obstacles (box 0)");
+  ExpectConfigError(head + R"({"velocity": [-1, 0, 0], "end": 0.3}}]})", "obstacles (box 0)");
+}
+
 }  // namespace
 }  // namespace dysa

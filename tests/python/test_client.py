@@ -11,6 +11,7 @@ CTest sets both (tests/CMakeLists.txt).
 """
 
 import csv
+import json
 import os
 import re
 import shutil
@@ -414,6 +415,52 @@ class ClientTest(unittest.TestCase):
             self.assertIn("solver", caught.exception.details)
             self.assertIn("seed", caught.exception.details)
             self.assertEqual(self.client.get_scene().name, "seed_obstacles")
+        finally:
+            self.client.load(_SCENE)
+
+    def test_get_scene_motion(self) -> None:
+        moving = {
+            "name": "moving",
+            "fluid_blocks": [{"center": [-3.5, -2, 0], "size": 1, "particles_per_axis": 4}],
+            "obstacles": [
+                {"type": "sphere", "center": [2, 0, 0], "radius": 0.5,
+                 "motion": {"velocity": [0, 1.5, 0], "start": 0.1, "end": 0.5}},
+                {"type": "box", "center": [0, -2, 0], "size": [1, 1, 1]},
+                {"type": "box", "center": [0, 1, 0], "size": [1, 0.5, 1],
+                 "motion": {"path": [[0, 0, 0, 0], [0.2, 1, 0, 0.5], [0.4, -1, 0, 0]]}},
+            ],
+        }
+        try:
+            self.client.load(moving)
+            scene = self.client.get_scene()
+            sphere = scene.spheres[0]
+            self.assertEqual(sphere.center, (2.0, 0.0, 0.0))  # without displacement
+            self.assertTrue(sphere.motion.moving)
+            self.assertEqual([k.time for k in sphere.motion.keys], [0.1, 0.5])
+            self.assertEqual(sphere.motion.keys[0].displacement, (0.0, 0.0, 0.0))
+            np.testing.assert_allclose(sphere.motion.keys[1].displacement, (0, 0.6, 0))
+            self.assertFalse(scene.boxes[0].motion.moving)
+            self.assertEqual(scene.boxes[0].motion.displacement_at(0.3), (0.0, 0.0, 0.0))
+            path = scene.boxes[1].motion
+            self.assertEqual([(k.time, k.displacement) for k in path.keys],
+                             [(0.0, (0.0, 0.0, 0.0)), (0.2, (1.0, 0.0, 0.5)),
+                              (0.4, (-1.0, 0.0, 0.0))])
+            # Linear between keys, held outside them.
+            np.testing.assert_allclose(path.displacement_at(0.1), (0.5, 0, 0.25))
+            np.testing.assert_allclose(path.displacement_at(0.3), (0, 0, 0.25), atol=1e-12)
+            self.assertEqual(path.displacement_at(9.0), (-1.0, 0.0, 0.0))
+            np.testing.assert_allclose(sphere.motion.displacement_at(0.0), (0, 0, 0))
+            np.testing.assert_allclose(sphere.motion.displacement_at(0.3), (0, 0.3, 0))
+
+            # The parser's error names the field; the scene stays.
+            bad = json.loads(json.dumps(moving))
+            bad["obstacles"][2]["motion"]["path"][2][0] = 0.1
+            with self.assertRaises(DysaError) as caught:
+                self.client.load(bad)
+            self.assertEqual(caught.exception.code, grpc.StatusCode.INVALID_ARGUMENT)
+            self.assertIn("obstacles[2].motion.path[2][0]: key times must strictly increase",
+                          caught.exception.details)
+            self.assertEqual(self.client.get_scene().boxes[1].motion, path)
         finally:
             self.client.load(_SCENE)
 

@@ -268,6 +268,18 @@ void ExpectVec3(const v1::Vec3& v, const Vec3d& expected, const std::string& wha
   EXPECT_DOUBLE_EQ(v.z(), expected.z()) << what;
 }
 
+// `got` (a v1::Sphere or v1::Box) holds the keys of `sent`; a static obstacle sends no motion.
+template <typename ProtoObstacle>
+void ExpectMotion(const ProtoObstacle& got, const ObstacleMotion& sent, const std::string& what) {
+  EXPECT_EQ(got.has_motion(), sent.moving()) << what;
+  ASSERT_EQ(size_t(got.motion().keys_size()), sent.keys.size()) << what;
+  for (size_t i = 0; i < sent.keys.size(); ++i) {
+    EXPECT_EQ(got.motion().keys(int(i)).time(), sent.keys[i].time) << what << " key " << i;
+    ExpectVec3(got.motion().keys(int(i)).displacement(), sent.keys[i].displacement,
+               what + " key " + std::to_string(i));
+  }
+}
+
 TEST(ServerTest, GetSceneDescribesEveryBuiltInScene) {
   Fixture fx(Paused());
   Simulation::Stub& stub = fx.stub();
@@ -300,11 +312,13 @@ TEST(ServerTest, GetSceneDescribesEveryBuiltInScene) {
     for (size_t i = 0; i < scene.spheres.size(); ++i) {
       ExpectVec3(d.spheres(int(i)).center(), scene.spheres[i].center, "sphere");
       EXPECT_EQ(d.spheres(int(i)).radius(), scene.spheres[i].radius);
+      ExpectMotion(d.spheres(int(i)), scene.spheres[i].motion, "sphere");
     }
     ASSERT_EQ(size_t(d.boxes_size()), scene.boxes.size());
     for (size_t i = 0; i < scene.boxes.size(); ++i) {
       ExpectVec3(d.boxes(int(i)).min(), scene.boxes[i].box.min, "box min");
       ExpectVec3(d.boxes(int(i)).max(), scene.boxes[i].box.max, "box max");
+      ExpectMotion(d.boxes(int(i)), scene.boxes[i].motion, "box");
     }
     // Plausible: a fraction of the kernel's radius (the seed's smoothing radius, 2 spacings for
     // the physical solvers), far below the domain.
@@ -329,6 +343,51 @@ TEST(ServerTest, GetSceneDescribesEveryBuiltInScene) {
   ExpectVec3(d.boxes(0).max(), Vec3d(3.0, -1.5, -0.4), "box max");
   // 18 x 24 x 24 particles over 3 x 4 x 4 m: the closest are 4 / 23 m apart.
   EXPECT_DOUBLE_EQ(d.particle_radius(), 0.5 * 4.0 / 23);
+}
+
+// Scene text with moving obstacles: GetScene sends each key as ParseScene has it, and nothing
+// for the static one; a motion the parser refuses fails naming its field, and the scene stays.
+TEST(ServerTest, LoadSceneTextKeepsObstacleMotion) {
+  constexpr const char* kMoving = R"({
+    "name": "moving",
+    "fluid_blocks": [{"center": [-3.5, -2, 0], "size": [1, 1, 1], "particles_per_axis": [4, 4, 4]}],
+    "obstacles": [
+      {"type": "box", "center": [0, -2, 0], "size": [1, 1, 1]},
+      {"type": "sphere", "center": [2, 0, 0], "radius": 0.5,
+       "motion": {"velocity": [0, 1.5, 0], "start": 0.1, "end": 0.5}},
+      {"type": "box", "center": [0, 1, 0], "size": [1, 0.5, 1],
+       "motion": {"path": [[0, 0, 0, 0], [0.2, 1, 0, 0.5], [0.4, -1, 0, 0]]}}
+    ]
+  })";
+  Fixture fx(Paused());
+  Simulation::Stub& stub = fx.stub();
+  v1::LoadSceneRequest load;
+  load.set_json_text(kMoving);
+  v1::ControlReply reply;
+  ASSERT_TRUE(stub.LoadScene(Context().get(), load, &reply).ok());
+  const Scene sent = ParseScene(kMoving);
+  const v1::SceneDescription d = GetScene(stub);
+  ASSERT_EQ(d.spheres_size(), 1);
+  ASSERT_EQ(d.boxes_size(), 2);
+  EXPECT_FALSE(d.boxes(0).has_motion());
+  ExpectMotion(d.boxes(0), sent.boxes[0].motion, "static box");
+  ASSERT_EQ(d.spheres(0).motion().keys_size(), 2);
+  ExpectMotion(d.spheres(0), sent.spheres[0].motion, "sphere");
+  ASSERT_EQ(d.boxes(1).motion().keys_size(), 3);
+  ExpectMotion(d.boxes(1), sent.boxes[1].motion, "box");
+  // Positions are the scene's, without displacement.
+  ExpectVec3(d.spheres(0).center(), Vec3d(2, 0, 0), "sphere");
+
+  std::string bad = kMoving;
+  bad.replace(bad.find("[0.2, 1"), 4, "[0.0");  // the second key at the first's time
+  load.set_json_text(bad);
+  const grpc::Status s = stub.LoadScene(Context().get(), load, &reply);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(s.error_message(),
+            "scene: obstacles[2].motion.path[1][0]: key times must strictly increase; 0 s "
+            "follows 0 s");
+  EXPECT_EQ(GetScene(stub).scene_version(), d.scene_version());
+  EXPECT_EQ(GetScene(stub).boxes(1).motion().keys_size(), 3);
 }
 
 TEST(ServerTest, SceneVersionChangesWithTheSceneAndItsSpawnOnly) {

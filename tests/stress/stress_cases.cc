@@ -125,10 +125,10 @@ std::vector<Case> Cases(const SolverInfo& solver) {
   }
   {
     Scene s = base;  // obstacles placed inside the fluid
-    s.spheres.push_back(SphereObstacle{*base.fluid_blocks[0].center, physical ? 0.12 : 0.3});
+    s.spheres.push_back(SphereObstacle{*base.fluid_blocks[0].center, physical ? 0.12 : 0.3, {}});
     const Vec3d box_center = *base.fluid_blocks[0].center + Vec3d(physical ? 0.15 : 0.35, 0, 0);
     const Vec3d half = Vec3d::Constant(physical ? 0.05 : 0.125);
-    const BoxObstacle box{Aabb{box_center - half, box_center + half}};
+    const BoxObstacle box{Aabb{box_center - half, box_center + half}, {}};
     s.boxes.push_back(box);
     cases.push_back({"obstacles_inside_fluid", s});
   }

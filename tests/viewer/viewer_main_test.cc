@@ -199,6 +199,86 @@ TEST_F(ViewerMainTest, ScreenshotDrawsTheObstacles) {
   EXPECT_GT(obstacles_grey, 4 * pool_grey + 500);
 }
 
+// A 1.5 m box that moves 6 m along +x in the first 0.05 s (3 frames of 1/60 s), above a few
+// particles in a corner.
+constexpr const char* kMovingBoxScene = R"({
+  "name": "moving_box",
+  "domain": {"min": [-5, -3, -3], "max": [5, 3, 3]},
+  "fluid_blocks": [{"center": [0, -2.6, -2.5], "size": [1, 0.4, 0.4],
+                    "particles_per_axis": [5, 2, 2]}],
+  "obstacles": [{"type": "box", "center": [-3, 0.5, 0], "size": [1.5, 1.5, 1.5],
+                 "motion": {"path": [[0, 0, 0, 0], [0.05, 6, 0, 0]]}}]
+})";
+
+// Where `image` shows obstacle grey and `other` does not: their count and mean column.
+struct GreyOnly {
+  int pixels = 0;
+  double mean_x = 0;
+};
+
+GreyOnly GreyNotIn(const Image& image, const Image& other) {
+  GreyOnly g;
+  for (int y = 0; y < image.height; ++y) {
+    for (int x = 0; x < image.width; ++x) {
+      if (IsObstacleGrey(image.At(x, y)) && !IsObstacleGrey(other.At(x, y))) {
+        ++g.pixels;
+        g.mean_x += x;
+      }
+    }
+  }
+  if (g.pixels > 0) g.mean_x /= g.pixels;
+  return g;
+}
+
+// A moving obstacle is drawn where its motion has it at the shown frame's time: it moves across
+// the view as frames are stepped, and stepping back or resetting puts it where it was.
+TEST_F(ViewerMainTest, ScreenshotsShowAMovingBoxWhereItIsAtTheFramesTime) {
+  const std::filesystem::path other = dir_.path() / "moving";
+  std::filesystem::create_directories(other);
+  const std::string scene = (other / "moving_box.json").string();
+  std::ofstream(scene) << kMovingBoxScene;
+  ServerProcess moving(DYSA_SERVER_BINARY, other, {"--scene", scene, "--paused"});
+  ASSERT_TRUE(moving.running());
+  dysa::remote::ConnectOptions connect;
+  connect.address = moving.address();
+  dysa::remote::Client client(connect);
+  auto screenshot = [&](const std::string& name) {
+    const std::string png = (dir_.path() / (name + ".png")).string();
+    const CommandResult r =
+        RunViewer("--server " + moving.address() + " --frames 2 --width " + std::to_string(kWidth) +
+                  " --height " + std::to_string(kHeight) + " --screenshot '" + png + "'");
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    return LoadPng(png);
+  };
+
+  const Image start = screenshot("start");  // t = 0: the box at the left
+  ASSERT_EQ(client.Step(3).status.frame, 3u);
+  const Image moved = screenshot("moved");  // t = 0.05 s: 6 m to the right
+  ASSERT_EQ(client.StepBack(2).status.frame, 1u);
+  const Image back = screenshot("back");  // t = 1/60 s: 2 m to the right
+  ASSERT_EQ(client.Reset().status.frame, 0u);
+  const Image reset = screenshot("reset");
+  ASSERT_EQ(start.rgb.size(), moved.rgb.size());
+  ASSERT_EQ(start.rgb.size(), back.rgb.size());
+  ASSERT_EQ(start.rgb.size(), reset.rgb.size());
+
+  // The 1.5 m box covers about 45 x 45 pixels; the domain is 10 m across about 280.
+  const int box_pixels = kWidth * kHeight / 200;
+  const GreyOnly left = GreyNotIn(start, moved);
+  const GreyOnly right = GreyNotIn(moved, start);
+  EXPECT_GT(left.pixels, box_pixels);
+  EXPECT_GT(right.pixels, box_pixels);
+  EXPECT_GT(right.mean_x, left.mean_x + kWidth / 5);  // 6 m: about 170 pixels
+  // A third of the way along after stepping back: between the two.
+  const GreyOnly middle = GreyNotIn(back, start);
+  EXPECT_GT(middle.pixels, box_pixels);
+  EXPECT_GT(middle.mean_x, left.mean_x + kWidth / 20);
+  EXPECT_LT(middle.mean_x, right.mean_x - kWidth / 20);
+  // After the reset, where it started.
+  EXPECT_LT(GreyNotIn(reset, start).pixels, box_pixels / 20);
+  EXPECT_LT(GreyNotIn(start, reset).pixels, box_pixels / 20);
+}
+
 TEST_F(ViewerMainTest, ScreenshotWithoutAServerFailsWithTheReason) {
   const CommandResult r = RunViewer("--server 127.0.0.1:1 --screenshot '" +
                                     (dir_.path() / "none.png").string() + "' --timeout 2");

@@ -4,6 +4,7 @@
 #include <cstddef>
 #include <string>
 
+#include "obstacle_placement.h"
 #include "speed_colors.h"
 #include "sphere_impostor.h"
 
@@ -78,15 +79,19 @@ out vec4 color;
 void main() { color = vec4(line_color, 1.0); }
 )";
 
+// A unit-cube vertex scaled onto one box instance: corner weights 0 or 1 per axis pick its lo or
+// hi coordinate; the faces stay axis-aligned, so the cube's normals hold.
 constexpr const char* kLitVertex = R"(
-layout(location = 0) in vec3 position;
+layout(location = 0) in vec3 corner;
 layout(location = 1) in vec3 normal;
+layout(location = 2) in vec3 lo;  // m, the box's smallest corner
+layout(location = 3) in vec3 hi;  // m, its largest
 uniform mat4 view;
 uniform mat4 projection;
 out vec3 normal_view;
 void main() {
   normal_view = mat3(view) * normal;
-  gl_Position = projection * view * vec4(position, 1.0);
+  gl_Position = projection * view * vec4(mix(lo, hi, corner), 1.0);
 }
 )";
 
@@ -165,6 +170,7 @@ SceneRenderer::SceneRenderer()
       box_vao_(MakeVertexArray()),
       box_buffer_(MakeBuffer()),
       solid_vao_(MakeVertexArray()),
+      cube_buffer_(MakeBuffer()),
       solid_buffer_(MakeBuffer()) {
   const std::vector<unsigned char> table = SpeedColorTable(256);
   glBindTexture(GL_TEXTURE_2D, gradient_.get());
@@ -189,13 +195,24 @@ SceneRenderer::SceneRenderer()
   glBindBuffer(GL_ARRAY_BUFFER, box_buffer_.get());
   glEnableVertexAttribArray(0);
   glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 3 * sizeof(float), nullptr);
+  std::vector<float> cube;
+  AppendBoxFaces(Eigen::Vector3f::Zero(), Eigen::Vector3f::Ones(), cube);
   glBindVertexArray(solid_vao_.get());
-  glBindBuffer(GL_ARRAY_BUFFER, solid_buffer_.get());
+  glBindBuffer(GL_ARRAY_BUFFER, cube_buffer_.get());
+  glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(cube.size() * sizeof(float)), cube.data(),
+               GL_STATIC_DRAW);
   glEnableVertexAttribArray(0);
   glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float), nullptr);
   glEnableVertexAttribArray(1);
   glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float),
                         reinterpret_cast<const void*>(3 * sizeof(float)));
+  glBindBuffer(GL_ARRAY_BUFFER, solid_buffer_.get());
+  for (GLuint location : {2u, 3u}) {  // lo, then hi, per instance
+    glEnableVertexAttribArray(location);
+    glVertexAttribPointer(location, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float),
+                          reinterpret_cast<const void*>((location - 2) * 3 * sizeof(float)));
+    glVertexAttribDivisor(location, 1);
+  }
   glBindVertexArray(0);
   glBindBuffer(GL_ARRAY_BUFFER, 0);
 }
@@ -212,22 +229,25 @@ void SceneRenderer::SetScene(const remote::SceneDescription& scene) {
                GL_STATIC_DRAW);
   box_vertices_ = GLsizei(lines.size() / 3);
 
-  std::vector<float> spheres;
-  for (const auto& s : scene.spheres) {
-    spheres.insert(spheres.end(),
-                   {float(s.center[0]), float(s.center[1]), float(s.center[2]), float(s.radius)});
-  }
-  glBindBuffer(GL_ARRAY_BUFFER, obstacle_buffer_.get());
-  glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(spheres.size() * sizeof(float)), spheres.data(),
-               GL_STATIC_DRAW);
-  obstacle_count_ = GLsizei(scene.spheres.size());
+  spheres_ = scene.spheres;
+  boxes_ = scene.boxes;
+  obstacles_move_ = AnyObstacleMoves(scene);
+  PlaceObstacles(obstacle_time_);
+}
 
-  std::vector<float> faces;
-  for (const auto& box : scene.boxes) AppendBoxFaces(ToVector(box.min), ToVector(box.max), faces);
+void SceneRenderer::PlaceObstacles(double time) {
+  obstacle_time_ = time;
+  // Dynamic draw when they move: re-uploaded whenever a frame of another time arrives.
+  const GLenum usage = obstacles_move_ ? GL_DYNAMIC_DRAW : GL_STATIC_DRAW;
+  const std::vector<float> spheres = SphereInstances(spheres_, time);
+  glBindBuffer(GL_ARRAY_BUFFER, obstacle_buffer_.get());
+  glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(spheres.size() * sizeof(float)), spheres.data(), usage);
+  obstacle_count_ = GLsizei(spheres_.size());
+
+  const std::vector<float> boxes = BoxInstances(boxes_, time);
   glBindBuffer(GL_ARRAY_BUFFER, solid_buffer_.get());
-  glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(faces.size() * sizeof(float)), faces.data(),
-               GL_STATIC_DRAW);
-  solid_vertices_ = GLsizei(faces.size() / 6);
+  glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(boxes.size() * sizeof(float)), boxes.data(), usage);
+  solid_count_ = GLsizei(boxes_.size());
   glBindBuffer(GL_ARRAY_BUFFER, 0);
 }
 
@@ -248,6 +268,7 @@ void SceneRenderer::UploadParticles(const codec::Frame& frame) {
                GL_STREAM_DRAW);
   glBindBuffer(GL_ARRAY_BUFFER, 0);
   particle_count_ = GLsizei(n);
+  if (obstacles_move_ && frame.time != obstacle_time_) PlaceObstacles(frame.time);
 }
 
 ParticleBuffer SceneRenderer::Particles(const SceneStyle& style) const {
@@ -270,13 +291,13 @@ void SceneRenderer::DrawEnvironment(const ViewParams& view, const SceneStyle& st
     glBindVertexArray(box_vao_.get());
     glDrawArrays(GL_LINES, 0, box_vertices_);
   }
-  if (style.draw_obstacles && solid_vertices_ > 0) {
+  if (style.draw_obstacles && solid_count_ > 0) {
     glUseProgram(lit_program_.get());
     SetMatrix(Uniform(lit_program_, "view"), view.view);
     SetMatrix(Uniform(lit_program_, "projection"), view.projection);
     glUniform3fv(Uniform(lit_program_, "base_color"), 1, kObstacleGrey);
     glBindVertexArray(solid_vao_.get());
-    glDrawArrays(GL_TRIANGLES, 0, solid_vertices_);
+    glDrawArraysInstanced(GL_TRIANGLES, 0, 36, solid_count_);
   }
   if (style.draw_obstacles && obstacle_count_ > 0) {
     glUseProgram(sphere_program_.get());

@@ -1,5 +1,6 @@
 // Draws what the server simulates: the particles as shaded sphere impostors coloured by speed,
-// the domain box as lines, sphere obstacles as grey impostors and box obstacles as lit cubes.
+// the domain box as lines, sphere obstacles as grey impostors and box obstacles as lit cubes,
+// each obstacle where its motion has it at the shown frame's simulated time.
 // Needs a current OpenGL 3.3 core context.
 #pragma once
 
@@ -29,9 +30,11 @@ class SceneRenderer {
   SceneRenderer(const SceneRenderer&) = delete;
   SceneRenderer& operator=(const SceneRenderer&) = delete;
 
-  // The domain box, obstacles and particle radius of the scene now running.
+  // The domain box, obstacles and particle radius of the scene now running; its obstacles are
+  // drawn at the latest frame's time until the next frame.
   void SetScene(const remote::SceneDescription& scene);
-  // One buffer upload: each particle's position and speed (0 when the frame has no speed).
+  // One buffer upload: each particle's position and speed (0 when the frame has no speed). The
+  // moving obstacles go where they are at the frame's time.
   void UploadParticles(const codec::Frame& frame);
 
   // The particles on the GPU with the drawn radius for `style`.
@@ -60,9 +63,21 @@ class SceneRenderer {
   Buffer box_buffer_;
   GLsizei box_vertices_ = 0;
 
-  VertexArray solid_vao_;  // box obstacles: position and normal per vertex
+  // Box obstacles: a unit cube (corner weights and normal per vertex), instanced with each
+  // box's smallest and largest corner.
+  VertexArray solid_vao_;
+  Buffer cube_buffer_;
   Buffer solid_buffer_;
-  GLsizei solid_vertices_ = 0;
+  GLsizei solid_count_ = 0;
+
+  // The obstacles as sent (positions without displacement) and the time they are drawn at.
+  std::vector<remote::SphereObstacle> spheres_;
+  std::vector<remote::BoxObstacle> boxes_;
+  bool obstacles_move_ = false;
+  double obstacle_time_ = 0;  // s
+
+  // Uploads the obstacles' instance data at simulated time `time`.
+  void PlaceObstacles(double time);
 
   float particle_radius_ = 0.05f;  // m
 };

@@ -12,6 +12,14 @@ PassTiming FromProto(const pb::PassTiming& p) {
 
 std::array<double, 3> FromProto(const pb::Vec3& v) { return {v.x(), v.y(), v.z()}; }
 
+ObstacleMotion FromProto(const pb::ObstacleMotion& m) {
+  ObstacleMotion out;
+  out.keys.reserve(size_t(m.keys_size()));
+  for (const pb::MotionKey& k : m.keys())
+    out.keys.push_back({k.time(), FromProto(k.displacement())});
+  return out;
+}
+
 ParamInfo FromProto(const pb::ParamInfo& p) {
   return {p.name(),        p.value(),
           p.unit(),        p.min(),
@@ -86,10 +94,17 @@ SceneDescription FromProto(const pb::SceneDescription& s) {
   out.domain_min = FromProto(s.domain_min());
   out.domain_max = FromProto(s.domain_max());
   for (const pb::Sphere& sphere : s.spheres()) {
-    out.spheres.push_back({FromProto(sphere.center()), sphere.radius()});
+    SphereObstacle& o = out.spheres.emplace_back();
+    o.center = FromProto(sphere.center());
+    o.radius = sphere.radius();
+    o.motion = FromProto(sphere.motion());
   }
-  for (const pb::Box& box : s.boxes())
-    out.boxes.push_back({FromProto(box.min()), FromProto(box.max())});
+  for (const pb::Box& box : s.boxes()) {
+    BoxObstacle& o = out.boxes.emplace_back();
+    o.min = FromProto(box.min());
+    o.max = FromProto(box.max());
+    o.motion = FromProto(box.motion());
+  }
   out.particle_radius = s.particle_radius();
   out.scene_version = s.scene_version();
   return out;

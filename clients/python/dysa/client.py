@@ -22,6 +22,7 @@ Needs Debian's python3-grpcio, python3-protobuf, python3-numpy and python3-zstan
 
 from __future__ import annotations
 
+import bisect
 import json
 import os
 import threading
@@ -56,10 +57,14 @@ __all__ = [
     "DysaError",
     "FIELDS",
     "FrameStream",
+    "Motion",
+    "MotionKey",
     "ParamInfo",
     "PassTiming",
+    "Box",
     "Scene",
     "SceneInfo",
+    "Sphere",
     "Status",
 ]
 
@@ -194,19 +199,58 @@ Vec3 = Tuple[float, float, float]
 
 
 @dataclass(frozen=True)
-class Sphere:
-    """A static sphere obstacle."""
+class MotionKey:
+    """One keyframe of an obstacle's motion."""
 
-    center: Vec3  # m
+    time: float  # s, simulated time (Status.time, Frame.time)
+    displacement: Vec3  # m, from the obstacle's given position
+
+
+@dataclass(frozen=True)
+class Motion:
+    """An obstacle's prescribed translation (scenes/README.md, "Motion").
+
+    The displacement is linear in time between keys; before the first key it is the first
+    key's, after the last key the last's. No keys: the obstacle does not move.
+    """
+
+    keys: Tuple[MotionKey, ...] = ()  # times strictly increasing
+
+    @property
+    def moving(self) -> bool:
+        return bool(self.keys)
+
+    def displacement_at(self, time: float) -> Vec3:
+        """The displacement (m) at simulated time `time` (s), as the server's solver has it."""
+        if not self.keys:
+            return (0.0, 0.0, 0.0)
+        later = bisect.bisect_right([k.time for k in self.keys], time)
+        if later == 0:
+            return self.keys[0].displacement
+        if later == len(self.keys):
+            return self.keys[-1].displacement
+        a, b = self.keys[later - 1], self.keys[later]
+        s = (time - a.time) / (b.time - a.time)
+        return tuple(da + s * (db - da)  # type: ignore[return-value]
+                     for da, db in zip(a.displacement, b.displacement))
+
+
+@dataclass(frozen=True)
+class Sphere:
+    """A sphere obstacle, static unless its motion has keys."""
+
+    center: Vec3  # m, with no displacement
     radius: float  # m
+    motion: Motion = Motion()
 
 
 @dataclass(frozen=True)
 class Box:
-    """A static axis-aligned box obstacle."""
+    """An axis-aligned box obstacle, static unless its motion has keys."""
 
-    min: Vec3  # m, the corner of smallest coordinates
-    max: Vec3  # m, the corner of largest coordinates
+    min: Vec3  # m, the corner of smallest coordinates, with no displacement
+    max: Vec3  # m, the corner of largest coordinates, with no displacement
+    motion: Motion = Motion()
 
 
 @dataclass(frozen=True)
@@ -229,12 +273,16 @@ def _vec3(m: Any) -> Vec3:
     return (m.x, m.y, m.z)
 
 
+def _motion(m: Any) -> Motion:
+    return Motion(tuple(MotionKey(k.time, _vec3(k.displacement)) for k in m.keys))
+
+
 def _scene(m: Any) -> Scene:
     return Scene(
         name=m.name, description=m.description, solver=m.solver, solvers=tuple(m.solvers),
         domain_min=_vec3(m.domain_min), domain_max=_vec3(m.domain_max),
-        spheres=tuple(Sphere(_vec3(s.center), s.radius) for s in m.spheres),
-        boxes=tuple(Box(_vec3(b.min), _vec3(b.max)) for b in m.boxes),
+        spheres=tuple(Sphere(_vec3(s.center), s.radius, _motion(s.motion)) for s in m.spheres),
+        boxes=tuple(Box(_vec3(b.min), _vec3(b.max), _motion(b.motion)) for b in m.boxes),
         particle_radius=m.particle_radius, scene_version=m.scene_version)
 
 

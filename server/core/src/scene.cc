@@ -253,18 +253,92 @@ FluidBlock ParseFluidBlock(const json& j, const std::string& path) {
   return b;
 }
 
-void ParseObstacle(const json& j, const std::string& path, Scene& scene) {
+// The bound on motion times: the longest scene (end_time) runs 1e6 s.
+constexpr double kMaxMotionTime = 1e6;  // s
+
+// An obstacle's "motion": {"velocity": [vx, vy, vz], "start": t0, "end": t1} or
+// {"path": [[t, dx, dy, dz], ...]}. `scene_keys` counts the keys of every obstacle so far.
+ObstacleMotion ParseMotion(const json& j, const std::string& path, size_t& scene_keys) {
+  ObjectReader r(j, path);
+  ObstacleMotion motion;
+  const json* keyframes = r.Get("path");
+  const std::optional<Vec3d> velocity = r.Vector("velocity", -kMaxSpeed, kMaxSpeed, "m/s");
+  const std::optional<double> start = r.Number("start", 0, kMaxMotionTime, "s");
+  const std::optional<double> end = r.Number("end", 0, kMaxMotionTime, "s");
+  r.RejectUnknown();
+  if (keyframes != nullptr) {
+    if (velocity || start || end) {
+      throw ConfigError(r.PathOf(velocity ? "velocity"
+                                 : start  ? "start"
+                                          : "end"),
+                        "give either path or velocity (with start and end), not both");
+    }
+    const std::string p = r.PathOf("path");
+    if (!keyframes->is_array() || keyframes->empty() || keyframes->size() > kMaxMotionKeys) {
+      throw ConfigError(
+          p, "expected an array of 1 to " + std::to_string(kMaxMotionKeys) +
+                 " keys [t, dx, dy, dz], got " +
+                 (keyframes->is_array() ? "an array of " + std::to_string(keyframes->size())
+                                        : TypeName(*keyframes)));
+    }
+    for (size_t i = 0; i < keyframes->size(); ++i) {
+      const json& key = (*keyframes)[i];
+      const std::string kp = p + "[" + std::to_string(i) + "]";
+      if (!key.is_array() || key.size() != 4) {
+        throw ConfigError(
+            kp, "expected [t, dx, dy, dz] (s, m), got " +
+                    (key.is_array() ? "an array of " + std::to_string(key.size()) : TypeName(key)));
+      }
+      ObstacleMotion::Key k;
+      k.time = ObjectReader::CheckNumber(key[0], kp + "[0]", 0, kMaxMotionTime, "s");
+      for (int a = 0; a < 3; ++a) {
+        k.displacement[a] = ObjectReader::CheckNumber(
+            key[size_t(a) + 1], kp + "[" + std::to_string(a + 1) + "]", -kMaxCoord, kMaxCoord, "m");
+      }
+      if (!motion.keys.empty() && !(k.time > motion.keys.back().time)) {
+        throw ConfigError(kp + "[0]", "key times must strictly increase; " + Num(k.time) +
+                                          " s follows " + Num(motion.keys.back().time) + " s");
+      }
+      motion.keys.push_back(k);
+    }
+  } else {
+    if (!velocity) {
+      throw ConfigError(r.PathOf("velocity"),
+                        "is required (or give path: [[t, dx, dy, dz], ...] instead)");
+    }
+    const double t0 = start.value_or(0);
+    const double t1 = end.value_or(kMaxMotionTime);
+    if (!(t1 > t0)) {
+      throw ConfigError(r.PathOf("end"),
+                        "must exceed start (" + Num(t0) + " s); got " + Num(t1) + " s");
+    }
+    motion.keys = {{t0, Vec3d::Zero()}, {t1, *velocity * (t1 - t0)}};
+  }
+  scene_keys += motion.keys.size();
+  if (scene_keys > kMaxSceneMotionKeys) {
+    throw ConfigError(path, "the scene's obstacle motions have more than " +
+                                std::to_string(kMaxSceneMotionKeys) + " keys in all");
+  }
+  return motion;
+}
+
+void ParseObstacle(const json& j, const std::string& path, Scene& scene, size_t& scene_keys) {
   ObjectReader r(j, path);
   const std::string type = r.String("type").value_or("");
+  ObstacleMotion motion;
+  if (type == "sphere" || type == "box") {
+    if (const json* m = r.Get("motion")) motion = ParseMotion(*m, r.PathOf("motion"), scene_keys);
+  }
   if (type == "sphere") {
     SphereObstacle s;
     s.center = r.Vector("center", -kMaxCoord, kMaxCoord, "m").value_or(Vec3d::Zero());
     s.radius = r.Number("radius", 1e-6, kMaxCoord, "m").value_or(s.radius);
-    scene.spheres.push_back(s);
+    s.motion = std::move(motion);
+    scene.spheres.push_back(std::move(s));
   } else if (type == "box") {
     const Vec3d center = r.Vector("center", -kMaxCoord, kMaxCoord, "m").value_or(Vec3d::Zero());
     const Vec3d size = r.Vector("size", 1e-6, kMaxCoord, "m", true).value_or(Vec3d::Ones());
-    scene.boxes.push_back({Aabb{center - 0.5 * size, center + 0.5 * size}});
+    scene.boxes.push_back({Aabb{center - 0.5 * size, center + 0.5 * size}, std::move(motion)});
   } else {
     throw ConfigError(r.PathOf("type"), "expected \"sphere\" or \"box\", got " + Quoted(type));
   }
@@ -349,8 +423,10 @@ Scene ParseSceneDocument(const json& root) {
     throw ConfigError("obstacles", "at most " + std::to_string(kMaxObstacles) + " obstacles; got " +
                                        std::to_string(obstacles->size()));
   }
-  ForEachElement(r, "obstacles",
-                 [&](const json& j, const std::string& path) { ParseObstacle(j, path, scene); });
+  size_t motion_keys = 0;
+  ForEachElement(r, "obstacles", [&](const json& j, const std::string& path) {
+    ParseObstacle(j, path, scene, motion_keys);
+  });
   scene.solver = r.String("solver").value_or(scene.solver);
   // Throws ConfigError("solver", ...) quoting the name and listing the known solvers. It is
   // given the name as a message may quote it: that is the name itself for every registered
@@ -431,14 +507,25 @@ void CheckPeriodicDomain(const Scene& scene, const Params& params) {
                                     std::string(1, axes[a]) + "; obstacles do not wrap around");
       }
     };
+    // A moving obstacle's path is linear between its keys, so its extremes are at keys.
+    auto displacements = [](const ObstacleMotion& m) {
+      std::vector<Vec3d> d;
+      for (const ObstacleMotion::Key& k : m.keys) d.push_back(k.displacement);
+      if (d.empty()) d.push_back(Vec3d::Zero());
+      return d;
+    };
     for (size_t i = 0; i < scene.spheres.size(); ++i) {
       const SphereObstacle& s = scene.spheres[i];
-      check(s.center[a] - s.radius, s.center[a] + s.radius,
-            "obstacles (sphere " + std::to_string(i) + ")");
+      for (const Vec3d& d : displacements(s.motion)) {
+        check(s.center[a] + d[a] - s.radius, s.center[a] + d[a] + s.radius,
+              "obstacles (sphere " + std::to_string(i) + ")");
+      }
     }
     for (size_t i = 0; i < scene.boxes.size(); ++i) {
       const Aabb& b = scene.boxes[i].box;
-      check(b.min[a], b.max[a], "obstacles (box " + std::to_string(i) + ")");
+      for (const Vec3d& d : displacements(scene.boxes[i].motion)) {
+        check(b.min[a] + d[a], b.max[a] + d[a], "obstacles (box " + std::to_string(i) + ")");
+      }
     }
   }
 }

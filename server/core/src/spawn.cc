@@ -37,16 +37,19 @@ class SplitMix64 {
 // Whether a lattice point lies inside an obstacle, or closer than `margin` to one: fluid is not
 // spawned inside solids (a particle there would be thrown out by the wall's full pressure in
 // one step).
+// A moving obstacle is where its motion has it at t = 0. A lattice point exactly `margin` from
+// a face (a block that ends flush with an obstacle, its last layer d/2 from it) is kept: the
+// bound is a hair under the margin, so rounding in x - box.max cannot drop the layer.
 bool InsideObstacle(const Scene& scene, const Vec3d& x, double margin) {
+  margin *= 1 - 1e-9;
   for (const SphereObstacle& s : scene.spheres) {
-    if ((x - s.center).norm() < s.radius + margin) return true;
+    if ((x - s.center - s.motion.DisplacementAt(0)).norm() < s.radius + margin) return true;
   }
   for (const BoxObstacle& b : scene.boxes) {
-    const Vec3d outside = (b.box.min - x).cwiseMax(x - b.box.max).cwiseMax(0.0);
-    if (outside.norm() < margin ||
-        ((x.array() >= b.box.min.array()).all() && (x.array() <= b.box.max.array()).all())) {
-      return true;
-    }
+    const Vec3d d = b.motion.DisplacementAt(0);
+    const Aabb box{b.box.min + d, b.box.max + d};
+    const Vec3d outside = (box.min - x).cwiseMax(x - box.max).cwiseMax(0.0);
+    if (outside.norm() < margin || box.Contains(x)) return true;
   }
   return false;
 }

@@ -28,7 +28,15 @@ Scene SlabAtSpacing(Scene scene, double spacing, int layers) {
   SetParam(scene.params, "particle_spacing", spacing);
   const double thickness = layers * spacing;
   const double z0 = scene.domain.min.z();
+  const double old_z1 = scene.domain.max.z();
   scene.domain.max.z() = z0 + thickness;
+  // An obstacle across the whole depth (a gate) spans the slab.
+  for (BoxObstacle& box : scene.boxes) {
+    if (box.box.min.z() <= z0 && box.box.max.z() >= old_z1) {
+      box.box.min.z() = z0;
+      box.box.max.z() = z0 + thickness;
+    }
+  }
   for (FluidBlock& block : scene.fluid_blocks) {
     Vec3d center = block.center.value_or(scene.domain.Center());
     Vec3d size = block.size.value_or(Vec3d::Constant(scene.params.spawn_size));
@@ -186,8 +194,10 @@ HydrostaticResult RunHydrostaticTank(const ValidationOptions& options) {
   return result;
 }
 
-DamBreakResult RunDamBreak(const ValidationOptions& options) {
-  Simulation sim(ValidationScene("dam_break_martin_moyce", options), options.device);
+namespace {
+
+DamBreakResult RunDamBreakScene(const char* name, const ValidationOptions& options) {
+  Simulation sim(ValidationScene(name, options), options.device);
   const Scene& scene = sim.scene();
   DamBreakResult result;
   const double d = sim.params().particle_spacing;
@@ -225,6 +235,16 @@ DamBreakResult RunDamBreak(const ValidationOptions& options) {
   result.diagnostics = DiagnoseFront(result.trace, MartinMoyce1952Front());
   result.run = RunInfo(sim);
   return result;
+}
+
+}  // namespace
+
+DamBreakResult RunDamBreak(const ValidationOptions& options) {
+  return RunDamBreakScene("dam_break_martin_moyce", options);
+}
+
+DamBreakResult RunGatedDamBreak(const ValidationOptions& options) {
+  return RunDamBreakScene("dam_break_martin_moyce_gate", options);
 }
 
 double MorrisPoiseuilleSpeed(double x, double t, double force, double viscosity, double width) {

@@ -141,6 +141,15 @@ void ToProto(const Vec3d& v, v1::Vec3& out) {
   out.set_z(v.z());
 }
 
+void ToProto(const ObstacleMotion& motion, v1::ObstacleMotion& out) {
+  out.clear_keys();
+  for (const ObstacleMotion::Key& key : motion.keys) {
+    v1::MotionKey& k = *out.add_keys();
+    k.set_time(key.time);
+    ToProto(key.displacement, *k.mutable_displacement());
+  }
+}
+
 void ToProto(const HostScene& s, v1::SceneDescription& out) {
   const Scene& scene = s.scene;
   out.set_name(scene.name);
@@ -155,12 +164,14 @@ void ToProto(const HostScene& s, v1::SceneDescription& out) {
     v1::Sphere& o = *out.add_spheres();
     ToProto(sphere.center, *o.mutable_center());
     o.set_radius(sphere.radius);
+    if (sphere.motion.moving()) ToProto(sphere.motion, *o.mutable_motion());
   }
   out.clear_boxes();
   for (const BoxObstacle& box : scene.boxes) {
     v1::Box& o = *out.add_boxes();
     ToProto(box.box.min, *o.mutable_min());
     ToProto(box.box.max, *o.mutable_max());
+    if (box.motion.moving()) ToProto(box.motion, *o.mutable_motion());
   }
   out.set_particle_radius(s.particle_radius);
   out.set_scene_version(s.scene_version);

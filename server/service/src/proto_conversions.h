@@ -22,6 +22,7 @@ namespace dysa::service {
 grpc::Status ToGrpc(ControlCode code, const std::string& message);
 void ToProto(const HostStatus& s, v1::Status& out);
 void ToProto(const Vec3d& v, v1::Vec3& out);
+void ToProto(const ObstacleMotion& motion, v1::ObstacleMotion& out);
 void ToProto(const HostScene& s, v1::SceneDescription& out);
 void ToProto(const Params& params, google::protobuf::RepeatedPtrField<v1::ParamInfo>& out);
 // A built-in scene as ListScenes lists it, with its particle count at its own parameters.

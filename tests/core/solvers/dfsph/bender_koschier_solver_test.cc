@@ -39,8 +39,8 @@ Scene DamScene() {
     "params": {"gravity": -9.81, "particle_spacing": 0.02, "kinematic_viscosity": 1e-5,
                "cfl_factor": 0.4, "max_time_step": 0.002}
   })");
-  scene.spheres.push_back({Vec3d(0.33, 0.0, 0.04), 0.07});
-  scene.boxes.push_back({Aabb{Vec3d(0.48, 0, -0.1), Vec3d(0.52, 0.08, 0.2)}});
+  scene.spheres.push_back({Vec3d(0.33, 0.0, 0.04), 0.07, {}});
+  scene.boxes.push_back({Aabb{Vec3d(0.48, 0, -0.1), Vec3d(0.52, 0.08, 0.2)}, {}});
   return scene;
 }
 

@@ -50,7 +50,7 @@ TEST(SampleDomainWallsTest, NoWallsAcrossAPeriodicAxis) {
 
 TEST(SampleObstaclesTest, SpheresAndBoxesAreSampledInside) {
   std::vector<Vec3> points, fluid_side;
-  const SphereObstacle sphere{Vec3d(0.1, 0.1, 0.05), 0.05};
+  const SphereObstacle sphere{Vec3d(0.1, 0.1, 0.05), 0.05, {}};
   SampleSphere(sphere, kD, 2, points, &fluid_side);
   ASSERT_FALSE(points.empty());
   for (const Vec3& p : points) {

@@ -37,8 +37,8 @@ Scene DamScene(bool obstacles = true) {
                "kinematic_viscosity": 1e-5}
   })");
   if (obstacles) {
-    scene.spheres.push_back({Vec3d(0.33, 0.0, 0.04), 0.07});
-    scene.boxes.push_back({Aabb{Vec3d(0.48, 0, -0.1), Vec3d(0.52, 0.08, 0.2)}});
+    scene.spheres.push_back({Vec3d(0.33, 0.0, 0.04), 0.07, {}});
+    scene.boxes.push_back({Aabb{Vec3d(0.48, 0, -0.1), Vec3d(0.52, 0.08, 0.2)}, {}});
   }
   return scene;
 }

@@ -91,14 +91,31 @@ struct SceneList {
   std::string current;
 };
 
+// dysa.v1.ObstacleMotion: a prescribed translation, linear in time between keys; before the
+// first key the displacement is the first key's, after the last key the last's.
+struct ObstacleMotion {
+  struct Key {
+    double time = 0;                       // s, simulated time
+    std::array<double, 3> displacement{};  // m, from the obstacle's given position
+  };
+  std::vector<Key> keys;  // times strictly increasing; empty: static
+
+  bool moving() const { return !keys.empty(); }
+  // m: where the obstacle is at simulated time t, relative to its given position (the core's
+  // ObstacleMotion::DisplacementAt, so a client draws it where the solver has it).
+  std::array<double, 3> DisplacementAt(double t) const;
+};
+
 struct SphereObstacle {
-  std::array<double, 3> center{};  // m
+  std::array<double, 3> center{};  // m, with no displacement
   double radius = 0;               // m
+  ObstacleMotion motion;
 };
 
 struct BoxObstacle {
-  std::array<double, 3> min{};  // m
-  std::array<double, 3> max{};  // m
+  std::array<double, 3> min{};  // m, with no displacement
+  std::array<double, 3> max{};  // m, with no displacement
+  ObstacleMotion motion;
 };
 
 // dysa.v1.SceneDescription: the running scene's geometry and the registered solvers.

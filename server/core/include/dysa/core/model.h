@@ -37,6 +37,15 @@ struct Model {
   double FrameTime() const { return params.time_scale / params.frame_rate; }
 
   bool HasObstacles() const { return !spheres.empty() || !boxes.empty(); }
+  // Whether any obstacle has a prescribed motion (ObstacleMotion): only then do the solvers
+  // move boundaries, so a static scene steps exactly as before motions existed.
+  bool HasMovingObstacles() const {
+    for (const BoxObstacle& b : boxes)
+      if (b.motion.moving()) return true;
+    for (const SphereObstacle& s : spheres)
+      if (s.motion.moving()) return true;
+    return false;
+  }
   bool HasNoSlipWalls() const { return no_slip[0] || no_slip[1] || no_slip[2]; }
 
   // The separation d = x_a - x_b of two points taken to the nearest image across the periodic

@@ -47,13 +47,37 @@ struct FluidBlock {
   Vec3d velocity = Vec3d::Zero();  // m/s, initial velocity
 };
 
+// The most keyframes one obstacle's motion may have, and all obstacles' together: a scene's
+// motions then stay a small part of a GetScene reply (a key is 32 bytes).
+inline constexpr size_t kMaxMotionKeys = 1000;
+inline constexpr size_t kMaxSceneMotionKeys = 10'000;
+
+// A prescribed rigid translation of an obstacle (scene field "motion"): its displacement from
+// the position the scene gives, linear in time between keyframes; before the first key it is
+// the first key's, after the last key the last's. A constant velocity v over [t0, t1] is the two
+// keys (t0, 0) and (t1, v (t1 - t0)). Key times strictly increase (ParseScene checks).
+struct ObstacleMotion {
+  struct Key {
+    double time = 0;                     // s
+    Vec3d displacement = Vec3d::Zero();  // m
+  };
+  std::vector<Key> keys;  // empty: static
+
+  bool moving() const { return !keys.empty(); }
+  Vec3d DisplacementAt(double t) const;
+  // The slope of the segment holding t (the later one at a key's time); 0 outside the keys.
+  Vec3d VelocityAt(double t) const;
+};
+
 struct SphereObstacle {
   Vec3d center = Vec3d::Zero();  // m
   double radius = 0.5;           // m
+  ObstacleMotion motion;
 };
 
 struct BoxObstacle {
   Aabb box;  // m
+  ObstacleMotion motion;
 };
 
 enum class ProbeKind {

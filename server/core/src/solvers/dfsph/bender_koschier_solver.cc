@@ -149,8 +149,17 @@ Real DensityRate(const Model& model, const BenderKoschierData& data, const State
   for (size_t k = fluid.begin[i]; k < fluid.begin[i + 1]; ++k) {
     rate += mass * (v - p.velocity[fluid.other[k]]).dot(fluid.grad_w[k]);
   }
-  for (size_t k = wall.begin[i]; k < wall.begin[i + 1]; ++k) {
-    rate += rho0 * volume[wall.other[k]] * v.dot(wall.grad_w[k]);
+  // A moving obstacle's samples carry its velocity v_b: the term is Psi_b (v_i - v_b) . grad W.
+  const std::span<const Vec3> wall_velocity = data.boundary->velocity();
+  if (wall_velocity.empty()) {
+    for (size_t k = wall.begin[i]; k < wall.begin[i + 1]; ++k) {
+      rate += rho0 * volume[wall.other[k]] * v.dot(wall.grad_w[k]);
+    }
+  } else {
+    for (size_t k = wall.begin[i]; k < wall.begin[i + 1]; ++k) {
+      const uint32_t b = wall.other[k];
+      rate += rho0 * volume[b] * (v - wall_velocity[b]).dot(wall.grad_w[k]);
+    }
   }
   return rate;
 }
@@ -258,9 +267,10 @@ void DivergenceSolve(const Model& model, BenderKoschierData& data, State& state)
   const double rho0 = model.params.rest_density;
   // The step these velocities will be integrated with, as the time_step pass will choose it
   // (up to the frame's end): a function of the state, so nothing is carried between steps.
-  const double dt =
-      std::min(CflLimits(model, MaxSpeed(p), std::abs(model.params.gravity), false).Min(),
-               model.params.max_time_step);
+  const double dt = std::min(CflLimits(model, std::max(MaxSpeed(p), data.max_obstacle_speed),
+                                       std::abs(model.params.gravity), false)
+                                 .Min(),
+                             model.params.max_time_step);
   const Real inv_dt = Real(1 / dt);
   std::fill(w.kappa_sum, w.kappa_sum + n, Real(0));
   Real* carried = data.divergence_stiffness.data();
@@ -360,11 +370,13 @@ void PredictVelocities(const Model&, BenderKoschierData& data, State& state) {
 // CFL factor beyond the stability limit, a start far above rest density). Such particles are
 // slowed to d / dt and the step's warning says so; a converged step never comes near it (the
 // CFL step keeps v dt <= cfl_factor d before the pressure solve).
-void IntegratePositions(const Model& model, State& state) {
+void IntegratePositions(const Model& model, BenderKoschierData&, State& state) {
   ParticleArrays& p = state.particles;
   const Real dt = Real(state.dt);
   const Real limit = Real(model.params.particle_spacing / state.dt);
   const int64_t n = int64_t(p.size());
+  const std::vector<physical::ObstacleFrame> frames =
+      physical::ObstacleFramesOverStep(model, state.time, state.dt);
   int64_t limited = 0;
 #pragma omp parallel for schedule(static) reduction(+ : limited)
   for (int64_t i = 0; i < n; ++i) {
@@ -373,7 +385,7 @@ void IntegratePositions(const Model& model, State& state) {
       p.velocity[i] *= limit / std::sqrt(speed2);
       ++limited;
     }
-    physical::LimitApproachToSurfaces(model, dt, p.position[i], p.velocity[i]);
+    physical::LimitApproachToSurfaces(model, frames, dt, p.position[i], p.velocity[i]);
     p.position[i] += p.velocity[i] * dt;
     CollideWithDomainWalls(model.domain, model.periodic, Real(0), p.position[i], p.velocity[i]);
   }
@@ -438,6 +450,9 @@ void BenderKoschierSolver::RestoreArrays(std::span<const SolverArray> arrays, si
 std::vector<Pass> BenderKoschierSolver::BuildPasses(const Model& model) {
   data_.SampleBoundary(model);
   std::vector<Pass> passes;
+  if (data_.boundary->HasMovingObstacles()) {
+    passes.push_back(SolverPass("move_boundary", data_, physical::MoveBoundary));
+  }
   passes.push_back(SolverPass("neighbour_grid", data_, SortIntoGrid));
   passes.push_back(SolverPass("density", data_, DensityAndFactor));
   passes.push_back(SolverPass("boundary_pressure", data_, ListBoundaryNeighbors));
@@ -452,7 +467,7 @@ std::vector<Pass> BenderKoschierSolver::BuildPasses(const Model& model) {
   passes.push_back(SolverPass("time_step", data_, ChooseIncompressibleTimeStepPass));
   passes.push_back(SolverPass("predict_velocity", data_, PredictVelocities));
   passes.push_back(SolverPass("density_solve", data_, DensitySolve));
-  passes.push_back({"integrate", IntegratePositions});
+  passes.push_back(SolverPass("integrate", data_, IntegratePositions));
   return passes;
 }
 

@@ -131,11 +131,28 @@ BoundaryParticles::BoundaryParticles(const Model& model, double spacing, double 
   // Obstacles are filled: a particle that gets past the outer layers (a thin splash has too
   // little density for any pressure) is still pushed out, instead of being trapped in a
   // hollow shell.
+  const size_t wall_samples = points.size();
+  std::vector<size_t> obstacle_end;  // one past each obstacle's last sample
   for (const BoxObstacle& b : model.boxes) {
     SampleBox(b.box, spacing, kSolid, points, &fluid_side);
+    obstacle_end.push_back(points.size());
   }
   for (const SphereObstacle& s : model.spheres) {
     SampleSphere(s, spacing, kSolid, points, &fluid_side);
+    obstacle_end.push_back(points.size());
+  }
+  const bool moving = std::any_of(model.boxes.begin(), model.boxes.end(),
+                                  [](const BoxObstacle& b) { return b.motion.moving(); }) ||
+                      std::any_of(model.spheres.begin(), model.spheres.end(),
+                                  [](const SphereObstacle& s) { return s.motion.moving(); });
+  if (moving) {
+    rest_position_ = points;
+    obstacle_.assign(points.size(), -1);
+    size_t begin = wall_samples;
+    for (size_t o = 0; o < obstacle_end.size(); ++o) {
+      std::fill(obstacle_.begin() + begin, obstacle_.begin() + obstacle_end[o], int32_t(o));
+      begin = obstacle_end[o];
+    }
   }
 
   // The same cells as the fluid's grid: points outside the domain fall into its border cells,
@@ -186,6 +203,42 @@ BoundaryParticles::BoundaryParticles(const Model& model, double spacing, double 
   }
   padded_volume_.assign(n + NeighborGrid::kPadding, Real(0));
   std::copy(volume_.begin(), volume_.end(), padded_volume_.begin());
+  if (moving) {
+    // Back into sampling order, which MoveObstacles sorts from each step.
+    rest_volume_.resize(n);
+    rest_no_slip_.resize(n);
+    for (size_t k = 0; k < n; ++k) {
+      rest_volume_[grid_.order()[k]] = volume_[k];
+      rest_no_slip_[grid_.order()[k]] = no_slip_[k];
+    }
+    velocity_.assign(n, Vec3::Zero());
+  }
+}
+
+void BoundaryParticles::MoveObstacles(std::span<const Vec3d> displacement,
+                                      std::span<const Vec3> velocity) {
+  const size_t n = rest_position_.size();
+  position_scratch_.resize(n);
+  // The rest position in float plus the displacement in float: the same sum for every sample of
+  // an obstacle, so it moves rigidly (to float rounding of each coordinate).
+  std::vector<Vec3> offset(displacement.size());
+  for (size_t o = 0; o < displacement.size(); ++o) offset[o] = displacement[o].cast<Real>();
+#pragma omp parallel for schedule(static)
+  for (int64_t k = 0; k < int64_t(n); ++k) {
+    const int32_t o = obstacle_[k];
+    position_scratch_[k] = o < 0 ? rest_position_[k] : Vec3(rest_position_[k] + offset[o]);
+  }
+  grid_.Sort(position_scratch_);
+  const auto order = grid_.order();
+#pragma omp parallel for schedule(static)
+  for (int64_t k = 0; k < int64_t(n); ++k) {
+    const uint32_t from = order[k];
+    const int32_t o = obstacle_[from];
+    volume_[k] = rest_volume_[from];
+    padded_volume_[k] = rest_volume_[from];
+    no_slip_[k] = rest_no_slip_[from];
+    velocity_[k] = o < 0 ? Vec3::Zero() : velocity[o];
+  }
 }
 
 }  // namespace dysa

@@ -51,11 +51,41 @@ class BoundaryParticles {
     return std::find(no_slip_.begin(), no_slip_.end(), 1) != no_slip_.end();
   }
 
+  // Moving obstacles (ObstacleMotion). Obstacles are numbered boxes first, then spheres, as in
+  // the Model. Whether any obstacle of the model moves: only then does the sampling keep what
+  // MoveObstacles needs, so a static scene pays nothing.
+  bool HasMovingObstacles() const { return !rest_position_.empty(); }
+  // Places every obstacle's samples at its rest (scene) position plus displacement[o] and gives
+  // them velocity[o] (one per obstacle, the model's count), then sorts all samples on the grid
+  // again, carrying their volumes and no-slip flags. The volumes stay those computed at the
+  // scene's positions (recomputing them is a neighbour sweep of every sample per step): a
+  // sample's volume depends only on the samples and the fluid-side lattice within its support,
+  // which move with it inside one rigid obstacle, so this is exact for an obstacle that starts
+  // and stays more than a support (2 d) away from every other solid. Its limit: solids within a
+  // support of each other at the scene's positions lower each other's volumes (each counts the
+  // other where it expects fluid), and keep the lowered volumes once moved apart. A gate
+  // standing on the floor: after the lift, the floor's samples under where it stood and the
+  // gate's lowest samples weigh up to a third less, over a strip the gate's thickness wide
+  // (one support deep); the wall contact, which reads the geometry, still holds the fluid out.
+  void MoveObstacles(std::span<const Vec3d> displacement, std::span<const Vec3> velocity);
+  // m/s, per sample in grid order: its obstacle's velocity (0 for the walls). Empty unless
+  // HasMovingObstacles().
+  std::span<const Vec3> velocity() const { return {velocity_.data(), velocity_.size()}; }
+
  private:
   NeighborGrid grid_;
   std::vector<Real> volume_;
   std::vector<Real> padded_volume_;
   std::vector<uint8_t> no_slip_;
+  // With moving obstacles, per sample in sampling order: the position at the scene's geometry,
+  // the obstacle (-1: a domain wall), the volume and the no-slip flag; and the velocity in grid
+  // order.
+  std::vector<Vec3> rest_position_;
+  std::vector<int32_t> obstacle_;
+  std::vector<Real> rest_volume_;
+  std::vector<uint8_t> rest_no_slip_;
+  std::vector<Vec3> position_scratch_;
+  std::vector<Vec3> velocity_;
 };
 
 // The samplers, appending to `out` the boundary particles and, when `fluid_side` is given, to it

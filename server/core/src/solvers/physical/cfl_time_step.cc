@@ -56,8 +56,10 @@ void ChooseStep(const Model& model, const physical::PhysicalData& data, State& s
     a2_max = std::max(a2_max, data.acceleration[i].squaredNorm());
     density_max = std::max(density_max, p.density[i]);
   }
+  // A moving obstacle's samples may not cross more of a spacing per step than the fluid.
+  const double v_max = std::max(std::sqrt(double(v2_max)), data.max_obstacle_speed);
   const TimeStepLimits limits =
-      CflLimits(model, std::sqrt(double(v2_max)), std::sqrt(double(a2_max)), acoustic, density_max);
+      CflLimits(model, v_max, std::sqrt(double(a2_max)), acoustic, density_max);
   state.dt = ChooseTimeStep(limits, state.max_dt);
 }
 

@@ -13,9 +13,20 @@
 
 namespace dysa::physical {
 
+// An obstacle's place and speed over one step (ObstacleMotion): its displacement from the
+// scene's position at the step's start, and its velocity.
+struct ObstacleFrame {
+  Vec3d displacement = Vec3d::Zero();  // m
+  Vec3 velocity = Vec3::Zero();        // m/s
+};
+
 struct PhysicalData {
-  // The walls and obstacles of the model the pass list was built for (Solver::BuildPasses).
-  std::unique_ptr<const BoundaryParticles> boundary;
+  // The walls and obstacles of the model the pass list was built for (Solver::BuildPasses);
+  // the move_boundary pass moves a moving obstacle's samples each step.
+  std::unique_ptr<BoundaryParticles> boundary;
+  // m/s, the fastest obstacle this step (move_boundary): the CFL step keeps a boundary sample
+  // from crossing more of a spacing per step than a fluid particle may. 0 without motions.
+  double max_obstacle_speed = 0;
   // m/s^2, per particle in storage order: this step's accelerations, computed after the
   // neighbour sort.
   std::vector<Vec3> acceleration;
@@ -25,8 +36,8 @@ struct PhysicalData {
 
   // Samples the boundary particles of `model` at its particle spacing and kernel support.
   void SampleBoundary(const Model& model) {
-    boundary = std::make_unique<const BoundaryParticles>(model, model.params.particle_spacing,
-                                                         model.kernel_support);
+    boundary = std::make_unique<BoundaryParticles>(model, model.params.particle_spacing,
+                                                   model.kernel_support);
   }
 };
 

@@ -100,34 +100,78 @@ void AddWallViscosity(const Model& model, PhysicalData& data, State& state) {
   }
 }
 
+std::vector<ObstacleFrame> ObstacleFramesOverStep(const Model& model, double t, double dt) {
+  if (!model.HasMovingObstacles()) return {};
+  std::vector<ObstacleFrame> frames;
+  auto add = [&](const ObstacleMotion& m) {
+    const Vec3d start = m.DisplacementAt(t);
+    const Vec3d velocity =
+        dt > 0 ? Vec3d((m.DisplacementAt(t + dt) - start) / dt) : m.VelocityAt(t);
+    frames.push_back({start, velocity.cast<Real>()});
+  };
+  for (const BoxObstacle& b : model.boxes) add(b.motion);
+  for (const SphereObstacle& s : model.spheres) add(s.motion);
+  return frames;
+}
+
+void MoveBoundary(const Model& model, PhysicalData& data, State& state) {
+  std::vector<Vec3d> displacement;
+  std::vector<Vec3> velocity;
+  double fastest = 0;
+  auto add = [&](const ObstacleMotion& m) {
+    displacement.push_back(m.DisplacementAt(state.time));
+    const Vec3d u = m.VelocityAt(state.time);
+    velocity.push_back(u.cast<Real>());
+    fastest = std::max(fastest, u.norm());
+  };
+  for (const BoxObstacle& b : model.boxes) add(b.motion);
+  for (const SphereObstacle& s : model.spheres) add(s.motion);
+  data.boundary->MoveObstacles(displacement, velocity);
+  data.max_obstacle_speed = fastest;
+}
+
 namespace {
 
-// Calls visit(dist, n) for every surface (a wall across a non-periodic axis, a sphere, a box)
-// within `range` of x, with dist the distance to it and n the unit normal from it to x. A
-// point inside an obstacle gets distance 0 and the way out: the sphere's radial direction, the
-// box's nearest face.
+// Calls visit(dist, n, u) for every surface (a wall across a non-periodic axis, a sphere, a box)
+// within `range` of x, with dist the distance to it, n the unit normal from it to x and u its
+// velocity (frames: the obstacles' displacements and velocities; empty: all at rest). A point
+// inside an obstacle gets distance 0 and the way out: the sphere's radial direction, the box's
+// nearest face.
 template <class Visit>
-void ForEachSurfaceWithin(const Model& model, const Vec3& x, Real range, Visit&& visit) {
+void ForEachSurfaceWithin(const Model& model, std::span<const ObstacleFrame> frames, const Vec3& x,
+                          Real range, Visit&& visit) {
+  const Vec3 at_rest = Vec3::Zero();
   for (int k = 0; k < 3; ++k) {
     if (model.periodic[k]) continue;  // no wall across a periodic axis
     const Real below = x[k] - Real(model.domain.min[k]);
     const Real above = Real(model.domain.max[k]) - x[k];
-    if (below < range) visit(below, Vec3(Vec3::Unit(k)));
-    if (above < range) visit(above, Vec3(-Vec3::Unit(k)));
+    if (below < range) visit(below, Vec3(Vec3::Unit(k)), at_rest);
+    if (above < range) visit(above, Vec3(-Vec3::Unit(k)), at_rest);
   }
-  for (const SphereObstacle& s : model.spheres) {
-    const Vec3 d = x - s.center.cast<Real>();
+  const size_t boxes = model.boxes.size();
+  for (size_t o = 0; o < model.spheres.size(); ++o) {
+    const SphereObstacle& s = model.spheres[o];
+    const ObstacleFrame* f = frames.empty() ? nullptr : &frames[boxes + o];
+    const Vec3 d =
+        x - (f ? Vec3((s.center + f->displacement).cast<Real>()) : Vec3(s.center.cast<Real>()));
     const Real norm = d.norm();
     const Real dist = norm - Real(s.radius);
-    if (norm > 0 && dist < range) visit(std::max(dist, Real(0)), Vec3(d / norm));
+    if (norm > 0 && dist < range)
+      visit(std::max(dist, Real(0)), Vec3(d / norm), f ? f->velocity : at_rest);
   }
-  for (const BoxObstacle& b : model.boxes) {
-    const Vec3 bl = b.box.min.cast<Real>(), bh = b.box.max.cast<Real>();
+  for (size_t o = 0; o < boxes; ++o) {
+    const BoxObstacle& b = model.boxes[o];
+    const ObstacleFrame* f = frames.empty() ? nullptr : &frames[o];
+    const Vec3 u = f ? f->velocity : at_rest;
+    const Vec3 bl =
+        f ? Vec3((b.box.min + f->displacement).cast<Real>()) : Vec3(b.box.min.cast<Real>());
+    const Vec3 bh =
+        f ? Vec3((b.box.max + f->displacement).cast<Real>()) : Vec3(b.box.max.cast<Real>());
     const Vec3 nearest = x.cwiseMax(bl).cwiseMin(bh);
     const Vec3 d = x - nearest;
     const Real dist = d.norm();
     if (dist > 0) {
-      if (dist < range) visit(dist, Vec3(d / dist));
+      if (dist < range) visit(dist, Vec3(d / dist), u);
       continue;
     }
     int axis = 0;
@@ -136,27 +180,35 @@ void ForEachSurfaceWithin(const Model& model, const Vec3& x, Real range, Visit&&
       if (x[k] - bl[k] < depth) depth = x[k] - bl[k], axis = k, sign = -1;
       if (bh[k] - x[k] < depth) depth = bh[k] - x[k], axis = k, sign = 1;
     }
-    visit(Real(0), Vec3(sign * Vec3::Unit(axis)));
+    visit(Real(0), Vec3(sign * Vec3::Unit(axis)), u);
   }
 }
 
 }  // namespace
 
-void LimitApproachToSurfaces(const Model& model, Real dt, const Vec3& x, Vec3& v) {
+void LimitApproachToSurfaces(const Model& model, std::span<const ObstacleFrame> frames, Real dt,
+                             const Vec3& x, Vec3& v) {
   const Real r0 = Real(kContactRange * model.params.particle_spacing);
-  const Real reach = Real(0.5) * r0 + v.norm() * dt;  // the surfaces this step could bring it to
-  // Each surface allows the velocities with v . n >= allowed (<= 0): half-spaces that all hold
-  // v = 0. Cutting v onto one can break another (a sphere's normal tilted towards a wall), so
-  // the cuts are repeated, a few sweeps of alternating projections onto their intersection.
+  // The surfaces this step could bring it to: a moving one closes in at up to its own speed.
+  Real approach = v.norm();
+  for (const ObstacleFrame& f : frames) approach = std::max(approach, v.norm() + f.velocity.norm());
+  const Real reach = Real(0.5) * r0 + approach * dt;
+  // Each surface allows the velocities with (v - u) . n >= allowed (<= 0), u its velocity:
+  // half-spaces that all hold v = u for a single surface. Cutting v onto one can break another
+  // (a sphere's normal tilted towards a wall), so the cuts are repeated, a few sweeps of
+  // alternating projections onto their intersection (which a surface closing in on another
+  // can leave empty: then the last sweep's cut stands and the pressure does the rest).
   for (int sweep = 0; sweep < 4; ++sweep) {
     bool cut = false;
-    ForEachSurfaceWithin(model, x, reach, [&](Real dist, const Vec3& normal) {
-      // The approach the step may take: down to r0 / 2 from the surface (exact for a wall; a
-      // curve within r0 bends away from the tangent plane, so it is kept at least as far).
-      const Real allowed = -std::max(dist - Real(0.5) * r0, Real(0)) / dt;
-      const Real vn = v.dot(normal);
-      if (vn < allowed) v += (allowed - vn) * normal, cut = true;
-    });
+    ForEachSurfaceWithin(model, frames, x, reach,
+                         [&](Real dist, const Vec3& normal, const Vec3& u) {
+                           // The approach the step may take: down to r0 / 2 from the surface (exact
+                           // for a wall; a curve within r0 bends away from the tangent plane, so it
+                           // is kept at least as far).
+                           const Real allowed = -std::max(dist - Real(0.5) * r0, Real(0)) / dt;
+                           const Real vn = (v - u).dot(normal);
+                           if (vn < allowed) v += (allowed - vn) * normal, cut = true;
+                         });
     if (!cut) break;
   }
 }

@@ -4,6 +4,9 @@
 // here, and the GPU backend reads the same constants.
 #pragma once
 
+#include <span>
+#include <vector>
+
 #include "dysa/core/model.h"
 #include "dysa/core/params.h"
 #include "dysa/core/state.h"
@@ -32,9 +35,23 @@ void AddViscosity(const Model& model, PhysicalData& data, State& state);
 // fluid's velocity extrapolated to the walls' boundary particles (data.boundary_velocity).
 void AddWallViscosity(const Model& model, PhysicalData& data, State& state);
 
+// Each obstacle's frame (boxes, then spheres, as the Model lists them) for the step [t, t + dt]:
+// its displacement at t and its mean velocity over the step, (D(t + dt) - D(t)) / dt, so that
+// the contact below sees where the step really takes it. Empty when no obstacle moves.
+std::vector<ObstacleFrame> ObstacleFramesOverStep(const Model& model, double t, double dt);
+
+// The `move_boundary` pass, first in a step of a scene with a moving obstacle: moves the
+// obstacles' boundary samples to their displacement at the step's start time (state.time) and
+// gives them the velocity there (ObstacleMotion::VelocityAt), which the density and pressure
+// passes read; sets data.max_obstacle_speed.
+void MoveBoundary(const Model& model, PhysicalData& data, State& state);
+
 // The wall contact: limits v so that a step of dt from x brings the particle no closer than
 // r0 / 2 (kContactRange) to any wall or obstacle, cutting only its velocity towards the surface
-// (an inelastic contact: energy is only taken away).
-void LimitApproachToSurfaces(const Model& model, Real dt, const Vec3& x, Vec3& v);
+// (an inelastic contact: energy is only taken away). With `frames` (ObstacleFramesOverStep;
+// empty: every obstacle static) an obstacle is taken at its displacement and only the velocity
+// relative to it is cut: a moving obstacle pushes the fluid ahead of it.
+void LimitApproachToSurfaces(const Model& model, std::span<const ObstacleFrame> frames, Real dt,
+                             const Vec3& x, Vec3& v);
 
 }  // namespace dysa::physical

@@ -320,8 +320,12 @@ void SortParticlesIntoGrid(const Model& model, SeedData& data, State& state) {
 
 namespace {
 
-void CollideWithSphere(const SphereObstacle& s, Real damping, Vec3& x, Vec3& v) {
-  const Vec3 c = s.center.cast<Real>();
+// An obstacle where the step leaves it: `offset` its displacement at the step's end, `u` its
+// mean velocity over the step (both 0 for a static one). The velocity relative to the obstacle
+// is reflected, so a moving obstacle throws the particles it meets ahead of it.
+void CollideWithSphere(const SphereObstacle& s, const Vec3& offset, const Vec3& u, Real damping,
+                       Vec3& x, Vec3& v) {
+  const Vec3 c = s.center.cast<Real>() + offset;
   const Real r = Real(s.radius);
   const Vec3 d = x - c;
   const Real dist2 = d.squaredNorm();
@@ -329,13 +333,14 @@ void CollideWithSphere(const SphereObstacle& s, Real damping, Vec3& x, Vec3& v) 
   const Real dist = std::sqrt(dist2);
   const Vec3 n = dist > 0 ? Vec3(d / dist) : Vec3::UnitY();
   x = c + n * r;
-  const Real vn = v.dot(n);
+  const Real vn = (v - u).dot(n);
   if (vn < 0) v -= (1 + damping) * vn * n;
 }
 
-void CollideWithBox(const BoxObstacle& b, Real damping, Vec3& x, Vec3& v) {
-  const Vec3 lo = b.box.min.cast<Real>();
-  const Vec3 hi = b.box.max.cast<Real>();
+void CollideWithBox(const BoxObstacle& b, const Vec3& offset, const Vec3& u, Real damping, Vec3& x,
+                    Vec3& v) {
+  const Vec3 lo = b.box.min.cast<Real>() + offset;
+  const Vec3 hi = b.box.max.cast<Real>() + offset;
   if (!((x.array() > lo.array()).all() && (x.array() < hi.array()).all())) return;
   // Leave through the nearest face.
   int axis = 0;
@@ -347,7 +352,9 @@ void CollideWithBox(const BoxObstacle& b, Real damping, Vec3& x, Vec3& v) {
     if (hi[a] - x[a] < best) best = hi[a] - x[a], axis = a, face = hi[a], outward = 1;
   }
   x[axis] = face;
-  if (v[axis] * outward < 0) v[axis] = -v[axis] * damping;
+  const Real vn = v[axis] - u[axis];
+  // At rest the bounce is exactly -v damping, a zero's sign included.
+  if (vn * outward < 0) v[axis] = u[axis] == 0 ? -vn * damping : u[axis] - vn * damping;
 }
 
 }  // namespace
@@ -356,12 +363,33 @@ void CollideWithObstacles(const Model& model, State& state) {
   ParticleArrays& p = state.particles;
   const Real damping = Real(model.params.collision_damping);
   const int64_t n = static_cast<int64_t>(p.size());
+  // Per obstacle (spheres, then boxes): its displacement at the step's end, where the
+  // integrated positions are, and its mean velocity over the step. All 0 for static obstacles.
+  const size_t count = model.spheres.size() + model.boxes.size();
+  std::vector<Vec3> offset(count, Vec3::Zero()), velocity(count, Vec3::Zero());
+  if (model.HasMovingObstacles()) {
+    const double t = state.time, dt = state.dt;
+    auto frame = [&](const ObstacleMotion& m, size_t k) {
+      const Vec3d end = m.DisplacementAt(t + dt);
+      offset[k] = end.cast<Real>();
+      velocity[k] = ((end - m.DisplacementAt(t)) / dt).cast<Real>();
+    };
+    for (size_t k = 0; k < model.spheres.size(); ++k) frame(model.spheres[k].motion, k);
+    for (size_t k = 0; k < model.boxes.size(); ++k) {
+      frame(model.boxes[k].motion, model.spheres.size() + k);
+    }
+  }
+  const size_t spheres = model.spheres.size();
 #pragma omp parallel for schedule(static)
   for (int64_t i = 0; i < n; ++i) {
-    for (const SphereObstacle& s : model.spheres)
-      CollideWithSphere(s, damping, p.position[i], p.velocity[i]);
-    for (const BoxObstacle& b : model.boxes)
-      CollideWithBox(b, damping, p.position[i], p.velocity[i]);
+    for (size_t k = 0; k < spheres; ++k) {
+      CollideWithSphere(model.spheres[k], offset[k], velocity[k], damping, p.position[i],
+                        p.velocity[i]);
+    }
+    for (size_t k = 0; k < model.boxes.size(); ++k) {
+      CollideWithBox(model.boxes[k], offset[spheres + k], velocity[spheres + k], damping,
+                     p.position[i], p.velocity[i]);
+    }
   }
 }
 

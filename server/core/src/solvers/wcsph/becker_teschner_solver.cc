@@ -129,10 +129,12 @@ void Integrate(const Model& model, BeckerTeschnerData& data, State& state) {
   ParticleArrays& p = state.particles;
   const Real dt = Real(state.dt);
   const int64_t n = int64_t(p.size());
+  const std::vector<physical::ObstacleFrame> frames =
+      physical::ObstacleFramesOverStep(model, state.time, state.dt);
 #pragma omp parallel for schedule(static)
   for (int64_t i = 0; i < n; ++i) {
     p.velocity[i] += data.acceleration[i] * dt;
-    physical::LimitApproachToSurfaces(model, dt, p.position[i], p.velocity[i]);
+    physical::LimitApproachToSurfaces(model, frames, dt, p.position[i], p.velocity[i]);
     p.position[i] += p.velocity[i] * dt;
     CollideWithDomainWalls(model.domain, model.periodic, Real(0), p.position[i], p.velocity[i]);
   }
@@ -141,6 +143,9 @@ void Integrate(const Model& model, BeckerTeschnerData& data, State& state) {
 std::vector<Pass> BeckerTeschnerSolver::BuildPasses(const Model& model) {
   data_.SampleBoundary(model);
   std::vector<Pass> passes;
+  if (data_.boundary->HasMovingObstacles()) {
+    passes.push_back(SolverPass("move_boundary", data_, physical::MoveBoundary));
+  }
   passes.push_back({"neighbour_grid", SortIntoGrid});
   passes.push_back(SolverPass("density", data_, ComputeDensityAndPressure));
   passes.push_back(SolverPass("boundary_pressure", data_, ComputeBoundaryPressure));
