@@ -20,7 +20,7 @@ constexpr double kQuickTankSpacing = 0.05;
 constexpr double kQuickDamSpacing = 0.05715 / 15;
 constexpr double kQuickChannelSpacing = 0.001;  // 10 particles across the 1 cm channel
 // The residual height's bound at the quick resolution, as validation_test asserts it.
-constexpr double kQuickHeightRmsBound = 0.15;
+constexpr double kQuickHeightRmsBound = 0.1;
 
 struct Row {
   std::string measure;

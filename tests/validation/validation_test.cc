@@ -21,9 +21,11 @@ constexpr double kQuickTankSpacing = 0.05;
 constexpr double kQuickDamSpacing = 0.05715 / 15;
 constexpr double kQuickChannelSpacing = 0.001;
 // The residual height at the wall, RMS and max relative error against Martin & Moyce's second
-// table (`dysa validate --quick` prints the same bound).
-constexpr double kQuickHeightRmsBound = 0.15;
-constexpr double kQuickHeightMaxBound = 0.4;
+// table (`dysa validate --quick` prints the same bound). Quick: wcsph 7.0% / 13.6% (dfsph 6.9% /
+// 15.1%); with the summation density wcsph had 14.6% / 37.5%, its column 38% too high at
+// tau = 3.44 (docs/validation.md).
+constexpr double kQuickHeightRmsBound = 0.1;
+constexpr double kQuickHeightMaxBound = 0.2;
 
 TEST(ReferenceDataTest, EmbeddedMartinMoyceTableMatchesTheCsv) {
   std::ifstream file(std::string(DYSA_SCENES_DIR) +
