@@ -82,6 +82,9 @@ const std::array kParamTable = {
     DYSA_PARAM(warm_start, "", 0.0, 1.0, kLive, kDfsph,
                "Fraction of the previous step's pressure impulse each solve starts from "
                "(0 turns the warm start off)"),
+    DYSA_PARAM(density_diffusion, "", 0.0, 1.0, kLive, kWcsph,
+               "delta of the density diffusion in the continuity equation (delta-SPH, Fourtakas "
+               "et al. 2019; 0: none; the literature's 0.1; above 1 it over-damps the pressure)"),
     DYSA_PARAM(gravity_ramp_time, "s", 0.0, 100.0, kLive, kPhysical,
                "Gravity grows smoothly from 0 to its value over this time (0: at once)"),
 };

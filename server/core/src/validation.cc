@@ -24,6 +24,17 @@ const std::vector<MartinMoyceRow>& MartinMoyce1952Front() {
   return rows;
 }
 
+const std::vector<MartinMoyceHeightRow>& MartinMoyce1952ResidualHeight() {
+  // scenes/validation/dam_break_martin_moyce_1952_height.csv (validation_test checks that the
+  // two agree); Martin & Moyce 1952, as above, their table of the residual column's height.
+  static const std::vector<MartinMoyceHeightRow> rows = {
+      {0.56, 0.94}, {0.77, 0.89}, {0.93, 0.83}, {1.08, 0.78}, {1.28, 0.72},
+      {1.46, 0.67}, {1.66, 0.61}, {1.84, 0.56}, {2.00, 0.50}, {2.21, 0.44},
+      {2.45, 0.39}, {2.70, 0.33}, {3.06, 0.28}, {3.44, 0.22},
+  };
+  return rows;
+}
+
 Scene SlabAtSpacing(Scene scene, double spacing, int layers) {
   SetParam(scene.params, "particle_spacing", spacing);
   const double thickness = layers * spacing;
@@ -213,15 +224,50 @@ DamBreakResult RunDamBreakScene(const char* name, const ValidationOptions& optio
     for (const Vec3& x : sim.state().particles.position) front = std::max(front, double(x.x()));
     return (front + 0.5 * d - x_wall) / a;
   };
-  double sum2 = 0;
+  // The column's height at the wall, its surface half a spacing above the top particle.
+  const double support = sim.model().kernel_support;
+  const Vec3d wall_point(x_wall, 0, scene.domain.Center().z());
+  const auto height_H = [&] {
+    const double eta = ConnectedColumnHeight(sim.state().particles, sim.model(), wall_point,
+                                             support, support, scene.domain.min.y());
+    return (eta + 0.5 * d) / (2 * a);
+  };
+  const double height_time_unit = std::sqrt(a / g);  // t = tau sqrt(a / g)
+  // Both tables' times in order; each row is read after the step that reaches its time.
+  struct Event {
+    double t;
+    bool front;
+    size_t row;
+  };
+  std::vector<Event> events;
+  const std::vector<MartinMoyceRow>& front_table = MartinMoyce1952Front();
+  const std::vector<MartinMoyceHeightRow>& height_table = MartinMoyce1952ResidualHeight();
+  for (size_t k = 0; k < front_table.size(); ++k) {
+    events.push_back({front_table[k].T * time_unit, true, k});
+  }
+  for (size_t k = 0; k < height_table.size(); ++k) {
+    events.push_back({height_table[k].tau * height_time_unit, false, k});
+  }
+  std::stable_sort(events.begin(), events.end(),
+                   [](const Event& x, const Event& y) { return x.t < y.t; });
+  double sum2 = 0, height_sum2 = 0;
   int count = 0;
   result.trace.push_back({0, front_Z()});
-  for (const MartinMoyceRow& row : MartinMoyce1952Front()) {
-    const double t = row.T * time_unit;
-    while (sim.time() < t) {
-      sim.Step(t);
+  for (const Event& event : events) {
+    while (sim.time() < event.t) {
+      sim.Step(event.t);
       result.trace.push_back({sim.time() / time_unit, front_Z()});
     }
+    if (!event.front) {
+      const MartinMoyceHeightRow& row = height_table[event.row];
+      const double H = height_H();
+      result.heights.push_back({row.tau, H, row.H});
+      const double e = std::abs(H - row.H) / row.H;
+      height_sum2 += e * e;
+      result.height_max_error = std::max(result.height_max_error, e);
+      continue;
+    }
+    const MartinMoyceRow& row = front_table[event.row];
     const double Z = result.trace.back().Z;
     result.rows.push_back({row.T, Z, row.Z});
     if (row.T > 0) {
@@ -230,6 +276,9 @@ DamBreakResult RunDamBreakScene(const char* name, const ValidationOptions& optio
       result.max_error = std::max(result.max_error, e);
       ++count;
     }
+  }
+  if (!result.heights.empty()) {
+    result.height_rms_error = std::sqrt(height_sum2 / double(result.heights.size()));
   }
   result.rms_error = count ? std::sqrt(sum2 / count) : 0;
   result.diagnostics = DiagnoseFront(result.trace, MartinMoyce1952Front());

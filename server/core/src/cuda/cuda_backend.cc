@@ -18,6 +18,7 @@
 #include "solvers/physical/cfl_time_step.h"
 #include "solvers/physical/physical_passes.h"
 #include "solvers/seed/seed_solver.h"
+#include "solvers/wcsph/becker_teschner_solver.h"
 
 namespace dysa {
 namespace {
@@ -194,6 +195,9 @@ class WcsphGpuBackend final : public GpuBackend {
     cuda::WcsphStepConfig config;
     config.grid = PhysicalGrid(model);
     config.constants = PhysicalConstants(model);
+    // delta h c0, as ComputeDensityAndPressure
+    config.constants.diffusion = Real(model.params.density_diffusion *
+                                      model.params.particle_spacing * model.params.speed_of_sound);
     const BoundaryParticles boundary(model, model.params.particle_spacing, model.kernel_support);
     config.viscosity = model.params.kinematic_viscosity > 0;
     config.wall_viscosity = config.viscosity && boundary.HasNoSlip();
@@ -201,8 +205,10 @@ class WcsphGpuBackend final : public GpuBackend {
     return pipeline_.Configure(config, Cloud(boundary));
   }
 
-  void Upload(const ParticleArrays& p, std::span<const SolverArray>) override {
-    pipeline_.Upload(p.size(), p.id.data(), Floats(p.position), Floats(p.velocity));
+  void Upload(const ParticleArrays& p, std::span<const SolverArray> solver_arrays) override {
+    const auto* carried = FindSolverArray(solver_arrays, wcsph::kCarriedDensity, p.size());
+    pipeline_.Upload(p.size(), p.id.data(), Floats(p.position), Floats(p.velocity),
+                     carried ? carried->data() : nullptr);
   }
 
   void Download(ParticleArrays& p) const override {
@@ -211,10 +217,16 @@ class WcsphGpuBackend final : public GpuBackend {
                        p.pressure.data());
   }
 
-  void DownloadCheckpointArrays(ParticleArrays& p, std::vector<SolverArray>&) const override {
+  void DownloadCheckpointArrays(ParticleArrays& p,
+                                std::vector<SolverArray>& solver_arrays) const override {
     const size_t n = pipeline_.size();
     p.id.resize(n), p.position.resize(n), p.velocity.resize(n);
     pipeline_.Download(p.id.data(), Floats(p.position), Floats(p.velocity), nullptr, nullptr);
+    std::vector<Real> carried(n);
+    solver_arrays.clear();
+    if (pipeline_.DownloadCarriedDensity(carried.data())) {
+      solver_arrays.push_back({std::string(wcsph::kCarriedDensity), std::move(carried)});
+    }
   }
 
   void DownloadById(float* position, float* velocity, float* density) const override {
@@ -222,8 +234,11 @@ class WcsphGpuBackend final : public GpuBackend {
   }
 
   StepReport Step(const Model& model, State& state) override {
-    const Real gravity = Real(physical::GravityAt(model.params, state.time));
-    const cuda::StepMaxima maxima = pipeline_.Forces(gravity);
+    const double g = physical::GravityAt(model.params, state.time);
+    const double c0 = model.params.speed_of_sound;
+    // rho^H_ij's factor, as ComputeDensityAndPressure
+    const Real hydrostatic = Real(-model.params.rest_density * g / (c0 * c0));
+    const cuda::StepMaxima maxima = pipeline_.Forces(Real(g), hydrostatic);
     if (pipeline_.max_cell_count() > NeighborGrid::kMaxParticlesPerCell) {
       return Crowded(pipeline_.max_cell_count());
     }

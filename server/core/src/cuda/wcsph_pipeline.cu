@@ -17,8 +17,9 @@ namespace {
 
 using namespace sph;  // NOLINT: this file is the wcsph half of those kernels
 
-__global__ void DensityKernel(DeviceGrid fluid_grid, DeviceGrid boundary_grid, Fluid f, Boundary b,
-                              SphConstants c, uint32_t n) {
+// The carried density's start: max(summation density, rho0) (InitialDensity).
+__global__ void InitialDensityKernel(DeviceGrid fluid_grid, DeviceGrid boundary_grid, Fluid f,
+                                     Boundary b, SphConstants c, float* carried, uint32_t n) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= n) return;
   const int3 cell = fluid_grid.SortedCell(i);
@@ -30,8 +31,39 @@ __global__ void DensityKernel(DeviceGrid fluid_grid, DeviceGrid boundary_grid, F
   ForEachWithin(boundary_grid, {b.x, b.y, b.z}, cell, x, c.support,
                 [&](uint32_t k, F3, float r) { wall += b.volume[k] * KernelW(r, c.support); });
   const float rho = c.mass * fluid + c.psi_scale * wall;
-  f.density[i] = rho;
-  const double ratio = double(rho) / c.rest_density;
+  const float rho0 = float(c.rest_density);
+  carried[i] = rho > rho0 ? rho : rho0;
+}
+
+// D rho / Dt of the continuity equation with the density diffusion, and the density and
+// pressure of the carried density (ComputeDensityAndPressure). hydrostatic: -rho0 g_y / c0^2.
+__global__ void DensityKernel(DeviceGrid fluid_grid, DeviceGrid boundary_grid, Fluid f, Boundary b,
+                              SphConstants c, const float* carried, float* rate, float hydrostatic,
+                              uint32_t n) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= n) return;
+  const int3 cell = fluid_grid.SortedCell(i);
+  const F3 x{f.x[i], f.y[i], f.z[i]};
+  const F3 v{f.vx[i], f.vy[i], f.vz[i]};
+  const float rho_i = carried[i];
+  float divergence = 0, diffused = 0;
+  ForEachWithin(fluid_grid, {f.x, f.y, f.z}, cell, x, c.support, [&](uint32_t j, F3 xij, float r) {
+    if (r <= 0) return;
+    const float g = GradFactor(r, c.support);
+    const F3 grad{xij.x * g, xij.y * g, xij.z * g};
+    divergence += Dot({v.x - f.vx[j], v.y - f.vy[j], v.z - f.vz[j]}, grad);
+    const float dynamic = carried[j] - rho_i - hydrostatic * xij.y;
+    diffused += dynamic * Dot({-xij.x, -xij.y, -xij.z}, grad) / (r * r * carried[j]);
+  });
+  float wall = 0;
+  ForEachWithin(boundary_grid, {b.x, b.y, b.z}, cell, x, c.support,
+                [&](uint32_t k, F3 xib, float r) {
+                  const float g = GradFactor(r, c.support);
+                  wall += b.volume[k] * Dot(v, {xib.x * g, xib.y * g, xib.z * g});
+                });
+  rate[i] = c.mass * divergence + c.psi_scale * wall + 2 * c.diffusion * c.mass * diffused;
+  f.density[i] = rho_i;
+  const double ratio = double(rho_i) / c.rest_density;
   const double pressure = c.stiffness * (pow(ratio, 7.0) - 1);
   f.pressure[i] = float(pressure > 0 ? pressure : 0);
 }
@@ -90,14 +122,18 @@ __global__ void PressureAccelerationKernel(DeviceGrid fluid_grid, DeviceGrid bou
   f.az[i] = 0.0f - c.gradient_scale * (c.mass * fluid.z + c.psi_scale * wall.z);
 }
 
-// v += a dt, the wall contact, x += v dt (Integrate in becker_teschner_solver.cc).
-__global__ void IntegrateKernel(Fluid f, SphConstants c, Surfaces s, float dt, uint32_t n) {
+// v += a dt, the wall contact, x += v dt, rho += (D rho / Dt) dt (Integrate in
+// becker_teschner_solver.cc).
+__global__ void IntegrateKernel(Fluid f, SphConstants c, Surfaces s, float* carried,
+                                const float* rate, float dt, uint32_t n) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= n) return;
   F3 v{f.vx[i] + f.ax[i] * dt, f.vy[i] + f.ay[i] * dt, f.vz[i] + f.az[i] * dt};
   const F3 x{f.x[i], f.y[i], f.z[i]};
   LimitApproachToSurfaces(c, s, x, dt, v);
   MoveAndStore(c, s, f, i, x, v, dt);
+  carried[i] += rate[i] * dt;
+  f.density[i] = carried[i];
 }
 
 }  // namespace
@@ -113,6 +149,10 @@ struct WcsphPipeline::Impl {
   DeviceBuffer<float> x, y, z, vx, vy, vz, x2, y2, z2, vx2, vy2, vz2;
   DeviceBuffer<uint32_t> id, id2;
   DeviceBuffer<float> density, pressure, ax, ay, az, p_over_rho2, speed2, acceleration2;
+  // The density the continuity equation carries (permuted with the particles), its scratch for
+  // the permutation, and the step's D rho / Dt; carried_ready false until InitialDensityKernel.
+  DeviceBuffer<float> carried, carried2, density_rate;
+  bool carried_ready = false;
   GridSorter sorter;
   // The boundary: positions, volumes and flags in its grid's order, its grid, and per step its
   // pressures and velocities.
@@ -157,9 +197,11 @@ struct WcsphPipeline::Impl {
   }
 
   void Allocate(uint32_t count) {
-    for (DeviceBuffer<float>* b :
-         {&x,   &y,   &z,       &vx,       &vy, &vz, &x2, &y2,          &z2,     &vx2,
-          &vy2, &vz2, &density, &pressure, &ax, &ay, &az, &p_over_rho2, &speed2, &acceleration2}) {
+    for (DeviceBuffer<float>* b : {&x,       &y,        &z,           &vx,       &vy,
+                                   &vz,      &x2,       &y2,          &z2,       &vx2,
+                                   &vy2,     &vz2,      &density,     &pressure, &ax,
+                                   &ay,      &az,       &p_over_rho2, &speed2,   &acceleration2,
+                                   &carried, &carried2, &density_rate}) {
       b->Resize(count > 0 ? count : 1);
     }
     id.Resize(count > 0 ? count : 1);
@@ -260,7 +302,7 @@ std::vector<std::string> WcsphPipeline::Configure(const WcsphStepConfig& config,
 }
 
 void WcsphPipeline::Upload(size_t n, const uint32_t* id, const float* position,
-                           const float* velocity) {
+                           const float* velocity, const float* carried_density) {
   Impl& m = *impl_;
   DeviceScope scope(m.device);
   if (n > uint64_t(UINT32_MAX) / 2) throw std::length_error("too many particles for the GPU");
@@ -273,6 +315,12 @@ void WcsphPipeline::Upload(size_t n, const uint32_t* id, const float* position,
               "uploading ids");
   }
   m.density.Zero(s), m.pressure.Zero(s);
+  m.carried_ready = carried_density != nullptr;
+  if (carried_density && n > 0) {
+    CheckCuda(cudaMemcpyAsync(m.carried.data(), carried_density, n * sizeof(float),
+                              cudaMemcpyHostToDevice, s),
+              "uploading the carried density");
+  }
   CheckCuda(cudaStreamSynchronize(s), "uploading particles");
 }
 
@@ -289,7 +337,17 @@ void WcsphPipeline::Download(uint32_t* id, float* position, float* velocity, flo
   CheckCuda(cudaStreamSynchronize(s), "downloading particles");
 }
 
-StepMaxima WcsphPipeline::Forces(float gravity) {
+bool WcsphPipeline::DownloadCarriedDensity(float* carried_density) const {
+  Impl& m = *impl_;
+  if (!m.carried_ready) return false;
+  DeviceScope scope(m.device);
+  cudaStream_t s = m.stream.get();
+  m.carried.CopyTo(carried_density, m.n, s);
+  CheckCuda(cudaStreamSynchronize(s), "downloading the carried density");
+  return true;
+}
+
+StepMaxima WcsphPipeline::Forces(float gravity, float hydrostatic) {
   Impl& m = *impl_;
   DeviceScope scope(m.device);
   const WcsphStepConfig& cfg = m.config;
@@ -309,13 +367,21 @@ StepMaxima WcsphPipeline::Forces(float gravity) {
     m.Gather(order, m.x, m.x2, n), m.Gather(order, m.y, m.y2, n), m.Gather(order, m.z, m.z2, n);
     m.Gather(order, m.vx, m.vx2, n), m.Gather(order, m.vy, m.vy2, n);
     m.Gather(order, m.vz, m.vz2, n), m.Gather(order, m.id, m.id2, n);
+    if (m.carried_ready) m.Gather(order, m.carried, m.carried2, n);
   }
   const DeviceGrid grid = m.sorter.View();
   const DeviceGrid bgrid = m.boundary_sorter.View();
   const Fluid f = m.View();
   const Boundary b = m.BoundaryView();
   begin_pass();  // density
-  if (n > 0) DensityKernel<<<blocks, kBlock, 0, s>>>(grid, bgrid, f, b, c, n);
+  if (n > 0) {
+    if (!m.carried_ready) {
+      InitialDensityKernel<<<blocks, kBlock, 0, s>>>(grid, bgrid, f, b, c, m.carried.data(), n);
+    }
+    DensityKernel<<<blocks, kBlock, 0, s>>>(grid, bgrid, f, b, c, m.carried.data(),
+                                            m.density_rate.data(), hydrostatic, n);
+  }
+  m.carried_ready = true;
   begin_pass();  // boundary_pressure
   if (m.nb > 0)
     BoundaryPressureKernel<<<boundary_blocks, kBlock, 0, s>>>(grid, bgrid, f, b, c, gravity);
@@ -359,7 +425,8 @@ StepOutcome WcsphPipeline::Integrate(float dt) {
   CheckCuda(cudaMemsetAsync(m.device_flags.data(), 0, 2 * sizeof(unsigned long long), s),
             "clearing the step's flags");
   if (n > 0) {
-    IntegrateKernel<<<blocks, kBlock, 0, s>>>(m.View(), m.config.constants, m.SurfaceView(), dt, n);
+    IntegrateKernel<<<blocks, kBlock, 0, s>>>(m.View(), m.config.constants, m.SurfaceView(),
+                                              m.carried.data(), m.density_rate.data(), dt, n);
   }
   m.timer.Record(m.pass, s);
   const Fluid f = m.View();
@@ -377,7 +444,7 @@ uint32_t WcsphPipeline::max_cell_count() const { return impl_->sorter.max_count(
 
 uint64_t WcsphPipeline::DeviceBytes() const {
   const Impl& m = *impl_;
-  return uint64_t(m.x.capacity()) * (20 * sizeof(float) + 2 * sizeof(uint32_t)) +
+  return uint64_t(m.x.capacity()) * (23 * sizeof(float) + 2 * sizeof(uint32_t)) +
          uint64_t(m.bx.capacity()) * (9 * sizeof(float) + 1) + m.sorter.DeviceBytes() +
          m.boundary_sorter.DeviceBytes() + m.reduce_temp.capacity();
 }

@@ -51,13 +51,20 @@ class WcsphPipeline {
 
   // Returns the pass names (the CPU solver's).
   std::vector<std::string> Configure(const WcsphStepConfig& config, const BoundaryCloud& boundary);
-  void Upload(size_t n, const uint32_t* id, const float* position, const float* velocity);
+  // carried_density: the continuity equation's density per particle (n values), or null: it
+  // starts at the next step from the positions (InitialDensity).
+  void Upload(size_t n, const uint32_t* id, const float* position, const float* velocity,
+              const float* carried_density);
   // Any output pointer may be null. position, velocity: n xyz triples.
   void Download(uint32_t* id, float* position, float* velocity, float* density,
                 float* pressure) const;
+  // The carried density (n values, storage order) into carried_density; false (nothing
+  // copied) before it has started.
+  bool DownloadCarriedDensity(float* carried_density) const;
   // The passes before the time step (neighbour_grid ... wall_viscosity) with gravity `gravity`
-  // (m/s^2 along y), and the time_step pass's maxima.
-  StepMaxima Forces(float gravity);
+  // (m/s^2 along y) and the density diffusion's hydrostatic part -rho0 gravity / c0^2 (kg/m^4),
+  // and the time_step pass's maxima.
+  StepMaxima Forces(float gravity, float hydrostatic);
   // The integrate pass with the step dt; the outcome holds every pass's time.
   StepOutcome Integrate(float dt);
   // Positions and velocities (xyz triples) and densities in particle-id order (id k at k);

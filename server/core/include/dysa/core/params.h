@@ -46,6 +46,9 @@ struct Params {
   double cfl_factor = 0.25;           // dt <= cfl_factor d / (c0 + v_max)
   double max_time_step = 0.005;       // s, upper bound of the adaptive step
   double gravity_ramp_time = 0.0;     // s, gravity grows smoothly from 0 over this time (0: none)
+  // wcsph only: delta of the continuity equation's density diffusion (Fourtakas et al. 2019's
+  // form of delta-SPH; 0: the continuity equation without it).
+  double density_diffusion = 0.1;
   // dfsph only: the solvers' tolerances (Bender & Koschier 2017 defaults) and iteration cap.
   double density_tolerance = 1e-4;     // mean (rho - rho0) / rho0 after the density solve
   double divergence_tolerance = 1e-3;  // mean (D rho / Dt) dt / rho0 after the divergence solve

@@ -146,6 +146,14 @@ FrontError FrontErrorWithDelay(const std::vector<FrontSample>& trace,
 FrontDiagnostics DiagnoseFront(const std::vector<FrontSample>& trace,
                                const std::vector<MartinMoyceRow>& table);
 
+// Martin & Moyce 1952's second table for the same column (n^2 = 2): the residual height of the
+// column at the wall, H = eta / (2 a), against tau = t sqrt(g / a), as tabulated in
+// scenes/validation/dam_break_martin_moyce_1952_height.csv.
+struct MartinMoyceHeightRow {
+  double tau, H;
+};
+const std::vector<MartinMoyceHeightRow>& MartinMoyce1952ResidualHeight();
+
 struct DamBreakResult {
   ValidationRun run;
   double column_width = 0;  // m, a
@@ -158,6 +166,16 @@ struct DamBreakResult {
   std::vector<Row> rows;
   std::vector<FrontSample> trace;  // the front after every step
   FrontDiagnostics diagnostics;
+  // The residual column at the wall against MartinMoyce1952ResidualHeight(): eta is
+  // ConnectedColumnHeight at x = the wall, mid-slab, over a horizontal radius of one kernel
+  // support (gap: one kernel support) plus the half spacing, H = eta / (2 a); the run goes on to
+  // the table's last tau (3.44, T = tau sqrt(2) = 4.86).
+  struct HeightRow {
+    double tau, H, H_ref;
+  };
+  std::vector<HeightRow> heights;
+  double height_rms_error = 0;  // RMS of |H - H_ref| / H_ref over the table
+  double height_max_error = 0;
 };
 DamBreakResult RunDamBreak(const ValidationOptions& options = {});
 // The same with the release modelled (`dam_break_martin_moyce_gate`): a gate at x = a lifted at

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <string>
 
 #include "dysa/core/kernels.h"
 #include "solvers/domain_walls.h"
@@ -15,19 +16,26 @@ using physical::AddViscosity;
 using physical::AddWallViscosity;
 using physical::GravityAt;
 using physical::kTaitExponent;
-using physical::SortIntoGrid;
 
-void ComputeDensityAndPressure(const Model& model, BeckerTeschnerData& data, State& state) {
+void SortIntoGrid(const Model& model, BeckerTeschnerData& data, State& state) {
+  physical::SortIntoGrid(model, state);
+  // The carried density moves with its particle; one of another size (particles the solver did
+  // not start) is left for InitialDensity.
+  if (data.density.size() == state.particles.size()) {
+    PermuteInPlace(state.grid.order(), data.density, state.real_scratch);
+  }
+}
+
+void InitialDensity(const Model& model, BeckerTeschnerData& data, State& state) {
   const BoundaryParticles& boundary = *data.boundary;
-  ParticleArrays& p = state.particles;
+  const ParticleArrays& p = state.particles;
   const Real support = Real(model.kernel_support);
   const Real mass = Real(model.particle_mass);
-  const double rho0 = model.params.rest_density;
-  const Real psi_scale = Real(rho0);  // Psi_b = rho0 V_b
-  const double stiffness = rho0 * model.params.speed_of_sound * model.params.speed_of_sound /
-                           kTaitExponent;  // B = rho0 c0^2 / gamma
+  const Real rho0 = Real(model.params.rest_density);
+  const Real psi_scale = rho0;  // Psi_b = rho0 V_b
   const Real* volume = boundary.padded_volume();
   const int64_t n = int64_t(p.size());
+  data.density.resize(p.size());
 #pragma omp parallel for schedule(static)
   for (int64_t i = 0; i < n; ++i) {
     const Eigen::Vector3i cell = state.grid.SortedCell(uint32_t(i));
@@ -41,10 +49,60 @@ void ComputeDensityAndPressure(const Model& model, BeckerTeschnerData& data, Sta
       wall += volume[b] * CubicSpline<Real>::W(r, support);
     });
     const Real rho = mass * fluid + psi_scale * wall;
-    p.density[i] = rho;
+    data.density[i] = rho > rho0 ? rho : rho0;
+  }
+}
+
+void ComputeDensityAndPressure(const Model& model, BeckerTeschnerData& data, State& state) {
+  if (data.density.size() != state.particles.size()) InitialDensity(model, data, state);
+  const BoundaryParticles& boundary = *data.boundary;
+  ParticleArrays& p = state.particles;
+  const Real support = Real(model.kernel_support);
+  const Real mass = Real(model.particle_mass);
+  const double rho0 = model.params.rest_density;
+  const double c0 = model.params.speed_of_sound;
+  const Real psi_scale = Real(rho0);                        // Psi_b = rho0 V_b
+  const double stiffness = rho0 * c0 * c0 / kTaitExponent;  // B = rho0 c0^2 / gamma
+  // delta h c0 of the diffusive term, h = d (the support is 2 h)
+  const Real diffusion = Real(model.params.density_diffusion * model.params.particle_spacing * c0);
+  // rho^H_ij = -rho0 g_y y_ij / c0^2: the hydrostatic density difference rho_j - rho_i
+  const Real hydrostatic = Real(-rho0 * GravityAt(model.params, state.time) / (c0 * c0));
+  const Real* rho = data.density.data();
+  const Real* volume = boundary.padded_volume();
+  const Vec3* boundary_velocity =
+      boundary.HasMovingObstacles() ? boundary.velocity().data() : nullptr;
+  const int64_t n = int64_t(p.size());
+  data.density_rate.resize(p.size());
+#pragma omp parallel for schedule(static)
+  for (int64_t i = 0; i < n; ++i) {
+    const Eigen::Vector3i cell = state.grid.SortedCell(uint32_t(i));
+    const Vec3& x = p.position[i];
+    const Vec3& v = p.velocity[i];
+    const Real rho_i = rho[i];
+    Real divergence = 0;  // sum_j m (v_i - v_j) . grad W_ij
+    Real diffused = 0;    // sum_j (rho_j - rho_i - rho^H_ij) (x_ji . grad W_ij) / r^2 / rho_j
+    ForEachWithin(state.grid, cell, x, support, [&](uint32_t j, const Vec3& xij, Real r) {
+      if (r <= 0) return;
+      const Vec3 grad = GradW(xij, r, support);
+      divergence += (v - p.velocity[j]).dot(grad);
+      const Real dynamic = rho[j] - rho_i - hydrostatic * xij.y();
+      diffused += dynamic * (-xij.dot(grad)) / (r * r * rho[j]);
+    });
+    Real wall = 0;  // sum_b V_b (v_i - v_b) . grad W_ib, v_b = 0 but on moving obstacles
+    if (boundary_velocity == nullptr) {
+      ForEachWithin(boundary.grid(), cell, x, support, [&](uint32_t b, const Vec3& xib, Real r) {
+        wall += volume[b] * v.dot(GradW(xib, r, support));
+      });
+    } else {
+      ForEachWithin(boundary.grid(), cell, x, support, [&](uint32_t b, const Vec3& xib, Real r) {
+        wall += volume[b] * (v - boundary_velocity[b]).dot(GradW(xib, r, support));
+      });
+    }
+    data.density_rate[i] = mass * divergence + psi_scale * wall + 2 * diffusion * mass * diffused;
+    p.density[i] = rho_i;
     // In double: (rho / rho0)^7 - 1 of a 0.1% compression is 7e-3, which float would round to
     // a few digits.
-    const double ratio = double(rho) / rho0;
+    const double ratio = double(rho_i) / rho0;
     const double pressure = stiffness * (std::pow(ratio, kTaitExponent) - 1);
     p.pressure[i] = Real(pressure > 0 ? pressure : 0);
   }
@@ -137,6 +195,24 @@ void Integrate(const Model& model, BeckerTeschnerData& data, State& state) {
     physical::LimitApproachToSurfaces(model, frames, dt, p.position[i], p.velocity[i]);
     p.position[i] += p.velocity[i] * dt;
     CollideWithDomainWalls(model.domain, model.periodic, Real(0), p.position[i], p.velocity[i]);
+    data.density[i] += data.density_rate[i] * dt;
+    p.density[i] = data.density[i];
+  }
+}
+
+void BeckerTeschnerSolver::Reset(size_t particles) {
+  (void)particles;
+  data_.density.clear();  // InitialDensity at the next step, from the positions
+}
+
+std::vector<SolverArray> BeckerTeschnerSolver::SaveArrays() const {
+  return {{std::string(kCarriedDensity), data_.density}};
+}
+
+void BeckerTeschnerSolver::RestoreArrays(std::span<const SolverArray> arrays, size_t particles) {
+  Reset(particles);
+  if (const auto* saved = FindSolverArray(arrays, kCarriedDensity, particles)) {
+    data_.density = *saved;
   }
 }
 
@@ -146,7 +222,7 @@ std::vector<Pass> BeckerTeschnerSolver::BuildPasses(const Model& model) {
   if (data_.boundary->HasMovingObstacles()) {
     passes.push_back(SolverPass("move_boundary", data_, physical::MoveBoundary));
   }
-  passes.push_back({"neighbour_grid", SortIntoGrid});
+  passes.push_back(SolverPass("neighbour_grid", data_, SortIntoGrid));
   passes.push_back(SolverPass("density", data_, ComputeDensityAndPressure));
   passes.push_back(SolverPass("boundary_pressure", data_, ComputeBoundaryPressure));
   passes.push_back(SolverPass("pressure_force", data_, ComputePressureAcceleration));

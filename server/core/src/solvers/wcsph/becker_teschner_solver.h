@@ -3,9 +3,39 @@
 //
 // In SI units, with d = particle_spacing, support H = 2 d of the cubic spline (kernels.h),
 // particle mass m = rho0 d^3:
-//   density      rho_i = sum_j m W_ij + sum_b Psi_b W_ib           (Akinci et al. 2012, eq. 6)
+//   density      carried by the continuity equation with a density diffusion term (delta-SPH):
+//                D rho_i / Dt = sum_j m (v_i - v_j) . grad W_ij + sum_b Psi_b v_i . grad W_ib
+//                             + delta h c0 sum_j psi_ij . grad W_ij m / rho_j,
+//                psi_ij = 2 (rho_j - rho_i - rho^H_ij) (x_j - x_i) / |x_ij|^2,
+//                rho^H_ij = -rho0 g_y (y_i - y_j) / c0^2 (h = d, walls at rest: v_b = 0).
+//                The first two terms are the time derivative of the summation density
+//                sum_j m W_ij + sum_b Psi_b W_ib (Akinci et al. 2012, eq. 6), so the two agree
+//                wherever the kernel is full; the diffusive term is Molteni & Colagrossi's
+//                ("A simple procedure to improve the pressure evaluation in hydrodynamic context
+//                using the SPH", Comput. Phys. Commun. 180 (2009) 861-872) with the hydrostatic
+//                density difference rho^H_ij taken out as in Fourtakas, Dominguez, Vacondio,
+//                Rogers 2019 ("Local uniform stencil (LUST) boundary condition for arbitrary 3-D
+//                boundaries in parallel SPH models", Comput. Fluids 190, 346-361; DualSPHysics'
+//                DensityDT=2), linearised in rho0 g dy / B ~ 1e-3: a column at rest keeps its
+//                hydrostatic density instead of diffusing it towards uniform, which Antuono et
+//                al. 2010 (Comput. Phys. Commun. 181, 532-549) do with renormalised density
+//                gradients at the cost of a matrix per particle. It runs over fluid pairs only
+//                (DualSPHysics' DensityDT=2 likewise): the boundary particles carry no density
+//                of their own. psi_ji = psi_ij, so the term is antisymmetric in the pair and
+//                sum_i (m / rho_i) D_i = 0. delta = density_diffusion (0.1, the literature's);
+//                0 leaves the plain continuity equation, whose pressure noise is left undamped
+//                (docs/validation.md: the dam break's front 41% off at the quick resolution).
+//                Why not the summation density (as before): with p clamped at 0, a collapsing
+//                column whose particles have opened up by a few percent has no pressure at all,
+//                and nothing closes it again; the dam break's residual column then drains 50%
+//                too slowly by tau = 3.44 (docs/validation.md). The carried density remembers that
+//                each particle holds a rest volume m / rho0, and a free surface's kernel deficit
+//                no longer counts as expansion. It starts (InitialDensity: a new run, a reset, a
+//                checkpoint without it, particles the solver did not start) at max(summation
+//                density, rho0): rho0 on a spawned lattice, the summation density of a state
+//                compressed by another solver. A checkpoint holds it (SaveArrays, "density").
 //   Tait EOS     p_i = B ((rho_i / rho0)^gamma - 1), B = rho0 c0^2 / gamma, gamma = 7 (eq. 7),
-//                clamped at 0: a free surface's kernel deficit must not pull particles together
+//                clamped at 0: an expanding splash must not pull particles together
 //   pressure     a_i = -[sum_j m (p_i / rho_i^2 + p_j / rho_j^2) grad W_ij          (eq. 6)
 //                       + sum_b Psi_b (p_i / rho_i^2 + p_b / rho_b^2) grad W_ib] / mu
 //                with mu the kernel's gradient moment on the rest lattice (1.020 at support
@@ -44,7 +74,8 @@
 //                at the default CFL factor after 1.4 s, and at a CFL factor of 0.4 and beyond
 //                the bulk too: bench/stress_bench.)
 //   gravity      g(t) = g (1 - cos(pi t / T)) / 2 for t < T, g after (ramp time T; 0: none)
-//   integration  semi-implicit (symplectic) Euler, v += a dt; x += v dt, with the CFL step of
+//   integration  semi-implicit (symplectic) Euler, v += a dt; x += v dt; rho += (D rho / Dt) dt
+//                (the rate of the step's start, like a), with the CFL step of
 //                cfl_time_step.h; the speed of sound c0 >= 10 v_max keeps density variations
 //                near 1% (Becker & Teschner, sec. 3.1; Monaghan 1994).
 // Every neighbour loop gathers into the particle it is for, reading the state of the previous
@@ -55,6 +86,8 @@
 #pragma once
 
 #include <memory>
+#include <span>
+#include <string_view>
 #include <vector>
 
 #include "dysa/core/solver.h"
@@ -66,13 +99,26 @@ namespace dysa::wcsph {
 struct BeckerTeschnerData : physical::PhysicalData {
   // Pa, per boundary particle: the pressure extrapolated from the fluid around it.
   std::vector<Real> boundary_pressure;
+  // kg/m^3, per particle in storage order: the density the continuity equation carries from
+  // step to step (a checkpoint holds it: SaveArrays), permuted with the particles; empty or of
+  // another size until InitialDensity.
+  std::vector<Real> density;
+  // kg/m^3/s, per particle: this step's D rho / Dt.
+  std::vector<Real> density_rate;
 };
+
+// The name of the carried density in a checkpoint (SolverArray::name).
+inline constexpr std::string_view kCarriedDensity = "density";
 
 class BeckerTeschnerSolver final : public Solver {
  public:
   // Samples the boundary particles (from the domain, the obstacles and the spacing) for the
   // passes of this list.
   std::vector<Pass> BuildPasses(const Model& model) override;
+  // The carried density starts (InitialDensity) at the next step.
+  void Reset(size_t particles) override;
+  std::vector<SolverArray> SaveArrays() const override;
+  void RestoreArrays(std::span<const SolverArray> arrays, size_t particles) override;
   const BeckerTeschnerData& data() const { return data_; }
 
  private:
@@ -83,13 +129,19 @@ std::unique_ptr<Solver> CreateBeckerTeschnerSolver();
 
 // The passes, exposed for tests; those it shares with dfsph (the neighbour sort, viscosity, the
 // wall contact, gravity) are in solvers/physical/physical_passes.h.
+// The neighbour sort, which also carries data.density along with the particles.
+void SortIntoGrid(const Model& model, BeckerTeschnerData& data, State& state);
+// data.density of every particle from the positions: max(summation density, rho0).
+void InitialDensity(const Model& model, BeckerTeschnerData& data, State& state);
+// p.density and p.pressure from the carried density (InitialDensity first where it has another
+// size than the particles), and data.density_rate, D rho / Dt of the continuity equation.
 void ComputeDensityAndPressure(const Model& model, BeckerTeschnerData& data, State& state);
 // data.boundary_pressure: each boundary particle's pressure extrapolated from the fluid.
 void ComputeBoundaryPressure(const Model& model, BeckerTeschnerData& data, State& state);
 // Sets data.acceleration to gravity plus the pressure acceleration.
 void ComputePressureAcceleration(const Model& model, BeckerTeschnerData& data, State& state);
 // v += a dt, the wall contact (physical::LimitApproachToSurfaces), x += v dt, the last-resort
-// clamp.
+// clamp, rho += (D rho / Dt) dt.
 void Integrate(const Model& model, BeckerTeschnerData& data, State& state);
 
 }  // namespace dysa::wcsph
