@@ -62,7 +62,8 @@ std::string SphericSeriesText(const SphericTest2Result& r, double interval) {
     const size_t i = SampleAt(r.times, t);
     s += Format("%6.3f", t);
     for (int p = 0; p < kSphericPressureSensors; ++p) {
-      s += Format(" %6.2f", r.pressure_filtered[p][i] / 1000);
+      // Not below 0 (a running sum's rounding can leave -1e-13 of a dry sensor's 0).
+      s += Format(" %6.2f", std::max(0.0, r.pressure_filtered[p][i]) / 1000);
     }
     // The reference rows are 10 ms apart from t = 0.
     const size_t row = std::min(reference.size() - 1, size_t(std::lround(t / 0.01)));

@@ -76,9 +76,11 @@ struct SphericTest2Result {
   std::array<double, kSphericGauges> height_error{};
 };
 
-// Runs `spheric_test2` from t = 0 to `end_time` (0: the scene's, 2 s). With options.spacing the
-// water is refitted to the lattice: as many whole spacings as fit its 1.228 x 0.55 x 1 m (the
-// nearest count, fewer where that would be wider than the tank), against the wall x = 3.22.
+// Runs `spheric_test2` from t = 0 to `end_time` (0: the scene's, 2 s), sampling every probe
+// after every step. The water is fitted to the particle lattice (at the scene's spacing or
+// options.spacing): as many whole spacings as fit its 1.228 x 0.55 x 1 m (the nearest count,
+// one fewer where that would be wider than the tank), against the wall x = 3.22 m. Throws
+// ConfigError for bad options, and when the run stops (Simulation::alarm).
 SphericTest2Result RunSphericTest2(const ValidationOptions& options = {}, double end_time = 0);
 
 }  // namespace dysa
