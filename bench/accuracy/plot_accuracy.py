@@ -57,3 +57,53 @@ for ax, case in zip(axes[0], cases):
 fig.tight_layout()
 fig.savefig(results / "accuracy.png", dpi=110)
 print("wrote", results / "accuracy.png")
+
+# SPHERIC Test 2 (accuracy_bench --case spheric_test2), when it was run: its errors against wall
+# time, and P1 and H4 over time beside the published arrival and peak and the MARIN heights.
+spheric_csv = results / "accuracy_spheric_test2.csv"
+if spheric_csv.exists():
+    srows = list(csv.DictReader(open(spheric_csv)))
+    fig, (ax_err, ax_p1, ax_h4) = plt.subplots(1, 3, figsize=(18, 4.6))
+    walls = [float(r["wall_s"]) for r in srows]
+    for key, label in (("h4_error_1s", "H4 RMS relative error, t <= 1 s"),
+                       ("p1_peak_error", "|P1 filtered peak / 11 kPa - 1|"),
+                       ("p1_arrival_error_s", "|P1 arrival - 0.395 s| / 0.1 s")):
+        scale = 10.0 if key == "p1_arrival_error_s" else 1.0
+        ys = [max(abs(float(r[key])) * scale, 1e-4) for r in srows]
+        ax_err.plot(walls, ys, marker="o", linestyle=":", label=label)
+        for r, x, y in zip(srows, walls, ys):
+            ax_err.annotate("%.4g" % float(r["spacing_m"]), (x, y), fontsize=6,
+                            textcoords="offset points", xytext=(3, 3))
+    ax_err.set_xscale("log")
+    ax_err.set_yscale("log")
+    ax_err.set_xlabel("wall time, s (2 threads)")
+    ax_err.set_ylabel("error")
+    ax_err.set_title("SPHERIC Test 2 (wcsph, to 1 s)", fontsize=10)
+    ax_err.grid(True, which="both", alpha=0.3)
+    ax_err.legend(fontsize=7)
+    marin = [line.strip().split(",") for line in
+             open(Path(__file__).resolve().parents[2] /
+                  "scenes/validation/spheric_test2_marin_heights.csv")
+             if line[:1].isdigit()]
+    ax_h4.plot([float(m[0]) for m in marin], [float(m[4]) for m in marin], "k--", linewidth=2,
+               label="MARIN (Kleefsman et al. 2005)")
+    for r in srows:
+        series = list(csv.DictReader(open(results / ("spheric_test2_series_%.4f.csv"
+                                                     % float(r["spacing_m"])))))
+        t = [float(s["t_s"]) for s in series]
+        label = "d = %.4g m" % float(r["spacing_m"])
+        ax_p1.plot(t, [float(s["P1_pa"]) / 1000 for s in series], linewidth=0.8, label=label)
+        ax_h4.plot(t, [float(s["H4_m"]) for s in series], linewidth=0.8, label=label)
+    ax_p1.axvspan(0.39, 0.40, color="grey", alpha=0.3, label="published arrival 0.39-0.40 s")
+    ax_p1.axhline(11, color="black", linestyle="--", linewidth=1, label="published peak 11 kPa")
+    ax_p1.set_xlim(0.3, 1.0)
+    ax_p1.set_xlabel("t, s")
+    ax_p1.set_ylabel("P1, kPa (5 ms centred average)")
+    ax_p1.legend(fontsize=7)
+    ax_h4.set_xlim(0, 1.0)
+    ax_h4.set_xlabel("t, s")
+    ax_h4.set_ylabel("H4, m")
+    ax_h4.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(results / "accuracy_spheric_test2.png", dpi=110)
+    print("wrote", results / "accuracy_spheric_test2.png")

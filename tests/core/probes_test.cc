@@ -164,6 +164,106 @@ TEST(ProbesTest, PressureIsAPoly6WeightedAverage) {
   EXPECT_NEAR(Evaluate1(probe, model, state), (100 * w0 + 400 * w1) / (w0 + w1), 1e-9);
 }
 
+// A column of water on a lattice of spacing 0.1 against a wall face at x = 0.95 (normal +x),
+// rho = 1000 and the hydrostatic pressure p = rho |g| (H - y) of gravity -10 (the seed model's
+// default), with H = 1.
+State HydrostaticColumn(double face_x) {
+  std::vector<Vec3> positions;
+  for (int x = 0; x < 6; ++x) {
+    for (int y = 0; y < 10; ++y) {
+      for (int z = 0; z < 6; ++z) {
+        positions.push_back(
+            Vec3(Real(face_x + 0.05 + 0.1 * x), Real(0.05 + 0.1 * y), Real(1.75 + 0.1 * z)));
+      }
+    }
+  }
+  State state = MakeState(positions);
+  for (size_t i = 0; i < positions.size(); ++i) {
+    state.particles.density[i] = 1000;
+    state.particles.pressure[i] = Real(1000 * 10 * (1.0 - positions[i].y()));
+  }
+  return state;
+}
+
+TEST(ProbesTest, WallPressureOfAHydrostaticColumnIsRhoGDepthAtTheSensor) {
+  const Model model = TestModel();  // support 0.5, gravity -10
+  const State state = HydrostaticColumn(0.95);
+  ProbeSpec probe = Probe(ProbeKind::kWallPressure, "p");
+  probe.normal = Vec3d(1, 0, 0);
+  // On the face, from the floor up: every particle's pressure carried to the sensor's height is
+  // rho g (H - y_s), so the reading is exact wherever the support reaches fluid, near the floor
+  // and the surface too (where the particles around lie on one side of the sensor's height).
+  for (const double y : {0.0, 0.02, 0.3, 0.55, 0.9}) {
+    probe.point = Vec3d(0.95, y, 2.0);
+    EXPECT_NEAR(Evaluate1(probe, model, state), 1000 * 10 * (1.0 - y), 0.05) << "y = " << y;
+  }
+  // The plain interpolation reads the mean pressure of the particles around, which at the floor
+  // all lie above the sensor: it misses rho g h there by more than 10%.
+  ProbeSpec plain = Probe(ProbeKind::kPressure, "p");
+  plain.point = Vec3d(0.95, 0.0, 2.0);
+  EXPECT_LT(Evaluate1(plain, model, state), 0.9 * 1000 * 10);
+}
+
+TEST(ProbesTest, WallPressureInAirIsZero) {
+  const Model model = TestModel();
+  const State state = HydrostaticColumn(0.95);
+  ProbeSpec probe = Probe(ProbeKind::kWallPressure, "p");
+  probe.normal = Vec3d(1, 0, 0);
+  // Above the water (H = 1) by more than the support, and far along the wall: dry sensors.
+  probe.point = Vec3d(0.95, 1.6, 2.0);
+  EXPECT_EQ(Evaluate1(probe, model, state), 0.0);
+  probe.point = Vec3d(0.95, 0.5, 3.5);
+  EXPECT_EQ(Evaluate1(probe, model, state), 0.0);
+  // Within the support of the surface particles but above them: their pressure carried up to
+  // the sensor is negative (air does not pull on a sensor), so it reads 0.
+  probe.point = Vec3d(0.95, 1.3, 2.0);
+  EXPECT_EQ(Evaluate1(probe, model, state), 0.0);
+}
+
+TEST(ProbesTest, WallPressureCountsOnlyTheFluidOnTheNormalsSide) {
+  const Model model = TestModel();
+  State state = HydrostaticColumn(0.95);
+  // Water at ten times the pressure behind the face (x < 0.95), within the support of a sensor
+  // on it: a sensor sees the side its face looks into.
+  const size_t front = state.particles.size();
+  std::vector<Vec3> positions(state.particles.position);
+  for (int y = 0; y < 10; ++y) positions.push_back(Vec3(0.9f, Real(0.05 + 0.1 * y), 2.05f));
+  State both = MakeState(positions);
+  for (size_t i = 0; i < positions.size(); ++i) {
+    both.particles.density[i] = 1000;
+    both.particles.pressure[i] = Real((i < front ? 1 : 10) * 1000 * 10 * (1.0 - positions[i].y()));
+  }
+  ProbeSpec probe = Probe(ProbeKind::kWallPressure, "p");
+  probe.point = Vec3d(0.95, 0.5, 2.0);
+  probe.normal = Vec3d(3, 0, 0);  // any length
+  EXPECT_NEAR(Evaluate1(probe, model, both), 5000, 0.05);
+  // Without a normal every particle around counts, and the ones behind the face raise it.
+  probe.normal = Vec3d::Zero();
+  EXPECT_GT(Evaluate1(probe, model, both), 6000);
+}
+
+TEST(ProbesTest, WallPressureTakesTheGravityOfTheTime) {
+  Scene scene;
+  scene.domain = Aabb{Vec3d(0, -1, 0), Vec3d(4, 3, 4)};
+  Params params;
+  params.smoothing_radius = 0.5;
+  params.gravity_ramp_time = 1.0;  // gravity 0 at t = 0, all of it from t = 1 s
+  const Model model = MakeModel(scene, params);
+  State state = HydrostaticColumn(0.95);
+  const Vec3d sensor(0.95, 0.3, 2.0);
+  EXPECT_NEAR(WallPressureAt(state.particles, model, sensor, Vec3d(1, 0, 0), 2.0), 7000, 0.05);
+  // At t = 0 no correction: the cubic-spline Shepard average of the particles' pressures.
+  double weighted = 0, weights = 0;
+  for (size_t i = 0; i < state.particles.size(); ++i) {
+    const double w =
+        CubicSpline<double>::W((state.particles.position[i].cast<double>() - sensor).norm(), 0.5);
+    weighted += w * state.particles.pressure[i];
+    weights += w;
+  }
+  EXPECT_NEAR(WallPressureAt(state.particles, model, sensor, Vec3d(1, 0, 0), 0.0),
+              weighted / weights, 1e-6 * weighted / weights);
+}
+
 TEST(ProbesTest, DensityMeanAndMax) {
   const Model model = TestModel();
   State state = MakeState({Vec3(1, 1, 1), Vec3(2, 1, 1), Vec3(3, 1, 1), Vec3(1, 2, 1)});

@@ -155,7 +155,10 @@ TEST(ParseSceneTest, ReadsEveryField) {
                {"type": "density", "name": "rho"},
                {"type": "kinetic_energy"},
                {"type": "count_inside", "name": "c",
-                "region": {"min": [0, 0, 0], "max": [1, 1, 1]}}]
+                "region": {"min": [0, 0, 0], "max": [1, 1, 1]}},
+               {"type": "wall_pressure", "name": "P1", "point": [0.8, 0.02, 0.4],
+                "normal": [1, 0, 0]},
+               {"type": "wall_pressure", "name": "P0", "point": [0, 0.5, 0]}]
   })");
   EXPECT_EQ(scene.name, "n");
   EXPECT_EQ(scene.description, "d");
@@ -182,7 +185,7 @@ TEST(ParseSceneTest, ReadsEveryField) {
   EXPECT_EQ(scene.params.particle_quantity, 7);
   EXPECT_EQ(scene.end_time, 2.5);
   EXPECT_EQ(*scene.probe_interval, 0.1);
-  ASSERT_EQ(scene.probes.size(), 6u);
+  ASSERT_EQ(scene.probes.size(), 8u);
   EXPECT_EQ(scene.probes[0].kind, ProbeKind::kFront);
   EXPECT_EQ(scene.probes[0].axis, 2);
   EXPECT_EQ(scene.probes[1].kind, ProbeKind::kHeight);
@@ -196,6 +199,10 @@ TEST(ParseSceneTest, ReadsEveryField) {
   EXPECT_EQ(scene.probes[5].kind, ProbeKind::kCountInside);
   ASSERT_TRUE(scene.probes[5].region);
   EXPECT_EQ(scene.probes[5].region->max, Vec3d(1, 1, 1));
+  EXPECT_EQ(scene.probes[6].kind, ProbeKind::kWallPressure);
+  EXPECT_EQ(scene.probes[6].point, Vec3d(0.8, 0.02, 0.4));
+  EXPECT_EQ(scene.probes[6].normal, Vec3d(1, 0, 0));
+  EXPECT_EQ(scene.probes[7].normal, Vec3d::Zero());  // no normal: every side counts
 
   const std::vector<Eigen::Vector3i> counts = BlockParticleCounts(scene, scene.params);
   ASSERT_EQ(counts.size(), 3u);
@@ -354,6 +361,11 @@ TEST(ParseSceneTest, BadProbesAreNamed) {
   ExpectConfigError(R"({"probes": [{"type": "density", "name": ""}]})", "probes[0].name");
   ExpectConfigError(R"({"probes": [{"type": "height", "radius": -1}]})", "probes[0].radius");
   ExpectConfigError(R"({"probes": [{"type": "height", "gap": -1}]})", "probes[0].gap");
+  ExpectConfigError(R"({"probes": [{"type": "wall_pressure"}]})", "probes[0].point");
+  ExpectConfigError(R"({"probes": [{"type": "wall_pressure", "point": [0, 0, 0], "normal": 1}]})",
+                    "probes[0].normal");
+  ExpectConfigError(R"({"probes": [{"type": "wall_pressure", "point": [0, 0, 0], "radius": 0.1}]})",
+                    "probes[0].radius");
 }
 
 TEST(ParseSceneTest, DuplicateProbeNamesAreRejected) {

@@ -5,6 +5,7 @@
 #include <limits>
 
 #include "dysa/core/kernels.h"
+#include "solvers/physical/physical_passes.h"
 
 namespace dysa {
 
@@ -54,6 +55,25 @@ double PressureAt(const ParticleArrays& p, const Model& model, const Vec3d& poin
 
 }  // namespace
 
+double WallPressureAt(const ParticleArrays& p, const Model& model, const Vec3d& point,
+                      const Vec3d& normal, double time) {
+  const double support = model.kernel_support;
+  const double g = physical::GravityAt(model.params, time);  // along +y
+  double weighted = 0;
+  double weights = 0;
+  for (size_t i = 0; i < p.size(); ++i) {
+    const Vec3d to_particle = model.MinimumImage(Vec3d(p.position[i].cast<double>() - point));
+    if (to_particle.dot(normal) < 0) continue;
+    const double w = CubicSpline<double>::W(to_particle.norm(), support);
+    if (w <= 0) continue;
+    // g . (x_s - x_f) = g (y_s - y_f): the weight of the water between the particle and the
+    // sensor's height.
+    weighted += (double(p.pressure[i]) - double(p.density[i]) * g * to_particle.y()) * w;
+    weights += w;
+  }
+  return weights > 0 ? std::max(0.0, weighted / weights) : 0.0;
+}
+
 double ConnectedColumnHeight(const ParticleArrays& particles, const Model& model,
                              const Vec3d& point, double radius, double gap, double floor) {
   std::vector<double> heights;
@@ -84,6 +104,9 @@ std::vector<double> EvaluateProbes(std::span<const ProbeSpec> probes, const Mode
         break;
       case ProbeKind::kPressure:
         values.push_back(PressureAt(p, model, probe.point));
+        break;
+      case ProbeKind::kWallPressure:
+        values.push_back(WallPressureAt(p, model, probe.point, probe.normal, state.time));
         break;
       case ProbeKind::kDensity: {
         double sum = 0;

@@ -350,6 +350,7 @@ const std::map<std::string, ProbeKind>& ProbeKinds() {
       {"front", ProbeKind::kFront},
       {"height", ProbeKind::kHeight},
       {"pressure", ProbeKind::kPressure},
+      {"wall_pressure", ProbeKind::kWallPressure},
       {"density", ProbeKind::kDensity},
       {"kinetic_energy", ProbeKind::kKineticEnergy},
       {"count_inside", ProbeKind::kCountInside},
@@ -389,6 +390,14 @@ ProbeSpec ParseProbe(const json& j, const std::string& path) {
       break;
     case ProbeKind::kPressure:
       p.point = r.Vector("point", -kMaxCoord, kMaxCoord, "m").value_or(Vec3d::Zero());
+      break;
+    case ProbeKind::kWallPressure:
+      if (r.Get("point") == nullptr) {
+        throw ConfigError(r.PathOf("point"), "a wall_pressure probe needs its point on the face");
+      }
+      p.point = *r.Vector("point", -kMaxCoord, kMaxCoord, "m");
+      // Any length: only its direction is used.
+      p.normal = r.Vector("normal", -1e6, 1e6).value_or(Vec3d::Zero());
       break;
     case ProbeKind::kCountInside:
       if (const json* region = r.Get("region")) p.region = ParseBox(*region, r.PathOf("region"));

@@ -23,6 +23,19 @@ std::vector<std::string> ProbeColumns(std::span<const ProbeSpec> probes);
 double ConnectedColumnHeight(const ParticleArrays& particles, const Model& model,
                              const Vec3d& point, double radius, double gap, double floor);
 
+// The pressure a flush-mounted sensor at `point` reads, from the fluid particles alone (so it is
+// the same on every solver and device): the Shepard interpolation over the kernel support
+//   p_s = sum_f (p_f + rho_f g . (x_s - x_f)) W(|x_s - x_f|) / sum_f W(|x_s - x_f|)
+// with the cubic spline, the hydrostatic correction carrying each particle's pressure to the
+// sensor's height, as wcsph extrapolates the fluid's pressure to its boundary particles (Adami,
+// Hu, Adams 2012, eq. 27, without the wall's acceleration: the walls do not move). Where
+// `normal` is not zero only the particles on its side of the face count ((x_f - x_s) . n > 0),
+// so a sensor near an edge does not read the water beyond it. g is the gravity at `time`
+// (gravity_ramp_time included). Not negative (a gauge pressure under the fluid's, which the
+// solvers clamp at 0 too); 0 where no particle is within the support (a dry sensor).
+double WallPressureAt(const ParticleArrays& particles, const Model& model, const Vec3d& point,
+                      const Vec3d& normal, double time);
+
 // The values of every probe for the current state, in ProbeColumns() order.
 std::vector<double> EvaluateProbes(std::span<const ProbeSpec> probes, const Model& model,
                                    const State& state);

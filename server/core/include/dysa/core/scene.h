@@ -84,6 +84,7 @@ enum class ProbeKind {
   kFront,          // largest coordinate of any particle along `axis` (surge front), m
   kHeight,         // height of the connected water column at (x, z) of `point`, m
   kPressure,       // pressure interpolated at `point`, Pa
+  kWallPressure,   // pressure a sensor at `point` on a wall or obstacle face reads, Pa
   kDensity,        // mean and max density of all particles, kg/m^3 (two columns)
   kKineticEnergy,  // sum of m |v|^2 / 2, J
   kCountInside,    // number of particles inside `region` (default: the domain)
@@ -98,6 +99,9 @@ struct ProbeSpec {
   // kHeight: the largest vertical gap, m, between particles of one connected column (0 = the
   // kernel support); spray above a larger gap is not the column's.
   double gap = 0;
+  // kWallPressure: the face's normal, pointing into the fluid (any length above 0; zero = all
+  // particles around the point count, whichever side of the face they are on).
+  Vec3d normal = Vec3d::Zero();
   std::optional<Aabb> region;
 };
 
