@@ -343,11 +343,14 @@ int main(int argc, char** argv) {
   dysa::ValidateOptions validate;
   CLI::App* validate_cmd = app.add_subcommand(
       "validate",
-      "Run the validation cases (hydrostatic tank, Martin & Moyce dam break, Poiseuille flow) "
-      "offline and print their errors; exits 1 when a target is missed");
+      "Run the validation cases (hydrostatic tank, Martin & Moyce dam break, Poiseuille flow, "
+      "SPHERIC Test 2) offline and print their errors; exits 1 when a target is missed");
   validate_cmd->add_flag("--quick", validate.quick,
                          "Coarse resolutions with the CI test's bounds (about a minute)");
   validate_cmd->add_option("--solver", validate.solver, "Solver instead of the scenes' (wcsph)");
+  validate_cmd->add_option("--case", validate.cases,
+                           "Run only this case (repeatable): hydrostatic_tank, dam_break, "
+                           "poiseuille_flow, spheric_test2");
   validate_cmd->add_option("--set", validate.sets, "Override a parameter, NAME=VALUE (repeatable)")
       ->check(AssignmentValidator());
   validate_cmd->add_option("--threads", validate.threads, "OpenMP threads (default: all cores)")

@@ -330,9 +330,13 @@ TEST(DysaBinaryTest, BogusFlagFails) {
 // The quick validation with dfsph (seconds since its solves sweep a pair list): the table and
 // each case's diagnostics, the tank's largest error located by height and the averaged
 // pressure's standard error. dfsph meets every quick bound, so the run exits 0 and says so.
+// SPHERIC Test 2 is left out (--case): its quick run takes minutes here, and
+// tests/validation/spheric_test2_test.cc covers it.
 TEST(DysaBinaryTest, QuickDfsphValidationPrintsEachCasesDiagnostics) {
   TempDir dir;
-  const Result r = RunDysa(dir.path(), "validate --quick --solver dfsph");
+  const Result r = RunDysa(dir.path(),
+                           "validate --quick --solver dfsph --case hydrostatic_tank "
+                           "--case dam_break --case poiseuille_flow");
   EXPECT_EQ(r.exit_code, 0) << r.out;
   EXPECT_THAT(r.out, HasSubstr("validate: all targets met"));
   EXPECT_THAT(r.out, HasSubstr("pressure gradient "));
@@ -343,13 +347,34 @@ TEST(DysaBinaryTest, QuickDfsphValidationPrintsEachCasesDiagnostics) {
   EXPECT_THAT(r.out, ::testing::ContainsRegex("standard error of the averaged pressure: up to "
                                               "[0-9]\\.[0-9]{2}% of rho0 g H \\(5 batch"));
   EXPECT_THAT(r.out, HasSubstr("front speed dZ/dT"));
+  EXPECT_THAT(r.out, HasSubstr("residual height at the wall"));
+  EXPECT_THAT(r.out, HasSubstr("dam break front with the gate"));
+  EXPECT_THAT(r.out, HasSubstr("poiseuille_flow:"));
+  EXPECT_THAT(r.out, Not(HasSubstr("spheric_test2")));
+}
+
+// --case runs only the cases named; an unknown one is a usage error listing the cases.
+TEST(DysaBinaryTest, ValidateCaseSelectsTheCasesAndRejectsAnUnknownOne) {
+  TempDir dir;
+  const Result one = RunDysa(dir.path(), "validate --quick --case poiseuille_flow");
+  EXPECT_EQ(one.exit_code, 0) << one.out;
+  EXPECT_THAT(one.out, HasSubstr("poiseuille (wcsph)"));
+  EXPECT_THAT(one.out, HasSubstr("poiseuille (dfsph)"));
+  EXPECT_THAT(one.out, Not(HasSubstr("hydrostatic_tank")));
+  EXPECT_THAT(one.out, Not(HasSubstr("dam_break")));
+  const Result bad = RunDysa(dir.path(), "validate --quick --case tank");
+  EXPECT_EQ(bad.exit_code, 2) << bad.err;
+  EXPECT_THAT(bad.err, HasSubstr("--case"));
+  EXPECT_THAT(bad.err, HasSubstr("no validation case tank; the cases: hydrostatic_tank, "
+                                 "dam_break, poiseuille_flow, spheric_test2"));
 }
 
 // A missed target fails the command and says which: dfsph starting each solve from all of the
 // previous step's pressure (warm_start 1) leaves the quick tank 2.5% off rho0 g (H - y).
 TEST(DysaBinaryTest, ValidationThatMissesATargetFailsAndNamesIt) {
   TempDir dir;
-  const Result r = RunDysa(dir.path(), "validate --quick --solver dfsph --set warm_start=1");
+  const Result r = RunDysa(
+      dir.path(), "validate --quick --solver dfsph --set warm_start=1 --case hydrostatic_tank");
   EXPECT_NE(r.exit_code, 0) << r.out;
   EXPECT_THAT(r.out, ::testing::ContainsRegex("pressure error max / rho0 g H +[0-9.]+% +1\\.00% +"
                                               "MISSED"));
