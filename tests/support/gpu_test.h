@@ -45,6 +45,18 @@ inline Scene DamScene(const std::string& solver) {
                     R"("})");
 }
 
+// DamScene with both obstacles moving: the box slides into the dam at 0.3 m/s over
+// [0.05, 0.25] s and the sphere rises and comes back down along a keyframed path, so the
+// boundary is moved and sorted again each step, its samples carry velocities and the contact
+// meets surfaces closing in.
+inline Scene MovingDamScene(const std::string& solver) {
+  Scene scene = DamScene(solver);
+  scene.boxes.at(0).motion.keys = {{0.05, Vec3d::Zero()}, {0.25, Vec3d(-0.06, 0, 0)}};
+  scene.spheres.at(0).motion.keys = {
+      {0, Vec3d::Zero()}, {0.1, Vec3d(0, 0.03, 0)}, {0.2, Vec3d(0.01, 0, 0)}};
+  return scene;
+}
+
 // A periodic channel across x and z, driven by gravity along -y: the periodic grid.
 inline Scene PeriodicScene(const std::string& solver) {
   return ParseScene(R"({

@@ -16,19 +16,6 @@ Simulation::Simulation(Scene scene, const Device& device)
   solver_info_ = &FindSolver(scene_.solver);
   solver_ = solver_info_->create();
   model_ = MakeModel(scene_, scene_.params, *solver_info_);
-  if (device_.is_cuda() && model_.HasMovingObstacles()) {
-    // The CUDA pipelines keep their obstacles and boundary samples where the scene put them:
-    // refused, rather than run as if the obstacles stood still.
-    for (size_t i = 0; i < model_.boxes.size() + model_.spheres.size(); ++i) {
-      const bool box = i < model_.boxes.size();
-      const size_t k = box ? i : i - model_.boxes.size();
-      if (!(box ? model_.boxes[k].motion : model_.spheres[k].motion).moving()) continue;
-      throw ConfigError(
-          "obstacles (" + std::string(box ? "box " : "sphere ") + std::to_string(k) + ").motion",
-          "moving obstacles run on the CPU only (--device cpu); the CUDA backend "
-          "does not move them yet");
-    }
-  }
   if (device_.is_cuda()) gpu_ = CreateGpuBackend(device_, scene_.solver);
   Rebuild();
   Reset();

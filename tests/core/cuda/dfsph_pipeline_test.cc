@@ -18,6 +18,7 @@ namespace {
 using dysa::testing::DamScene;
 using dysa::testing::ExpectAgreement;
 using dysa::testing::kGpu;
+using dysa::testing::MovingDamScene;
 using dysa::testing::PeriodicScene;
 
 const char* const kSolver = "dfsph";
@@ -59,6 +60,35 @@ TEST(DfsphGpuTest, TheFirstStepsMatchTheCpusSolves) {
     worst = std::max(worst, double((by_id_gpu[k] - by_id_cpu[k]).norm()));
   }
   EXPECT_LT(worst, 1e-6) << "m, the largest distance between a particle on the CPU and the GPU";
+}
+
+// Moving obstacles (the move_boundary pass, the samples' velocities in the density rate, the
+// contact with moving surfaces, the CFL steps counting their speed): the same pass list, the
+// first steps' time steps and positions as the CPU's, then the same run within the
+// agreement's tolerances.
+TEST(DfsphGpuTest, MovingObstaclesFollowTheCpu) {
+  SKIP_WITHOUT_GPU();
+  Simulation cpu(MovingDamScene(kSolver));
+  Simulation gpu(MovingDamScene(kSolver), kGpu);
+  ASSERT_EQ(gpu.PassNames().front(), "move_boundary");
+  EXPECT_EQ(gpu.PassNames(), cpu.PassNames());
+  for (int i = 0; i < 5; ++i) {
+    cpu.Step();
+    gpu.Step();
+    EXPECT_EQ(gpu.last_dt(), cpu.last_dt()) << "step " << i + 1;
+  }
+  const ParticleArrays& pc = cpu.state().particles;
+  const ParticleArrays& pg = gpu.state().particles;
+  ASSERT_EQ(pg.size(), pc.size());
+  std::vector<Vec3> by_id_cpu(pc.size()), by_id_gpu(pg.size());
+  for (size_t i = 0; i < pc.size(); ++i) by_id_cpu[pc.id[i]] = pc.position[i];
+  for (size_t i = 0; i < pg.size(); ++i) by_id_gpu[pg.id[i]] = pg.position[i];
+  double worst = 0;
+  for (size_t k = 0; k < pc.size(); ++k) {
+    worst = std::max(worst, double((by_id_gpu[k] - by_id_cpu[k]).norm()));
+  }
+  EXPECT_LT(worst, 1e-6) << "m, the largest distance between a particle on the CPU and the GPU";
+  ExpectAgreement(MovingDamScene(kSolver), 0.3);
 }
 
 TEST(DfsphGpuTest, EveryPassIsTimed) {

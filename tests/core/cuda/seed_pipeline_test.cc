@@ -110,6 +110,18 @@ TEST(SeedGpuTest, BitIdenticalWithObstaclesPeriodicAxesAndCoincidentParticles) {
   ExpectBitIdentical(CoincidentScene(), 30);
 }
 
+// The obstacle scene with both obstacles moving (the sphere along a keyframed path into the
+// block, the box sliding back and forth): each step collides at where the step leaves them,
+// reflecting the velocity relative to them, bit for bit as on the CPU.
+TEST(SeedGpuTest, BitIdenticalWithMovingObstacles) {
+  SKIP_WITHOUT_GPU();
+  Scene scene = ObstacleScene();
+  scene.spheres.at(0).motion.keys = {{0, Vec3d::Zero()}, {0.2, Vec3d(-1.5, 0.5, 0)}};
+  scene.boxes.at(0).motion.keys = {
+      {0.05, Vec3d::Zero()}, {0.25, Vec3d(-1, 0, 0)}, {0.4, Vec3d(-0.5, 0, 0.3)}};
+  ExpectBitIdentical(scene, 90);
+}
+
 TEST(SeedGpuTest, TwoRunsAreBitIdentical) {
   SKIP_WITHOUT_GPU();
   const uint64_t first = HashAfter(ObstacleScene(), kGpu, 60);

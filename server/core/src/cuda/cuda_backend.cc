@@ -51,6 +51,34 @@ cuda::GridLayout Layout(const NeighborGrid& grid) {
 void AddObstacles(const Model& model, std::vector<cuda::SphereObstacle>& spheres,
                   std::vector<cuda::BoxObstacle>& boxes);
 
+// The seed's obstacles where the step [t, t + dt] leaves them and their mean velocity over it,
+// in float as CollideWithObstacles (seed_solver.cc) computes them.
+void PlaceSeedObstacles(const Model& model, double t, double dt,
+                        std::vector<cuda::SphereObstacle>& spheres,
+                        std::vector<cuda::BoxObstacle>& boxes) {
+  auto frame = [&](const ObstacleMotion& m, Vec3& offset, float* velocity) {
+    const Vec3d end = m.DisplacementAt(t + dt);
+    offset = end.cast<Real>();
+    const Vec3 u = ((end - m.DisplacementAt(t)) / dt).cast<Real>();
+    for (int a = 0; a < 3; ++a) velocity[a] = u[a];
+  };
+  for (const SphereObstacle& s : model.spheres) {
+    cuda::SphereObstacle& out = spheres.emplace_back();
+    Vec3 offset;
+    frame(s.motion, offset, out.velocity);
+    const Vec3 c = s.center.cast<Real>() + offset;
+    for (int a = 0; a < 3; ++a) out.center[a] = c[a];
+    out.radius = Real(s.radius);
+  }
+  for (const BoxObstacle& b : model.boxes) {
+    cuda::BoxObstacle& out = boxes.emplace_back();
+    Vec3 offset;
+    frame(b.motion, offset, out.velocity);
+    const Vec3 lo = b.box.min.cast<Real>() + offset, hi = b.box.max.cast<Real>() + offset;
+    for (int a = 0; a < 3; ++a) out.lo[a] = lo[a], out.hi[a] = hi[a];
+  }
+}
+
 class SeedGpuBackend final : public GpuBackend {
  public:
   SeedGpuBackend(const Device& device, const DeviceInfo& info) : pipeline_(device.index) {
@@ -114,7 +142,13 @@ class SeedGpuBackend final : public GpuBackend {
     pipeline_.DownloadById(position, velocity, density);
   }
 
-  StepReport Step(const Model&, State&) override {
+  StepReport Step(const Model& model, State& state) override {
+    if (model.HasMovingObstacles()) {
+      std::vector<cuda::SphereObstacle> spheres;
+      std::vector<cuda::BoxObstacle> boxes;
+      PlaceSeedObstacles(model, state.time, state.dt, spheres, boxes);
+      pipeline_.MoveObstacles(spheres, boxes);
+    }
     cuda::StepOutcome outcome = pipeline_.Step();
     return StepReport{std::move(outcome.pass_ms), outcome.finite, outcome.limited,
                       pipeline_.max_cell_count()};
@@ -170,7 +204,58 @@ cuda::SphConstants PhysicalConstants(const Model& model) {
   return c;
 }
 
-// The boundary particles in their grid's order.
+// The move_boundary pass's table (physical::MoveBoundary): each obstacle's displacement and
+// velocity at the step's start t; `fastest` the largest |u| (m/s), which the CFL step counts.
+cuda::ObstacleMotionTable BoundaryMotion(const Model& model, double t, double& fastest) {
+  cuda::ObstacleMotionTable table;
+  fastest = 0;
+  auto add = [&](const ObstacleMotion& m) {
+    const Vec3 offset = m.DisplacementAt(t).cast<Real>();
+    const Vec3d u = m.VelocityAt(t);
+    const Vec3 velocity = u.cast<Real>();
+    for (int a = 0; a < 3; ++a) {
+      table.offset.push_back(offset[a]);
+      table.velocity.push_back(velocity[a]);
+    }
+    fastest = std::max(fastest, u.norm());
+  };
+  for (const BoxObstacle& b : model.boxes) add(b.motion);
+  for (const SphereObstacle& s : model.spheres) add(s.motion);
+  return table;
+}
+
+// The wall contact's obstacles over the step [t, t + dt] (physical::ObstacleFramesOverStep): at
+// their displacement at t, with their mean velocity over the step, as LimitApproachToSurfaces
+// places them; then handed to the pipeline with the fastest |u|.
+template <class Pipeline>
+void MoveContactSurfaces(const Model& model, double t, double dt, Pipeline& pipeline) {
+  const std::vector<physical::ObstacleFrame> frames =
+      physical::ObstacleFramesOverStep(model, t, dt);
+  std::vector<cuda::SphereObstacle> spheres;
+  std::vector<cuda::BoxObstacle> boxes;
+  Real fastest = 0;
+  for (size_t o = 0; o < frames.size(); ++o) {
+    const physical::ObstacleFrame& f = frames[o];
+    fastest = std::max(fastest, f.velocity.norm());
+    const bool box = o < model.boxes.size();
+    float* velocity = box ? boxes.emplace_back().velocity : spheres.emplace_back().velocity;
+    for (int a = 0; a < 3; ++a) velocity[a] = f.velocity[a];
+    if (box) {
+      const BoxObstacle& b = model.boxes[o];
+      const Vec3 lo = (b.box.min + f.displacement).cast<Real>();
+      const Vec3 hi = (b.box.max + f.displacement).cast<Real>();
+      for (int a = 0; a < 3; ++a) boxes.back().lo[a] = lo[a], boxes.back().hi[a] = hi[a];
+    } else {
+      const SphereObstacle& s = model.spheres[o - model.boxes.size()];
+      const Vec3 c = (s.center + f.displacement).cast<Real>();
+      for (int a = 0; a < 3; ++a) spheres.back().center[a] = c[a];
+      spheres.back().radius = Real(s.radius);
+    }
+  }
+  pipeline.MoveSurfaces(spheres, boxes, fastest);
+}
+
+// The boundary particles in their grid's order, and with a moving obstacle their rest arrays.
 cuda::BoundaryCloud Cloud(const BoundaryParticles& boundary) {
   cuda::BoundaryCloud cloud;
   const size_t nb = boundary.size();
@@ -179,6 +264,12 @@ cuda::BoundaryCloud Cloud(const BoundaryParticles& boundary) {
   cloud.z.assign(boundary.grid().zs().begin(), boundary.grid().zs().begin() + nb);
   cloud.volume.assign(boundary.volume().begin(), boundary.volume().end());
   cloud.no_slip.assign(boundary.no_slip().begin(), boundary.no_slip().end());
+  for (const Vec3& x : boundary.rest_position()) {
+    cloud.rest_x.push_back(x.x()), cloud.rest_y.push_back(x.y()), cloud.rest_z.push_back(x.z());
+  }
+  cloud.rest_volume.assign(boundary.rest_volume().begin(), boundary.rest_volume().end());
+  cloud.rest_no_slip.assign(boundary.rest_no_slip().begin(), boundary.rest_no_slip().end());
+  cloud.obstacle.assign(boundary.obstacle().begin(), boundary.obstacle().end());
   return cloud;
 }
 
@@ -238,15 +329,20 @@ class WcsphGpuBackend final : public GpuBackend {
     const double c0 = model.params.speed_of_sound;
     // rho^H_ij's factor, as ComputeDensityAndPressure
     const Real hydrostatic = Real(-model.params.rest_density * g / (c0 * c0));
-    const cuda::StepMaxima maxima = pipeline_.Forces(Real(g), hydrostatic);
+    const bool moving = model.HasMovingObstacles();
+    double obstacle_speed = 0;  // MoveBoundary's max_obstacle_speed
+    const cuda::ObstacleMotionTable motion =
+        moving ? BoundaryMotion(model, state.time, obstacle_speed) : cuda::ObstacleMotionTable{};
+    const cuda::StepMaxima maxima = pipeline_.Forces(Real(g), hydrostatic, motion);
     if (pipeline_.max_cell_count() > NeighborGrid::kMaxParticlesPerCell) {
       return Crowded(pipeline_.max_cell_count());
     }
     // ChooseTimeStepPass (cfl_time_step.cc) from the GPU's maxima.
-    const TimeStepLimits limits =
-        CflLimits(model, std::sqrt(double(maxima.speed2)), std::sqrt(double(maxima.acceleration2)),
-                  /*acoustic=*/true, maxima.density);
+    const double speed = std::max(std::sqrt(double(maxima.speed2)), obstacle_speed);
+    const TimeStepLimits limits = CflLimits(model, speed, std::sqrt(double(maxima.acceleration2)),
+                                            /*acoustic=*/true, maxima.density);
     state.dt = ChooseTimeStep(limits, state.max_dt);
+    if (moving) MoveContactSurfaces(model, state.time, state.dt, pipeline_);
     cuda::StepOutcome outcome = pipeline_.Integrate(Real(state.dt));
     return StepReport{std::move(outcome.pass_ms), outcome.finite, 0};
   }
@@ -319,12 +415,18 @@ class DfsphGpuBackend final : public GpuBackend {
     SolverStats& stats = stats_;
     const uint64_t step = state.step + 1;
     // DivergenceSolve's step: the one the time_step pass will choose from these velocities.
-    const float speed2 = pipeline_.Prepare(gravity, NeighborGrid::kMaxParticlesPerCell);
+    const bool moving = model.HasMovingObstacles();
+    double obstacle_speed = 0;  // MoveBoundary's max_obstacle_speed
+    const cuda::ObstacleMotionTable motion =
+        moving ? BoundaryMotion(model, state.time, obstacle_speed) : cuda::ObstacleMotionTable{};
+    const float speed2 = pipeline_.Prepare(gravity, NeighborGrid::kMaxParticlesPerCell, motion);
     if (pipeline_.max_cell_count() > NeighborGrid::kMaxParticlesPerCell) {
       return Crowded(pipeline_.max_cell_count());
     }
     const double divergence_dt =
-        std::min(CflLimits(model, std::sqrt(double(speed2)), std::abs(prm.gravity), false).Min(),
+        std::min(CflLimits(model, std::max(std::sqrt(double(speed2)), obstacle_speed),
+                           std::abs(prm.gravity), false)
+                     .Min(),
                  prm.max_time_step);
     const cuda::SolveResult divergence = pipeline_.DivergenceSolve(
         divergence_dt, {prm.divergence_tolerance, prm.max_iterations, Real(prm.warm_start)});
@@ -332,9 +434,9 @@ class DfsphGpuBackend final : public GpuBackend {
            stats.divergence_error, state);
     // ChooseIncompressibleTimeStepPass from the GPU's maxima.
     const cuda::StepMaxima maxima = pipeline_.Forces(gravity);
-    const TimeStepLimits limits =
-        CflLimits(model, std::sqrt(double(maxima.speed2)), std::sqrt(double(maxima.acceleration2)),
-                  /*acoustic=*/false, maxima.density);
+    const double speed = std::max(std::sqrt(double(maxima.speed2)), obstacle_speed);
+    const TimeStepLimits limits = CflLimits(model, speed, std::sqrt(double(maxima.acceleration2)),
+                                            /*acoustic=*/false, maxima.density);
     state.dt = ChooseTimeStep(limits, state.max_dt);
     if (prm.cfl_factor > kIncompressibleMaxCfl) {
       state.warning = "cfl_factor " + std::to_string(prm.cfl_factor) +
@@ -346,6 +448,7 @@ class DfsphGpuBackend final : public GpuBackend {
         dt, {prm.density_tolerance, prm.max_iterations, Real(prm.warm_start)});
     Record(density, "density", prm.density_tolerance, step, stats.density_iterations,
            stats.density_error, state);
+    if (moving) MoveContactSurfaces(model, state.time, state.dt, pipeline_);
     cuda::StepOutcome outcome = pipeline_.Integrate(dt, Real(prm.particle_spacing / state.dt));
     if (outcome.limited > 0) state.warning = dfsph::SpeedLimitWarning(outcome.limited, step);
     return StepReport{std::move(outcome.pass_ms), outcome.finite, 0};

@@ -12,6 +12,7 @@
 #include "cuda/device_buffer.cuh"
 #include "cuda/device_grid.cuh"
 #include "cuda/dfsph_pipeline.h"
+#include "cuda/moving_boundary.cuh"
 #include "cuda/sph_kernels.cuh"
 
 namespace dysa::cuda {
@@ -159,7 +160,9 @@ __device__ float DensityRate(const Fluid& f, const Boundary& b, const Solver& s,
   }
   for (uint32_t k = s.wall_begin[i]; k < s.wall_begin[i + 1]; ++k) {
     const Pair p = s.wall_pairs[k];
-    rate += c.psi_scale * b.volume[p.other] * Dot(v, {p.gx, p.gy, p.gz});
+    // A moving obstacle's samples carry its velocity v_b: Psi_b (v_i - v_b) . grad W.
+    rate +=
+        c.psi_scale * b.volume[p.other] * Dot(RelativeToSample(b, v, p.other), {p.gx, p.gy, p.gz});
   }
   return rate;
 }
@@ -357,6 +360,8 @@ struct DfsphPipeline::Impl {
   DeviceBuffer<float> bx, by, bz, bvolume, bvx, bvy, bvz, bunused;
   DeviceBuffer<uint8_t> bno_slip;
   GridSorter boundary_sorter;
+  MovingBoundary moving;
+  float obstacle_speed = 0;  // m/s, the contact's fastest obstacle (MoveSurfaces)
   DeviceBuffer<uint32_t> bn_count, bn_begin;
   DeviceBuffer<float> bn_weight, hydrostatic, kappa_b;
   mutable DeviceBuffer<float> frame_staging;  // DownloadById's
@@ -393,7 +398,10 @@ struct DfsphPipeline::Impl {
             bvx.data(),
             bvy.data(),
             bvz.data(),
-            nb};
+            nb,
+            moving.ux(),
+            moving.uy(),
+            moving.uz()};
   }
   Solver SolverView() {
     return {alpha.data(),       kappa.data(),
@@ -406,7 +414,8 @@ struct DfsphPipeline::Impl {
   }
   Surfaces SurfaceView() {
     Surfaces surfaces{
-        spheres.data(), int(config.spheres.size()), boxes.data(), int(config.boxes.size()), {}};
+        spheres.data(), int(config.spheres.size()), boxes.data(), int(config.boxes.size()), {},
+        obstacle_speed};
     for (int a = 0; a < 3; ++a) surfaces.periodic[a] = config.grid.periodic[a];
     return surfaces;
   }
@@ -570,8 +579,14 @@ std::vector<std::string> DfsphPipeline::Configure(const DfsphStepConfig& config,
   }
   m.bn_count.Resize(size_t(nb) + 1);
   m.bn_begin.Resize(size_t(nb) + 1);
-  m.passes = {"neighbour_grid", "density", "boundary_pressure", "divergence_solve",
-              "external_forces"};
+  m.moving.Configure(boundary, s);
+  m.obstacle_speed = 0;
+  m.passes.clear();
+  if (m.moving.active()) m.passes.push_back("move_boundary");
+  for (const char* name :
+       {"neighbour_grid", "density", "boundary_pressure", "divergence_solve", "external_forces"}) {
+    m.passes.push_back(name);
+  }
   if (config.viscosity) {
     m.passes.push_back("viscosity");
     if (config.wall_viscosity) m.passes.push_back("wall_viscosity");
@@ -667,7 +682,17 @@ void DfsphPipeline::Download(uint32_t* id, float* position, float* velocity, flo
   CheckCuda(cudaStreamSynchronize(s), "downloading particles");
 }
 
-float DfsphPipeline::Prepare(float gravity, uint32_t max_per_cell) {
+void DfsphPipeline::MoveSurfaces(const std::vector<SphereObstacle>& spheres,
+                                 const std::vector<BoxObstacle>& boxes, float obstacle_speed) {
+  Impl& m = *impl_;
+  DeviceScope scope(m.device);
+  m.spheres.Assign(spheres, m.s());
+  m.boxes.Assign(boxes, m.s());
+  m.obstacle_speed = obstacle_speed;
+}
+
+float DfsphPipeline::Prepare(float gravity, uint32_t max_per_cell,
+                             const ObstacleMotionTable& motion) {
   Impl& m = *impl_;
   DeviceScope scope(m.device);
   cudaStream_t s = m.s();
@@ -675,6 +700,11 @@ float DfsphPipeline::Prepare(float gravity, uint32_t max_per_cell) {
   const SphConstants c = m.config.constants;
   m.pass = 0;
 
+  if (m.moving.active()) {
+    m.BeginPass();  // move_boundary
+    m.moving.Move(motion.offset, motion.velocity, m.config.grid, m.boundary_sorter, m.bx.data(),
+                  m.by.data(), m.bz.data(), m.bvolume.data(), m.bno_slip.data(), s);
+  }
   m.BeginPass();  // neighbour_grid, carrying the warm start along
   m.sorter.Sort(m.config.grid, m.x.data(), m.y.data(), m.z.data(), n, s);
   if (n > 0) {
@@ -857,7 +887,8 @@ uint64_t DfsphPipeline::DeviceBytes() const {
          uint64_t(m.wall_owner.capacity()) * 4 * sizeof(uint32_t) +
          uint64_t(m.bn_weight.capacity()) * sizeof(float) +
          uint64_t(m.bx.capacity()) * (10 * sizeof(float) + 2 * sizeof(uint32_t) + 1) +
-         m.sorter.DeviceBytes() + m.boundary_sorter.DeviceBytes() + m.temp.capacity();
+         m.sorter.DeviceBytes() + m.boundary_sorter.DeviceBytes() + m.moving.DeviceBytes() +
+         m.temp.capacity();
 }
 
 }  // namespace dysa::cuda

@@ -59,12 +59,13 @@ class DfsphPipeline {
   void Download(uint32_t* id, float* position, float* velocity, float* density, float* pressure,
                 float* density_stiffness, float* divergence_stiffness) const;
 
-  // neighbour_grid, density (the pair lists), boundary_pressure (the walls' Shepard weights and
-  // hydrostatic acceleration, with gravity `gravity`); returns the largest |v|^2, from which
-  // the caller sizes the divergence solve's step. Stops after counting the pairs, before
-  // listing them, when a grid cell holds more than `max_per_cell` particles
-  // (max_cell_count()): the lists would hold n^2 pairs.
-  float Prepare(float gravity, uint32_t max_per_cell);
+  // move_boundary with `motion` when the boundary has moving obstacles, neighbour_grid,
+  // density (the pair lists), boundary_pressure (the walls' Shepard weights and hydrostatic
+  // acceleration, with gravity `gravity`); returns the largest |v|^2, from which the caller
+  // sizes the divergence solve's step. Stops after counting the pairs, before listing them,
+  // when a grid cell holds more than `max_per_cell` particles (max_cell_count()): the lists
+  // would hold n^2 pairs.
+  float Prepare(float gravity, uint32_t max_per_cell, const ObstacleMotionTable& motion);
   // divergence_solve with the step dt (s).
   SolveResult DivergenceSolve(double dt, const SolveSettings& settings);
   // external_forces, viscosity, wall_viscosity, and the time_step pass's maxima.
@@ -74,6 +75,9 @@ class DfsphPipeline {
   // integrate: x += v dt with the speed limit (m/s) and the wall contact. Returns every pass's
   // time and the count of particles the limit slowed.
   StepOutcome Integrate(float dt, float speed_limit);
+  // As WcsphPipeline::MoveSurfaces: the contact's obstacles over the coming integration.
+  void MoveSurfaces(const std::vector<SphereObstacle>& spheres,
+                    const std::vector<BoxObstacle>& boxes, float obstacle_speed);
   // Positions and velocities (xyz triples) and densities in particle-id order (id k at k);
   // any pointer may be null (not copied).
   void DownloadById(float* position, float* velocity, float* density) const;

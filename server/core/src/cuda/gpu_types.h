@@ -17,13 +17,24 @@ struct GridLayout {
   float period[3] = {0, 0, 0};  // m, the domain's length along each periodic axis
 };
 
+// An obstacle where the current step has it (ObstacleMotion: the host places it each step when
+// it moves) and its velocity over the step, 0 for a static one.
 struct SphereObstacle {
   float center[3];
   float radius;
+  float velocity[3] = {0, 0, 0};  // m/s
 };
 struct BoxObstacle {
   float lo[3];
   float hi[3];
+  float velocity[3] = {0, 0, 0};  // m/s
+};
+
+// The obstacles' displacements from the scene's positions and their velocities at a step's
+// start (the move_boundary pass): 3 floats per obstacle, boxes then spheres as in the Model.
+struct ObstacleMotionTable {
+  std::vector<float> offset;    // m
+  std::vector<float> velocity;  // m/s
 };
 
 // The constants of the physical solvers (wcsph, dfsph) their kernels read, computed on the host

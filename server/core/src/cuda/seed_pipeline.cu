@@ -686,7 +686,9 @@ __global__ void ObstaclesKernel(Particles p, Obstacles o, float damping, uint32_
     float nrm[3] = {0, 1, 0};
     if (dist > 0) nrm[0] = d[0] / dist, nrm[1] = d[1] / dist, nrm[2] = d[2] / dist;
     for (int a = 0; a < 3; ++a) x[a] = sphere.center[a] + nrm[a] * r;
-    const float vn = v[0] * nrm[0] + (v[1] * nrm[1] + v[2] * nrm[2]);
+    // The velocity relative to the obstacle is reflected (exactly v for a static one).
+    const float* u = sphere.velocity;
+    const float vn = (v[0] - u[0]) * nrm[0] + ((v[1] - u[1]) * nrm[1] + (v[2] - u[2]) * nrm[2]);
     if (vn < 0) {
       const float k = (1 + damping) * vn;
       for (int a = 0; a < 3; ++a) v[a] -= k * nrm[a];
@@ -707,7 +709,10 @@ __global__ void ObstaclesKernel(Particles p, Obstacles o, float damping, uint32_
       if (box.hi[a] - x[a] < best) best = box.hi[a] - x[a], axis = a, face = box.hi[a], outward = 1;
     }
     x[axis] = face;
-    if (v[axis] * outward < 0) v[axis] = -v[axis] * damping;
+    const float u = box.velocity[axis];
+    const float vn = v[axis] - u;
+    // At rest the bounce is exactly -v damping, a zero's sign included (CollideWithBox).
+    if (vn * outward < 0) v[axis] = u == 0 ? -vn * damping : u - vn * damping;
   }
   p.x[i] = x[0], p.y[i] = x[1], p.z[i] = x[2];
   p.vx[i] = v[0], p.vy[i] = v[1], p.vz[i] = v[2];
@@ -911,6 +916,14 @@ void SeedPipeline::Download(uint32_t* id, float* position, float* velocity, floa
   if (pressure) m.pressure.CopyTo(pressure, n, m.stream.get());
   if (near_pressure) m.near_pressure.CopyTo(near_pressure, n, m.stream.get());
   CheckCuda(cudaStreamSynchronize(m.stream.get()), "downloading particles");
+}
+
+void SeedPipeline::MoveObstacles(const std::vector<SphereObstacle>& spheres,
+                                 const std::vector<BoxObstacle>& boxes) {
+  Impl& m = *impl_;
+  DeviceScope scope(m.device);
+  m.spheres.Assign(spheres, m.stream.get());
+  m.boxes.Assign(boxes, m.stream.get());
 }
 
 StepOutcome SeedPipeline::Step() {

@@ -70,6 +70,10 @@ class SeedPipeline {
   // position, velocity, predicted: n xyz triples; the rest n values.
   void Download(uint32_t* id, float* position, float* velocity, float* predicted, float* density,
                 float* near_density, float* pressure, float* near_pressure) const;
+  // Replaces the obstacles (the configuration's count and order) with where the next step
+  // leaves them and their velocity over it: a scene's moving obstacles, each step.
+  void MoveObstacles(const std::vector<SphereObstacle>& spheres,
+                     const std::vector<BoxObstacle>& boxes);
   StepOutcome Step();
   // Positions and velocities (xyz triples) and densities in particle-id order (id k at k);
   // any pointer may be null (not copied).

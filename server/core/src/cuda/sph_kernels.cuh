@@ -81,7 +81,14 @@ struct Boundary {
   float* p_over_rho2;   // Pa m^6/kg^2
   float *vx, *vy, *vz;  // m/s, the mirrored fluid velocity at no-slip samples
   uint32_t n;
+  // m/s, each sample's obstacle velocity (MovingBoundary); null when no obstacle moves.
+  const float *ux, *uy, *uz;
 };
+
+// v_i - v_b of the continuity equation's wall term: v_i itself unless the samples move.
+__device__ F3 RelativeToSample(const Boundary& b, F3 v, uint32_t k) {
+  return b.ux ? F3{v.x - b.ux[k], v.y - b.uy[k], v.z - b.uz[k]} : v;
+}
 
 __global__ void ViscosityKernel(DeviceGrid fluid_grid, Fluid f, SphConstants c, uint32_t n) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
@@ -157,10 +164,12 @@ struct Surfaces {
   const BoxObstacle* boxes;
   int box_count;
   bool periodic[3];
+  float obstacle_speed;  // m/s, the fastest obstacle's |u| over the step (0: all static)
 };
 
 // ForEachSurfaceWithin (solvers/physical/physical_passes.cc), with the same unit vectors (-0
-// components included) and the same order: walls, spheres, boxes.
+// components included) and the same order: walls, spheres, boxes; visit(dist, n, u), u the
+// surface's velocity (the obstacles are where the host placed them for the step).
 template <class Visit>
 __device__ void ForEachSurfaceWithin(const SphConstants& c, const Surfaces& s, F3 x, float range,
                                      Visit&& visit) {
@@ -170,8 +179,9 @@ __device__ void ForEachSurfaceWithin(const SphConstants& c, const Surfaces& s, F
     const float below = xa[k] - c.domain_lo[k];
     const float above = c.domain_hi[k] - xa[k];
     const F3 unit{k == 0 ? 1.0f : 0.0f, k == 1 ? 1.0f : 0.0f, k == 2 ? 1.0f : 0.0f};
-    if (below < range) visit(below, unit);
-    if (above < range) visit(above, F3{-unit.x, -unit.y, -unit.z});
+    const F3 at_rest{0, 0, 0};
+    if (below < range) visit(below, unit, at_rest);
+    if (above < range) visit(above, F3{-unit.x, -unit.y, -unit.z}, at_rest);
   }
   for (int o = 0; o < s.sphere_count; ++o) {
     const SphereObstacle& sphere = s.spheres[o];
@@ -179,11 +189,13 @@ __device__ void ForEachSurfaceWithin(const SphConstants& c, const Surfaces& s, F
     const float norm = sqrtf(Norm2(d));
     const float dist = norm - sphere.radius;
     if (norm > 0 && dist < range) {
-      visit(dist < 0.0f ? 0.0f : dist, F3{d.x / norm, d.y / norm, d.z / norm});  // std::max
+      const F3 u{sphere.velocity[0], sphere.velocity[1], sphere.velocity[2]};
+      visit(dist < 0.0f ? 0.0f : dist, F3{d.x / norm, d.y / norm, d.z / norm}, u);  // std::max
     }
   }
   for (int o = 0; o < s.box_count; ++o) {
     const BoxObstacle& box = s.boxes[o];
+    const F3 u{box.velocity[0], box.velocity[1], box.velocity[2]};
     float nearest[3];
     for (int k = 0; k < 3; ++k) {
       const float hi_side = xa[k] < box.lo[k] ? box.lo[k] : xa[k];  // std::max(x, lo)
@@ -192,7 +204,7 @@ __device__ void ForEachSurfaceWithin(const SphConstants& c, const Surfaces& s, F
     const F3 d{x.x - nearest[0], x.y - nearest[1], x.z - nearest[2]};
     const float dist = sqrtf(Norm2(d));
     if (dist > 0) {
-      if (dist < range) visit(dist, F3{d.x / dist, d.y / dist, d.z / dist});
+      if (dist < range) visit(dist, F3{d.x / dist, d.y / dist, d.z / dist}, u);
       continue;
     }
     int axis = 0;
@@ -201,8 +213,10 @@ __device__ void ForEachSurfaceWithin(const SphConstants& c, const Surfaces& s, F
       if (xa[k] - box.lo[k] < depth) depth = xa[k] - box.lo[k], axis = k, sign = -1;
       if (box.hi[k] - xa[k] < depth) depth = box.hi[k] - xa[k], axis = k, sign = 1;
     }
-    visit(0.0f, F3{sign * (axis == 0 ? 1.0f : 0.0f), sign * (axis == 1 ? 1.0f : 0.0f),
-                   sign * (axis == 2 ? 1.0f : 0.0f)});
+    visit(0.0f,
+          F3{sign * (axis == 0 ? 1.0f : 0.0f), sign * (axis == 1 ? 1.0f : 0.0f),
+             sign * (axis == 2 ? 1.0f : 0.0f)},
+          u);
   }
 }
 
@@ -224,17 +238,21 @@ __device__ void CollideWithWall(float lo, float hi, bool periodic, float& x, flo
 }
 
 // LimitApproachToSurfaces (physical_passes.cc): cuts v so that a step of dt from x comes
-// no nearer than r0 / 2 to any wall or obstacle.
+// no nearer than r0 / 2 to any wall or obstacle, cutting only the velocity relative to it.
 __device__ void LimitApproachToSurfaces(const SphConstants& c, const Surfaces& s, F3 x, float dt,
                                         F3& v) {
   const float r0 = c.contact_range;
-  const float reach = 0.5f * r0 + sqrtf(Norm2(v)) * dt;
+  // A moving surface closes in at up to its own speed: the CPU's max over the obstacles of
+  // |v| + |u|, which is |v| + the largest |u| (rounding is monotonic) and |v| when all are static.
+  const float speed = sqrtf(Norm2(v));
+  const float closing = speed + s.obstacle_speed;
+  const float reach = 0.5f * r0 + (speed < closing ? closing : speed) * dt;  // std::max
   for (int sweep = 0; sweep < 4; ++sweep) {
     bool cut = false;
-    ForEachSurfaceWithin(c, s, x, reach, [&](float dist, F3 normal) {
+    ForEachSurfaceWithin(c, s, x, reach, [&](float dist, F3 normal, F3 u) {
       const float gap = dist - 0.5f * r0;
       const float allowed = -(gap < 0.0f ? 0.0f : gap) / dt;  // std::max(gap, 0)
-      const float vn = Dot(v, normal);
+      const float vn = Dot({v.x - u.x, v.y - u.y, v.z - u.z}, normal);
       if (vn < allowed) {
         const float k = allowed - vn;
         v.x += k * normal.x, v.y += k * normal.y, v.z += k * normal.z;

@@ -9,6 +9,7 @@
 
 #include "cuda/device_buffer.cuh"
 #include "cuda/device_grid.cuh"
+#include "cuda/moving_boundary.cuh"
 #include "cuda/sph_kernels.cuh"
 #include "cuda/wcsph_pipeline.h"
 
@@ -56,11 +57,11 @@ __global__ void DensityKernel(DeviceGrid fluid_grid, DeviceGrid boundary_grid, F
     diffused += dynamic * Dot({-xij.x, -xij.y, -xij.z}, grad) / (r * r * carried[j]);
   });
   float wall = 0;
-  ForEachWithin(boundary_grid, {b.x, b.y, b.z}, cell, x, c.support,
-                [&](uint32_t k, F3 xib, float r) {
-                  const float g = GradFactor(r, c.support);
-                  wall += b.volume[k] * Dot(v, {xib.x * g, xib.y * g, xib.z * g});
-                });
+  ForEachWithin(
+      boundary_grid, {b.x, b.y, b.z}, cell, x, c.support, [&](uint32_t k, F3 xib, float r) {
+        const float g = GradFactor(r, c.support);
+        wall += b.volume[k] * Dot(RelativeToSample(b, v, k), {xib.x * g, xib.y * g, xib.z * g});
+      });
   rate[i] = c.mass * divergence + c.psi_scale * wall + 2 * c.diffusion * c.mass * diffused;
   f.density[i] = rho_i;
   const double ratio = double(rho_i) / c.rest_density;
@@ -160,6 +161,8 @@ struct WcsphPipeline::Impl {
   DeviceBuffer<float> bx, by, bz, bvolume, bpressure, bp_over_rho2, bvx, bvy, bvz;
   DeviceBuffer<uint8_t> bno_slip;
   GridSorter boundary_sorter;
+  MovingBoundary moving;
+  float obstacle_speed = 0;                   // m/s, the contact's fastest obstacle (MoveSurfaces)
   mutable DeviceBuffer<float> frame_staging;  // DownloadById's
   DeviceBuffer<SphereObstacle> spheres;
   DeviceBuffer<BoxObstacle> boxes;
@@ -187,11 +190,15 @@ struct WcsphPipeline::Impl {
             bvx.data(),
             bvy.data(),
             bvz.data(),
-            nb};
+            nb,
+            moving.ux(),
+            moving.uy(),
+            moving.uz()};
   }
   Surfaces SurfaceView() {
     Surfaces s{
-        spheres.data(), int(config.spheres.size()), boxes.data(), int(config.boxes.size()), {}};
+        spheres.data(), int(config.spheres.size()), boxes.data(), int(config.boxes.size()), {},
+        obstacle_speed};
     for (int a = 0; a < 3; ++a) s.periodic[a] = config.grid.periodic[a];
     return s;
   }
@@ -285,7 +292,13 @@ std::vector<std::string> WcsphPipeline::Configure(const WcsphStepConfig& config,
     flags.Resize(m.nb);
     m.Gather(order, m.bno_slip, flags, m.nb);
   }
-  m.passes = {"neighbour_grid", "density", "boundary_pressure", "pressure_force"};
+  m.moving.Configure(boundary, s);
+  m.obstacle_speed = 0;
+  m.passes.clear();
+  if (m.moving.active()) m.passes.push_back("move_boundary");
+  for (const char* name : {"neighbour_grid", "density", "boundary_pressure", "pressure_force"}) {
+    m.passes.push_back(name);
+  }
   if (config.viscosity) {
     m.passes.push_back("viscosity");
     if (config.wall_viscosity) m.passes.push_back("wall_viscosity");
@@ -347,7 +360,17 @@ bool WcsphPipeline::DownloadCarriedDensity(float* carried_density) const {
   return true;
 }
 
-StepMaxima WcsphPipeline::Forces(float gravity, float hydrostatic) {
+void WcsphPipeline::MoveSurfaces(const std::vector<SphereObstacle>& spheres,
+                                 const std::vector<BoxObstacle>& boxes, float obstacle_speed) {
+  Impl& m = *impl_;
+  DeviceScope scope(m.device);
+  m.spheres.Assign(spheres, m.stream.get());
+  m.boxes.Assign(boxes, m.stream.get());
+  m.obstacle_speed = obstacle_speed;
+}
+
+StepMaxima WcsphPipeline::Forces(float gravity, float hydrostatic,
+                                 const ObstacleMotionTable& motion) {
   Impl& m = *impl_;
   DeviceScope scope(m.device);
   const WcsphStepConfig& cfg = m.config;
@@ -360,6 +383,11 @@ StepMaxima WcsphPipeline::Forces(float gravity, float hydrostatic) {
   m.pass = 0;
   auto begin_pass = [&] { m.timer.Record(m.pass++, s); };
 
+  if (m.moving.active()) {
+    begin_pass();  // move_boundary
+    m.moving.Move(motion.offset, motion.velocity, cfg.grid, m.boundary_sorter, m.bx.data(),
+                  m.by.data(), m.bz.data(), m.bvolume.data(), m.bno_slip.data(), s);
+  }
   begin_pass();  // neighbour_grid
   m.sorter.Sort(cfg.grid, m.x.data(), m.y.data(), m.z.data(), n, s);
   const uint32_t* order = m.sorter.order();
@@ -446,7 +474,7 @@ uint64_t WcsphPipeline::DeviceBytes() const {
   const Impl& m = *impl_;
   return uint64_t(m.x.capacity()) * (23 * sizeof(float) + 2 * sizeof(uint32_t)) +
          uint64_t(m.bx.capacity()) * (9 * sizeof(float) + 1) + m.sorter.DeviceBytes() +
-         m.boundary_sorter.DeviceBytes() + m.reduce_temp.capacity();
+         m.boundary_sorter.DeviceBytes() + m.moving.DeviceBytes() + m.reduce_temp.capacity();
 }
 
 }  // namespace dysa::cuda

@@ -28,11 +28,16 @@ struct WcsphStepConfig {
 };
 
 // The boundary particles (BoundaryParticles) in their grid's order: n positions, volumes and
-// no-slip flags.
+// no-slip flags. With a moving obstacle also, in sampling order, their rest positions, volumes,
+// flags and obstacles (-1: a domain wall), which the move_boundary pass places from; empty
+// otherwise.
 struct BoundaryCloud {
   std::vector<float> x, y, z;
   std::vector<float> volume;  // m^3
   std::vector<uint8_t> no_slip;
+  std::vector<float> rest_x, rest_y, rest_z, rest_volume;
+  std::vector<uint8_t> rest_no_slip;
+  std::vector<int32_t> obstacle;
 };
 
 // What the CFL step needs from the particles of this step.
@@ -61,10 +66,15 @@ class WcsphPipeline {
   // The carried density (n values, storage order) into carried_density; false (nothing
   // copied) before it has started.
   bool DownloadCarriedDensity(float* carried_density) const;
-  // The passes before the time step (neighbour_grid ... wall_viscosity) with gravity `gravity`
-  // (m/s^2 along y) and the density diffusion's hydrostatic part -rho0 gravity / c0^2 (kg/m^4),
-  // and the time_step pass's maxima.
-  StepMaxima Forces(float gravity, float hydrostatic);
+  // The passes before the time step (move_boundary with `motion` when the boundary has moving
+  // obstacles, neighbour_grid ... wall_viscosity) with gravity `gravity` (m/s^2 along y) and the
+  // density diffusion's hydrostatic part -rho0 gravity / c0^2 (kg/m^4), and the time_step
+  // pass's maxima.
+  StepMaxima Forces(float gravity, float hydrostatic, const ObstacleMotionTable& motion);
+  // Replaces the contact's obstacles (the configuration's count and order) with where they are
+  // over the coming integration and their velocities, obstacle_speed the largest |u| (m/s).
+  void MoveSurfaces(const std::vector<SphereObstacle>& spheres,
+                    const std::vector<BoxObstacle>& boxes, float obstacle_speed);
   // The integrate pass with the step dt; the outcome holds every pass's time.
   StepOutcome Integrate(float dt);
   // Positions and velocities (xyz triples) and densities in particle-id order (id k at k);

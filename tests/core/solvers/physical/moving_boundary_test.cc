@@ -145,18 +145,7 @@ TEST_P(PhysicalMovingBoundaryTest, ALiftedPlateLiftsTheWaterOnIt) {
   EXPECT_GT(lowest, 0.15 - 1e-3);  // the plate's top, lifted
 }
 
-// The CUDA pipelines do not move obstacles: a scene with a motion is refused on a GPU, naming
-// the obstacle, rather than simulated with the obstacle standing still (with or without a GPU,
-// with or without a CUDA build: the check comes first).
-TEST_P(MovingBoundaryTest, AGpuRefusesAMovingObstacle) {
-  try {
-    Simulation sim(PushScene(*this, R"({"velocity": [0.5, 0, 0]})"), ParseDevice("cuda:0"));
-    ADD_FAILURE() << "a moving obstacle was accepted on a GPU";
-  } catch (const ConfigError& e) {
-    EXPECT_EQ(e.field(), "obstacles (box 0).motion") << e.what();
-  }
-  EXPECT_NO_THROW(Simulation(PushScene(*this, R"({"velocity": [0.5, 0, 0]})"), ParseDevice("cpu")));
-}
+// On a GPU: tests/core/cuda/*_pipeline_test.cc (MovingObstacles tests, ctest label gpu).
 
 INSTANTIATE_TEST_SUITE_P(Solvers, MovingBoundaryTest, ::testing::Values("seed", "wcsph", "dfsph"),
                          [](const auto& p) { return p.param; });

@@ -71,6 +71,13 @@ class BoundaryParticles {
   // m/s, per sample in grid order: its obstacle's velocity (0 for the walls). Empty unless
   // HasMovingObstacles().
   std::span<const Vec3> velocity() const { return {velocity_.data(), velocity_.size()}; }
+  // MoveObstacles's inputs, per sample in sampling order (the GPU's move_boundary places from
+  // them): the rest position, the obstacle (-1: a domain wall), the volume and the no-slip
+  // flag. Empty unless HasMovingObstacles().
+  std::span<const Vec3> rest_position() const { return rest_position_; }
+  std::span<const int32_t> obstacle() const { return obstacle_; }
+  std::span<const Real> rest_volume() const { return rest_volume_; }
+  std::span<const uint8_t> rest_no_slip() const { return rest_no_slip_; }
 
  private:
   NeighborGrid grid_;
