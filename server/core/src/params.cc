@@ -65,11 +65,7 @@ const std::array kParamTable = {
                "Rest density rho0 of the fluid; particle mass rho0 d^3"),
     DYSA_PARAM(particle_spacing, "m", 1e-4, 10.0, kReset, kPhysical,
                "Lattice spacing d of the fluid; mass rho0 d^3, kernel support 2 d"),
-    // At least 1 m/s: below it the carried density (continuity equation) of a falling block
-    // changes by tens of percent per step and the explicit update gains energy (the stress
-    // suite's block at 0.1 m/s released 18% more than gravity gave it); no water flow a user
-    // would set up has c0 = 10 v_max that low.
-    DYSA_PARAM(speed_of_sound, "m/s", 1.0, 1e5, kLive, kWcsph,
+    DYSA_PARAM(speed_of_sound, "m/s", 0.1, 1e5, kLive, kWcsph,
                "Speed of sound c0 of the Tait equation; stiffness B = rho0 c0^2 / 7"),
     DYSA_PARAM(kinematic_viscosity, "m^2/s", 0.0, 10.0, kLive, kPhysical,
                "Kinematic viscosity nu of the laminar viscosity (0 turns it off)"),
