@@ -342,6 +342,9 @@ class WcsphGpuBackend final : public GpuBackend {
     const TimeStepLimits limits = CflLimits(model, speed, std::sqrt(double(maxima.acceleration2)),
                                             /*acoustic=*/true, maxima.density);
     state.dt = ChooseTimeStep(limits, state.max_dt);
+    if (std::string warning = SupersonicWarning(model.params, speed); !warning.empty()) {
+      state.warning = std::move(warning);
+    }
     if (moving) MoveContactSurfaces(model, state.time, state.dt, pipeline_);
     cuda::StepOutcome outcome = pipeline_.Integrate(Real(state.dt));
     return StepReport{std::move(outcome.pass_ms), outcome.finite, 0};

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <string>
 
 namespace dysa {
 namespace {
@@ -53,6 +54,21 @@ TEST(ChooseTimeStepTest, TakesTheRestOrSplitsItEvenly) {
   EXPECT_EQ(ChooseTimeStep(limits, 1.5), 0.75);  // two steps anyway: no sliver
   EXPECT_EQ(ChooseTimeStep(limits, 2.0), 1.0);
   EXPECT_EQ(ChooseTimeStep(limits, 0.0), 1.0);  // no cap
+}
+
+// Past its speed of sound the weakly compressible model does not hold: the step warns (the
+// stress suite's block falling at 2 m/s with c0 = 0.1 m/s), naming both speeds; a subsonic flow
+// (the Poiseuille channel's 0.25 mm/s at the same c0) does not.
+TEST(SupersonicWarningTest, WarnsOnlyPastTheSpeedOfSound) {
+  Params params;
+  params.speed_of_sound = 0.1;
+  const std::string warning = SupersonicWarning(params, 2.0);
+  EXPECT_NE(warning.find("2.000000 m/s"), std::string::npos) << warning;
+  EXPECT_NE(warning.find("speed_of_sound 0.100000"), std::string::npos) << warning;
+  EXPECT_EQ(SupersonicWarning(params, 2.5e-4), "");
+  EXPECT_EQ(SupersonicWarning(params, 0.1), "");  // at c0 exactly: not past it
+  params.speed_of_sound = 50;
+  EXPECT_EQ(SupersonicWarning(params, 4.6), "");
 }
 
 }  // namespace

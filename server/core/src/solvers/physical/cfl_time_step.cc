@@ -40,6 +40,13 @@ double ChooseTimeStep(const TimeStepLimits& limits, double until) {
   return dt;
 }
 
+std::string SupersonicWarning(const Params& params, double speed) {
+  if (!(speed > params.speed_of_sound)) return "";
+  return "the flow reaches " + std::to_string(speed) + " m/s, faster than speed_of_sound " +
+         std::to_string(params.speed_of_sound) +
+         " m/s: the weakly compressible model does not hold (take c0 >= 10 v_max)";
+}
+
 namespace {
 
 void ChooseStep(const Model& model, const physical::PhysicalData& data, State& state,
@@ -61,6 +68,11 @@ void ChooseStep(const Model& model, const physical::PhysicalData& data, State& s
   const TimeStepLimits limits =
       CflLimits(model, v_max, std::sqrt(double(a2_max)), acoustic, density_max);
   state.dt = ChooseTimeStep(limits, state.max_dt);
+  if (acoustic) {
+    if (std::string warning = SupersonicWarning(model.params, v_max); !warning.empty()) {
+      state.warning = std::move(warning);
+    }
+  }
 }
 
 }  // namespace

@@ -19,6 +19,7 @@
 #pragma once
 
 #include <limits>
+#include <string>
 
 #include "dysa/core/model.h"
 #include "dysa/core/state.h"
@@ -34,6 +35,13 @@ struct TimeStepLimits {
   double max = kNone;      // s, max_time_step
   double Min() const;
 };
+
+// A weakly compressible solver's warning when the flow outruns its speed of sound (Mach > 1,
+// speed in m/s): the model assumes density changes of order (v / c0)^2, a few percent at most,
+// and past c0 an impact compresses the fluid by its whole density, so the step is computed but
+// not accurate (a block falling at 2 m/s with c0 = 0.1 m/s gains kinetic energy that gravity
+// never gave it). "" when the flow is subsonic. The usual rule is c0 >= 10 v_max.
+std::string SupersonicWarning(const Params& params, double speed);
 
 // The largest CFL factor an incompressible (pressure-projection) solver steps with: past it a
 // particle crosses most of a spacing per step, the density solve meets compressions it cannot
