@@ -238,7 +238,9 @@ TEST(DysaRemoteBinaryTest, UsageErrorsExitWithTwoBeforeAnyCall) {
     EXPECT_THAT(help.out, HasSubstr(verb));
   }
   // validate names each of its cases.
-  EXPECT_THAT(help.out, HasSubstr("(hydrostatic tank, Martin & Moyce dam break, Poiseuille flow)"));
+  EXPECT_THAT(
+      help.out,
+      HasSubstr("(hydrostatic tank, Martin & Moyce dam break, Poiseuille flow, SPHERIC Test 2)"));
 }
 
 // ---------------------------------------------------------------------------------------------
