@@ -245,7 +245,7 @@ DamBreakResult RunDamBreakScene(const char* name, const ValidationOptions& optio
   for (size_t k = 0; k < front_table.size(); ++k) {
     events.push_back({front_table[k].T * time_unit, true, k});
   }
-  for (size_t k = 0; k < height_table.size(); ++k) {
+  for (size_t k = 0; k < height_table.size() && !options.front_only; ++k) {
     events.push_back({height_table[k].tau * height_time_unit, false, k});
   }
   std::stable_sort(events.begin(), events.end(),

@@ -95,6 +95,9 @@ struct ValidationOptions {
   std::vector<std::string> sets;
   // Where the cases step; a solver without a GPU backend throws ConfigError("device", ...).
   Device device;
+  // Dam breaks only: stop at the front table's end (T = 2.96, tau = 2.09) instead of running on
+  // to the residual-height table's (tau = 3.44); DamBreakResult::heights is then empty.
+  bool front_only = false;
 };
 HydrostaticResult RunHydrostaticTank(const ValidationOptions& options = {});
 
