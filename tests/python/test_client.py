@@ -28,6 +28,14 @@ import grpc
 import numpy as np
 
 _REPO = Path(__file__).resolve().parents[2]
+
+
+def _die_with_parent() -> None:
+    """In the child before exec: SIGKILL when the test process ends (PR_SET_PDEATHSIG), so a
+    test killed mid-run leaves no server behind."""
+    import ctypes
+    pr_set_pdeathsig = 1
+    ctypes.CDLL(None, use_errno=True).prctl(pr_set_pdeathsig, signal.SIGKILL, 0, 0, 0)
 _CLIENT = _REPO / "clients" / "python"
 # Run by hand without PYTHONPATH: the package of this repository.
 if str(_CLIENT) not in sys.path:
@@ -73,7 +81,7 @@ class Server:
         self.process = subprocess.Popen(
             [binary, "--listen", "127.0.0.1:0", "--port-file", str(port_file),
              "--scene", _SCENE, *extra],
-            stdout=self._log, stderr=subprocess.STDOUT)
+            stdout=self._log, stderr=subprocess.STDOUT, preexec_fn=_die_with_parent)
         # The server writes the port once it listens; poll for a complete number.
         deadline = time.monotonic() + _START_TIMEOUT
         port = ""

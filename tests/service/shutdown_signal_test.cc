@@ -13,6 +13,8 @@
 #include <string>
 #include <thread>
 
+#include "support/die_with_parent.h"
+
 namespace dysa::service {
 namespace {
 
@@ -33,6 +35,7 @@ Child RunChild(Body body) {
   const auto start = std::chrono::steady_clock::now();
   const pid_t pid = fork();
   if (pid == 0) {
+    dysa::testing::DieWithParent();
     close(pipe_fds[0]);
     FILE* log = fdopen(pipe_fds[1], "w");
     body([log](const std::string& line) {

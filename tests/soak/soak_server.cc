@@ -11,6 +11,8 @@
 #include <sstream>
 #include <thread>
 
+#include "support/die_with_parent.h"
+
 namespace dysa::soak {
 
 pid_t SpawnProcess(const std::string& program, const std::vector<std::string>& args,
@@ -23,6 +25,7 @@ pid_t SpawnProcess(const std::string& program, const std::vector<std::string>& a
   const pid_t pid = fork();
   if (pid == 0) {
     // Only async-signal-safe calls between fork and exec: the parent has gRPC threads.
+    dysa::testing::DieWithParent();
     const int fd = open(log.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
     const int null = open("/dev/null", O_RDONLY);
     if (fd >= 0) dup2(fd, STDOUT_FILENO), dup2(fd, STDERR_FILENO);

@@ -16,6 +16,7 @@
 #include <thread>
 #include <vector>
 
+#include "support/die_with_parent.h"
 #include "support/temp_dir.h"
 
 namespace dysa::testing {
@@ -27,6 +28,7 @@ inline pid_t Spawn(const std::string& program, const std::vector<std::string>& a
   argv_strings.insert(argv_strings.end(), args.begin(), args.end());
   const pid_t pid = fork();
   if (pid == 0) {
+    DieWithParent();
     const int fd = open(log.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
     const int null = open("/dev/null", O_RDONLY);
     if (fd >= 0) dup2(fd, STDOUT_FILENO), dup2(fd, STDERR_FILENO);

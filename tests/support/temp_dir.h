@@ -5,11 +5,14 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
+
+#include "support/die_with_parent.h"
 
 namespace dysa::testing {
 
@@ -54,7 +57,16 @@ inline CommandResult RunCaptured(const std::filesystem::path& dir, const std::st
   const std::filesystem::path out = dir / "stdout.txt";
   const std::filesystem::path err = dir / "stderr.txt";
   const std::string line = command + " >'" + out.string() + "' 2>'" + err.string() + "' </dev/null";
-  const int status = std::system(line.c_str());
+  // std::system, but the shell dies with the test (a command left running would outlive it).
+  int status = -1;
+  if (const pid_t pid = fork(); pid == 0) {
+    DieWithParent();
+    execl("/bin/sh", "sh", "-c", line.c_str(), static_cast<char*>(nullptr));
+    _exit(127);
+  } else if (pid > 0) {
+    while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+    }
+  }
   CommandResult result;
   result.exit_code = (status != -1 && WIFEXITED(status)) ? WEXITSTATUS(status) : -1;
   result.out = ReadFile(out);

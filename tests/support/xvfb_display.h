@@ -9,6 +9,8 @@
 
 #include <string>
 
+#include "support/die_with_parent.h"
+
 namespace dysa::testing {
 
 class XvfbDisplay {
@@ -21,6 +23,7 @@ class XvfbDisplay {
     }
     pid_ = fork();
     if (pid_ == 0) {
+      DieWithParent();
       close(fds[0]);
       const std::string fd = std::to_string(fds[1]);
       execlp("Xvfb", "Xvfb", "-displayfd", fd.c_str(), "-screen", "0", screen.c_str(), "-nolisten",
