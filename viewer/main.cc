@@ -4,6 +4,7 @@
 #define GLFW_INCLUDE_NONE
 #include <GLFW/glfw3.h>
 #include <imgui.h>
+#include <unistd.h>
 
 #include <CLI/CLI.hpp>
 #include <chrono>
@@ -13,6 +14,7 @@
 #include <exception>
 #include <memory>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "backends/imgui_impl_glfw.h"
@@ -25,6 +27,7 @@
 #include "src/render_target.h"
 #include "src/scene_renderer.h"
 #include "src/server_link.h"
+#include "src/session_watch.h"
 
 namespace {
 
@@ -35,7 +38,8 @@ struct Options {
   dysa::remote::ConnectOptions connect;
   std::string screenshot;         // PNG path; empty: interactive
   int frames = 30;                // rendered frames before the screenshot
-  double timeout = 60;            // s: --screenshot gives up without frames after this long
+  double timeout = 60;            // s: --screenshot gives up unless written by then
+  double server_timeout = 5;      // s without the server, once connected, before exiting
   bool screenshot_panel = false;  // the control panel and overlay in the screenshot too
   std::string capture_dir = ".";  // where F12 saves dysa-viewer-N.png
   int width = 1280;
@@ -69,8 +73,13 @@ int ParseOptions(int argc, char** argv, Options& options) {
       ->capture_default_str();
   app.add_flag("--screenshot-panel", options.screenshot_panel,
                "Include the control panel and status overlay in the screenshot");
-  app.add_option("--timeout", options.timeout, "Seconds --screenshot waits for the server")
+  app.add_option("--timeout", options.timeout,
+                 "Seconds --screenshot may take before it gives up (exit status 1)")
       ->check(CLI::Range(1.0, 3600.0))
+      ->capture_default_str();
+  app.add_option("--server-timeout", options.server_timeout,
+                 "Seconds without the server, once connected, before exiting (0: wait for it)")
+      ->check(CLI::Range(0.0, 86400.0))
       ->capture_default_str();
   app.add_option("--width", options.width, "Window width, pixels")
       ->check(CLI::Range(64, 8192))
@@ -235,6 +244,10 @@ int Run(const Options& options) {
     Clock::time_point second_start = Clock::now();
     const Clock::time_point start = second_start;
     Clock::time_point first_particles;
+    // A viewer left behind exits by itself: the server gone, or a screenshot's parent or time.
+    const pid_t parent = screenshot ? WatchParent() : getppid();
+    SessionWatch watch({screenshot, options.server_timeout, options.timeout}, parent, start);
+    bool written = false;
 
     // The loop.
     while (!glfwWindowShouldClose(window) && quit_requested == 0) {
@@ -299,6 +312,7 @@ int Run(const Options& options) {
           // The scene alone, unless the panel was asked for too.
           if (options.screenshot_panel) ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
           WritePng(options.screenshot, ReadWindowPixels(width, height), width, height);
+          written = true;
           const double seconds =
               std::chrono::duration<double>(Clock::now() - first_particles).count();
           std::printf(
@@ -332,15 +346,29 @@ int Run(const Options& options) {
         frames_this_second = 0;
         second_start = now;
       }
-      if (screenshot && !have_particles &&
-          std::chrono::duration<double>(now - start).count() > options.timeout) {
-        std::string why = view.connected ? receiver_stats.error : view.connection_error;
-        std::fprintf(stderr, "dysa-viewer: no particle frame from %s within %.0f s%s%s\n",
-                     options.connect.address.c_str(), options.timeout, why.empty() ? "" : ": ",
-                     why.c_str());
+      std::string waiting_for;
+      if (screenshot && !have_particles) {
+        waiting_for = "particle frame";
+      } else if (screenshot && scene_revision == 0) {
+        waiting_for = "scene description";
+      }
+      const std::string connection_error =
+          view.connected ? receiver_stats.error : view.connection_error;
+      if (const auto why =
+              watch.Check(now, view.connected, connection_error, waiting_for, getppid())) {
+        std::fprintf(stderr, "dysa-viewer: exiting: %s (server %s)\n", why->c_str(),
+                     options.connect.address.c_str());
         status = 1;
         break;
       }
+      // Nothing to show yet: a screenshot run (no vsync) would otherwise spin a core.
+      if (screenshot && !waiting_for.empty()) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(10));
+      }
+    }
+    if (screenshot && !written && status == 0) {
+      std::fprintf(stderr, "dysa-viewer: stopped before the screenshot was written\n");
+      status = 1;
     }
 
     // Cleanup of the network before the GL objects (destructors, in reverse order).

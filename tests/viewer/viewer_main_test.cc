@@ -3,7 +3,11 @@
 // render modes; the PNG must have the asked size and show the fluid in the lower part of the box.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <signal.h>
 #include <stb/stb_image.h>
+#include <sys/prctl.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <chrono>
 #include <cstdint>
@@ -283,7 +287,54 @@ TEST_F(ViewerMainTest, ScreenshotWithoutAServerFailsWithTheReason) {
   const CommandResult r = RunViewer("--server 127.0.0.1:1 --screenshot '" +
                                     (dir_.path() / "none.png").string() + "' --timeout 2");
   EXPECT_EQ(r.exit_code, 1);
-  EXPECT_THAT(r.err, HasSubstr("no particle frame from 127.0.0.1:1"));
+  EXPECT_THAT(r.err, HasSubstr("no particle frame within 2 s"));
+  EXPECT_THAT(r.err, HasSubstr("127.0.0.1:1"));
+}
+
+// Waits up to `seconds` for the child `pid` to exit: its exit status, or -2 if it still runs
+// (it is then killed).
+int WaitExitWithin(pid_t pid, double seconds) {
+  const auto give_up = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+  int status = 0;
+  while (waitpid(pid, &status, WNOHANG) != pid) {
+    if (std::chrono::steady_clock::now() > give_up) {
+      kill(pid, SIGKILL);
+      waitpid(pid, &status, 0);
+      return -2;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+// A --screenshot viewer whose parent died (a test or script killed while it waits for frames)
+// exits within seconds, though its own --timeout is far off.
+TEST_F(ViewerMainTest, AScreenshotViewerWhoseParentIsGoneExits) {
+  // This process adopts the orphan (PR_SET_CHILD_SUBREAPER), so it can wait for its exit.
+  ASSERT_EQ(prctl(PR_SET_CHILD_SUBREAPER, 1), 0);
+  int fds[2];
+  ASSERT_EQ(pipe(fds), 0);
+  const std::filesystem::path log = dir_.path() / "orphan.log";
+  const pid_t parent = fork();
+  if (parent == 0) {  // the viewer's parent: starts it, then dies
+    setenv("DISPLAY", display_.display().c_str(), 1);
+    setenv("ASAN_OPTIONS", "detect_leaks=0", 1);  // see kViewerAsanOptions
+    const pid_t viewer = Spawn(DYSA_VIEWER_BINARY,
+                               {"--server", "127.0.0.1:1", "--timeout", "600", "--screenshot",
+                                (dir_.path() / "orphan.png").string()},
+                               log);
+    (void)!write(fds[1], &viewer, sizeof viewer);
+    std::this_thread::sleep_for(std::chrono::seconds(1));  // the viewer is up and waiting
+    _exit(0);
+  }
+  close(fds[1]);
+  pid_t viewer = -1;
+  ASSERT_EQ(read(fds[0], &viewer, sizeof viewer), ssize_t(sizeof viewer));
+  close(fds[0]);
+  EXPECT_EQ(dysa::testing::WaitExit(parent), 0);
+  EXPECT_EQ(WaitExitWithin(viewer, 10), 1) << dysa::testing::ReadFile(log);
+  EXPECT_THAT(dysa::testing::ReadFile(log), HasSubstr("screenshot"));
+  prctl(PR_SET_CHILD_SUBREAPER, 0);
 }
 
 TEST_F(ViewerMainTest, BadFlagsNameTheFlagAndItsRange) {
@@ -305,14 +356,14 @@ bool Xdotool(const std::string& display, const std::string& args) {
 class InteractiveViewer {
  public:
   InteractiveViewer(const std::string& display, const std::string& address,
-                    const std::filesystem::path& dir)
+                    const std::filesystem::path& dir, std::vector<std::string> extra = {})
       : display_(display), log_(dir / "viewer.log") {
     setenv("DISPLAY", display.c_str(), 1);
     setenv("ASAN_OPTIONS", "detect_leaks=0", 1);  // see kViewerAsanOptions
-    pid_ = Spawn(
-        DYSA_VIEWER_BINARY,
-        {"--server", address, "--width", "640", "--height", "480", "--capture-dir", dir.string()},
-        log_);
+    std::vector<std::string> args = {"--server", address, "--width",       "640",
+                                     "--height", "480",   "--capture-dir", dir.string()};
+    args.insert(args.end(), extra.begin(), extra.end());
+    pid_ = Spawn(DYSA_VIEWER_BINARY, args, log_);
     unsetenv("DISPLAY");
     unsetenv("ASAN_OPTIONS");
     dysa::remote::ConnectOptions connect;
@@ -332,6 +383,12 @@ class InteractiveViewer {
   }
   bool ready() const { return ready_; }
   std::string log() const { return dysa::testing::ReadFile(log_); }
+  // The exit status once it exits by itself within `seconds`; -2 (killed) if it does not.
+  int WaitForExit(double seconds) {
+    const int status = WaitExitWithin(pid_, seconds);
+    pid_ = -1;
+    return status;
+  }
   // Events to the focused viewer window, e.g. "key space".
   bool Send(const std::string& xdotool_args) const { return Xdotool(display_, xdotool_args); }
   // SIGTERM closes the window and exits cleanly, like closing it by hand: the exit status.
@@ -348,6 +405,17 @@ class InteractiveViewer {
   pid_t pid_ = -1;
   bool ready_ = false;
 };
+
+// An interactive viewer whose server is gone for longer than --server-timeout exits, saying so,
+// rather than polling a dead address forever.
+TEST_F(ViewerMainTest, AnInteractiveViewerExitsWhenItsServerIsGone) {
+  InteractiveViewer viewer(display_.display(), server_->address(), dir_.path(),
+                           {"--server-timeout", "1"});
+  ASSERT_TRUE(viewer.ready()) << viewer.log();
+  server_->Stop();
+  EXPECT_EQ(viewer.WaitForExit(15), 1) << viewer.log();
+  EXPECT_THAT(viewer.log(), HasSubstr("lost the server"));
+}
 
 // The interactive viewer steered with real key presses (XTEST events through xdotool): Space
 // resumes and pauses, Right steps a frame, Left steps back, R resets.
