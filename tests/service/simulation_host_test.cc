@@ -276,17 +276,35 @@ TEST(SimulationHostDeviceTest, AnUnavailableDeviceIsAConfigErrorNamingTheDevice)
 // ---------------------------------------------------------------------------------------------
 // Controls between steps, and callers that gave up.
 
-TEST(SimulationHostStepsTest, APauseActsInTheMiddleOfAFrameWhichThenGoesOnUnchanged) {
-  SimulationHost host(LongFrameScene(), Paused());
+// A pause inside a frame far longer than the landing budget does not wait for the frame: it
+// rolls the frame back to its start (frame_stepper.h), and the frame stepped again from there
+// reaches the state of one frame stepped whole.
+TEST(SimulationHostStepsTest, APauseInsideALongFrameRollsItBackAndItIsSteppedAgainUnchanged) {
+  HostOptions options = Paused();
+  options.landing_budget = std::chrono::milliseconds(1);
+  std::vector<std::string> lines;
+  std::mutex mu;
+  options.log = [&](const std::string& line) {
+    std::lock_guard lock(mu);
+    lines.push_back(line);
+  };
+  SimulationHost host(LongFrameScene(), options);
   host.Start();
+  const uint64_t start_hash = host.Status().state_hash;
   ASSERT_EQ(Apply(host, ResumeControl{}).code, ControlCode::kOk);
   std::this_thread::sleep_for(std::chrono::milliseconds(20));
   ControlResult r = Apply(host, PauseControl{});
   ASSERT_EQ(r.code, ControlCode::kOk) << r.message;
-  // Before: the Pause waited for the frame's thousands of steps.
+  // Before landing existed, the Pause left the state inside the frame (time > 0); before
+  // controls acted between steps, it waited for the frame's hundreds of steps (frame 1).
   EXPECT_EQ(r.status.frame, 0u) << "the Pause waited for the end of the frame";
-  EXPECT_LT(r.status.time, 0.025);
-  // The rest of the frame, from where it stopped, reaches the state of one frame stepped whole.
+  EXPECT_EQ(r.status.time, 0.0) << "the Pause left the state inside the frame";
+  EXPECT_EQ(r.status.step, 0u);
+  EXPECT_EQ(r.status.state_hash, start_hash);
+  {
+    std::lock_guard lock(mu);
+    EXPECT_THAT(lines, ::testing::Contains(::testing::HasSubstr("rolled back to its start")));
+  }
   r = Apply(host, StepControl{1});
   ASSERT_EQ(r.code, ControlCode::kOk) << r.message;
   EXPECT_EQ(r.frames_moved, 1u);
@@ -298,22 +316,27 @@ TEST(SimulationHostStepsTest, APauseActsInTheMiddleOfAFrameWhichThenGoesOnUnchan
   EXPECT_EQ(r.status.state_hash, StateHash(whole.state()));
 }
 
-// A parameter change in the middle of a frame is replayed where it was made when stepping back
-// and forward again: the frame's end gets a checkpoint, not the middle (which re-simulation
-// could not resume) nor nothing (checkpoints are 16 frames apart here).
-TEST(SimulationHostStepsTest, AParameterChangeInTheMiddleOfAFrameStepsBackExactly) {
+// A parameter change applied inside a running frame is replayed where it was made when stepping
+// back and forward again. The pause that follows rolls the frame back, so the change holds from
+// the frame's start; the checkpoint there (not one in the middle, which re-simulation could not
+// resume, nor none: checkpoints are 16 frames apart here) tells re-simulation about it.
+TEST(SimulationHostStepsTest, AParameterChangeInsideAFrameStepsBackExactly) {
   HostOptions options = Paused();
   options.history.max_bytes = 100'000;  // a handful of checkpoints of 600 particles
+  options.landing_budget = std::chrono::milliseconds(1);
   SimulationHost host(LongFrameScene(), options);
   host.Start();
   ASSERT_EQ(Apply(host, ResumeControl{}).code, ControlCode::kOk);
   std::this_thread::sleep_for(std::chrono::milliseconds(2));
-  ControlResult r = Apply(host, PauseControl{});
-  const uint64_t frame = r.status.frame;
-  ASSERT_GT(r.status.time, double(frame) * 0.025) << "the Pause did not land inside a frame";
-  r = Apply(host, UpdateParamsControl{{{"gravity", -3.0}}});
+  ControlResult r = Apply(host, UpdateParamsControl{{{"gravity", -3.0}}});
   ASSERT_EQ(r.code, ControlCode::kOk) << r.message;
   ASSERT_FALSE(r.reset);
+  ASSERT_GT(r.status.time - double(r.status.frame) * 0.025, 1e-9)
+      << "the change did not land inside a frame";
+  r = Apply(host, PauseControl{});
+  const uint64_t frame = r.status.frame;
+  EXPECT_NEAR(r.status.time, double(frame) * 0.025, 1e-9) << "the Pause did not land on a frame";
+  EXPECT_EQ(r.params.gravity, -3.0);
   r = Apply(host, StepControl{1});
   ASSERT_EQ(r.status.frame, frame + 1);
   const uint64_t after_change = r.status.state_hash;

@@ -189,6 +189,14 @@ bool Simulation::StepFrame(const std::function<bool()>& interrupted) {
   return true;
 }
 
+double Simulation::FrameStepsLeft() const {
+  if (!frame_open_) return 0;
+  if (!model_.physical) return std::max(frame_steps_left_, 0);
+  const double left = frame_end_time_ - state_.time;
+  if (left <= 0) return 0;
+  return state_.dt > 0 ? std::ceil(left / state_.dt) : 1;
+}
+
 void Simulation::Reset() {
   frame_open_ = false;
   alarm_.clear();

@@ -3,6 +3,7 @@
 #include <omp.h>
 
 #include <chrono>
+#include <cstdint>
 #include <utility>
 
 namespace dysa::service {
@@ -14,7 +15,34 @@ double MillisecondsSince(std::chrono::steady_clock::time_point start) {
       .count();
 }
 
+int64_t UnixMicros() {
+  return std::chrono::duration_cast<std::chrono::microseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
 }  // namespace
+
+void GatherSnapshot(const Simulation& sim, uint32_t fields, FrameSnapshot& s) {
+  const size_t n = sim.particle_count();
+  s.frame = sim.frame();
+  s.step = sim.step();
+  s.time = sim.time();
+  const Aabb& domain = sim.model().domain;
+  for (int a = 0; a < 3; ++a) {
+    s.domain_min[a] = domain.min[a];
+    s.domain_max[a] = domain.max[a];
+  }
+  s.produced_unix_us = UnixMicros();
+  // Storage order is cell order and changes every step; subscribers index by id. On a GPU only
+  // the fields asked for cross to the host, already in id order.
+  const bool velocities = fields & (codec::kSpeed | codec::kVelocity);
+  const bool densities = fields & codec::kDensity;
+  s.positions.resize(3 * n);
+  s.velocities.resize(velocities ? 3 * n : 0);
+  s.densities.resize(densities ? n : 0);
+  sim.ReadParticlesById({s.positions, s.velocities, s.densities});
+}
 
 FramePublisher::FramePublisher(FrameHub& hub, int threads) : hub_(hub) {
   if (threads > 0) thread_ = std::thread([this, threads] { Loop(threads); });

@@ -1,13 +1,13 @@
+// The simulation thread: its lifecycle, its loop, and the frames it steps, records and
+// publishes. What each control does is in host_controls.cc.
 #include "dysa/service/simulation_host.h"
 
 #include <omp.h>
 
 #include <algorithm>
 #include <chrono>
-#include <cmath>
-#include <limits>
-#include <sstream>
 
+#include "control_queue.h"
 #include "dysa/core/text.h"
 #include "dysa/core/types.h"
 
@@ -16,22 +16,6 @@ namespace dysa::service {
 using Clock = std::chrono::steady_clock;
 
 namespace {
-
-template <class... Ts>
-struct Overloaded : Ts... {
-  using Ts::operator()...;
-};
-// C++20 deduces this for aggregates, but Clang only from version 17, and the fuzz build
-// (scripts/fuzz.sh) uses Debian 12's Clang 14.
-template <class... Ts>
-Overloaded(Ts...) -> Overloaded<Ts...>;
-
-ControlResult Error(ControlCode code, std::string message) {
-  ControlResult result;
-  result.code = code;
-  result.message = std::move(message);
-  return result;
-}
 
 // OpenMP threads of the publishing thread (0: publish inline on the simulation thread). On the
 // CPU, the cores the solver leaves: with none left, a publishing thread would only take the
@@ -44,40 +28,11 @@ int PublisherThreads(const HostOptions& options, int solver_threads) {
   return std::max(0, cores - solver_threads);
 }
 
-// Why `caller` no longer waits for an answer at `now` (kOk while it does): a control is applied
-// only with kReplyMargin left for its answer to arrive.
-ControlCode CallerGone(const ControlCaller& caller, Clock::time_point now) {
-  if (caller.cancelled && caller.cancelled()) return ControlCode::kCancelled;
-  if (caller.deadline != Clock::time_point::max() && now + kReplyMargin > caller.deadline) {
-    return ControlCode::kDeadlineExceeded;
-  }
-  return ControlCode::kOk;
-}
-
 std::string Milliseconds(Clock::duration d) {
   return std::to_string(std::chrono::duration_cast<std::chrono::milliseconds>(d).count()) + " ms";
 }
 
-int64_t UnixMicros() {
-  return std::chrono::duration_cast<std::chrono::microseconds>(
-             std::chrono::system_clock::now().time_since_epoch())
-      .count();
-}
-
 }  // namespace
-
-const char* ControlName(const Control& control) {
-  return std::visit(Overloaded{
-                        [](const PauseControl&) { return "Pause"; },
-                        [](const ResumeControl&) { return "Resume"; },
-                        [](const StepControl&) { return "Step"; },
-                        [](const StepBackControl&) { return "StepBack"; },
-                        [](const ResetControl&) { return "Reset"; },
-                        [](const UpdateParamsControl&) { return "UpdateParams"; },
-                        [](const LoadSceneControl&) { return "LoadScene"; },
-                    },
-                    control);
-}
 
 SimulationHost::SimulationHost(Scene scene, HostOptions options)
     : options_(std::move(options)),
@@ -85,7 +40,9 @@ SimulationHost::SimulationHost(Scene scene, HostOptions options)
                                                   : omp_get_max_threads()),
       hub_(options_.max_subscribers),
       publisher_(hub_, PublisherThreads(options_, solver_threads_)),
-      history_(options_.history) {
+      queue_(std::make_unique<ControlQueue>()),
+      history_(options_.history),
+      stepper_(options_.landing_budget) {
   if (const std::string over = CheckParticleLimit(scene, scene.params); !over.empty()) {
     throw ConfigError("max_particles", over);
   }
@@ -94,11 +51,7 @@ SimulationHost::SimulationHost(Scene scene, HostOptions options)
   DescribeScene();
   StartScene();
   // A late joiner (or a subscriber that lost a frame) needs a frame even while paused.
-  hub_.set_frame_needed([this] {
-    std::lock_guard lock(mu_);
-    frame_needed_ = true;
-    wake_.notify_one();
-  });
+  hub_.set_frame_needed([this] { queue_->RequestFrame(); });
 }
 
 SimulationHost::~SimulationHost() { Stop(); }
@@ -107,32 +60,20 @@ void SimulationHost::Start() {
   if (thread_.joinable()) return;
   thread_ = std::thread([this] {
     Loop();
-    std::lock_guard lock(mu_);
-    finished_ = true;
-    finished_cv_.notify_all();
+    queue_->MarkFinished();
   });
 }
 
 void SimulationHost::RequestStop() {
-  std::deque<Job> left;
-  {
-    std::lock_guard lock(mu_);
-    stop_ = true;
-    attention_ = true;
-    left.swap(queue_);
-  }
-  wake_.notify_one();
-  for (Job& job : left) {
-    job.done(Error(ControlCode::kUnavailable, "the server is shutting down"));
+  for (QueuedControl& job : queue_->Close()) {
+    job.done(ControlError(ControlCode::kUnavailable, "the server is shutting down"));
   }
 }
 
 bool SimulationHost::StopWithin(Clock::time_point deadline) {
   RequestStop();
   if (thread_.joinable()) {
-    std::unique_lock lock(mu_);
-    if (!finished_cv_.wait_until(lock, deadline, [&] { return finished_; })) return false;
-    lock.unlock();
+    if (!queue_->WaitFinished(deadline)) return false;
     thread_.join();
   }
   publisher_.Stop();
@@ -164,16 +105,10 @@ HostScene SimulationHost::CurrentScene() const {
 
 void SimulationHost::Submit(Control control, std::function<void(ControlResult)> done,
                             ControlCaller caller) {
-  {
-    std::lock_guard lock(mu_);
-    if (!stop_) {
-      queue_.push_back(Job{std::move(control), std::move(done), std::move(caller), Clock::now()});
-      attention_ = true;
-      wake_.notify_one();
-      return;
-    }
+  QueuedControl job{std::move(control), std::move(done), std::move(caller), Clock::now()};
+  if (!queue_->Push(job)) {
+    job.done(ControlError(ControlCode::kUnavailable, "the server is shutting down"));
   }
-  done(Error(ControlCode::kUnavailable, "the server is shutting down"));
 }
 
 void SimulationHost::Loop() {
@@ -181,37 +116,28 @@ void SimulationHost::Loop() {
   omp_set_num_threads(solver_threads_);
   running_threads_ = omp_get_max_threads();
   RefreshStatus();
-  const auto yield_to_controls = [this] { return attention_.load(std::memory_order_relaxed); };
+  const auto yield_to_controls = [this] { return queue_->attention(); };
   auto next_frame = Clock::now();
   while (true) {
-    std::optional<Job> job;
-    bool frame_needed = false;
-    {
-      std::unique_lock lock(mu_);
-      // A Step, or a running frame that a control interrupted, goes on without waiting.
-      const bool busy = step_ || (running_ && sim_->frame_in_progress());
-      auto ready = [&] { return stop_ || !queue_.empty() || frame_needed_; };
-      if (!busy && !running_) {
-        wake_.wait(lock, ready);
-      } else if (!busy && options_.frame_rate > 0) {
-        wake_.wait_until(lock, next_frame, ready);
-      }
-      if (stop_) break;
-      // One control at a time: what is still queued interrupts whatever this one starts.
-      if (!queue_.empty()) {
-        job = std::move(queue_.front());
-        queue_.pop_front();
-        attention_ = !queue_.empty();
-      } else {
-        std::swap(frame_needed, frame_needed_);
-      }
+    // A Step, or a running frame that a control interrupted, goes on without waiting; paused,
+    // the thread sleeps until something arrives; running, until the next frame is due.
+    const bool busy = step_ || (running_ && sim_->frame_in_progress());
+    Clock::time_point until = Clock::time_point::min();
+    if (!busy && !running_) {
+      until = Clock::time_point::max();
+    } else if (!busy && options_.frame_rate > 0) {
+      until = next_frame;
     }
-    if (job) {
-      Handle(*job);
+    ControlQueue::Wake wake = queue_->Next(until);
+    if (wake.stop) break;
+    if (wake.control) {
+      Handle(*wake.control);
       continue;
     }
     // While running or stepping, the next frame serves whoever waits for one.
-    if (frame_needed && !running_ && !step_) Publish(/*force=*/true, /*discontinuity=*/false);
+    if (wake.frame_requested && !running_ && !step_) {
+      Publish(/*force=*/true, /*discontinuity=*/false);
+    }
 
     if (step_) {
       ContinueStep();
@@ -225,11 +151,11 @@ void SimulationHost::Loop() {
     }
   }
   if (step_) {
-    FinishStep(Error(ControlCode::kUnavailable, "the server is shutting down"), "shutdown");
+    FinishStep(ControlError(ControlCode::kUnavailable, "the server is shutting down"), "shutdown");
   }
 }
 
-void SimulationHost::Handle(Job& job) {
+void SimulationHost::Handle(QueuedControl& job) {
   const Clock::time_point now = Clock::now();
   if (const ControlCode gone = CallerGone(job.caller, now); gone != ControlCode::kOk) {
     const std::string why =
@@ -238,7 +164,7 @@ void SimulationHost::Handle(Job& job) {
                                                " was left before its caller's deadline") +
         " when the server got to it (queued " + Milliseconds(now - job.queued) + ")";
     Log(std::string(ControlName(job.control)) + " skipped, not applied: " + why);
-    Answer(job, Error(gone, "not applied: " + why));
+    Answer(job, ControlError(gone, "not applied: " + why));
     return;
   }
   // Any control but a parameter change ends a Step in progress; the Step is answered first.
@@ -253,68 +179,15 @@ void SimulationHost::Handle(Job& job) {
   Answer(job, std::move(result));
 }
 
-void SimulationHost::Answer(Job& job, ControlResult result) {
+void SimulationHost::Answer(QueuedControl& job, ControlResult result) {
   RefreshStatus();
   result.status = Status();
   result.params = sim_->params();
   job.done(std::move(result));
 }
 
-void SimulationHost::BeginStep(Job& job) {
-  const StepControl& c = std::get<StepControl>(job.control);
-  if (c.count < 1 || c.count > kMaxStepCount) {
-    Answer(job, Error(ControlCode::kInvalidArgument,
-                      "count: allowed range [1, " + std::to_string(kMaxStepCount) + "] frames"));
-    return;
-  }
-  if (!alarm_.empty()) {
-    Answer(job, Error(ControlCode::kFailedPrecondition,
-                      "cannot step: " + alarm_ + " (StepBack or Reset first)"));
-    return;
-  }
-  if (running_) Log("paused at frame " + std::to_string(sim_->frame()) + " to step");
-  running_ = false;
-  step_ = ActiveStep{std::move(job), c.count, 0};
-  RefreshStatus();
-}
-
-void SimulationHost::ContinueStep() {
-  ActiveStep& step = *step_;
-  const ControlCode gone = CallerGone(step.job.caller, Clock::now());
-  if (gone == ControlCode::kCancelled) {
-    FinishStep(Error(gone, "cancelled by its caller"), "its caller cancelled it");
-    return;
-  }
-  if (gone == ControlCode::kDeadlineExceeded) {
-    // Answered while the caller still waits: the frames moved are reported.
-    FinishStep(ControlResult{}, "its caller's deadline is near");
-    return;
-  }
-  const bool complete = AdvanceFrame([&] {
-    return attention_.load(std::memory_order_relaxed) ||
-           CallerGone(step.job.caller, Clock::now()) != ControlCode::kOk;
-  });
-  if (complete && alarm_.empty()) ++step.moved;
-  if (!alarm_.empty()) {
-    FinishStep(ControlResult{}, "the simulation diverged");
-  } else if (step.moved == step.count) {
-    FinishStep(ControlResult{}, "");
-  }
-}
-
-void SimulationHost::FinishStep(ControlResult result, const std::string& why) {
-  ActiveStep step = std::move(*step_);
-  step_.reset();
-  if (!why.empty()) {
-    Log("Step of " + std::to_string(step.count) + " frames ended after " +
-        std::to_string(step.moved) + ": " + why);
-  }
-  result.frames_moved = step.moved;
-  Answer(step.job, std::move(result));
-}
-
 bool SimulationHost::AdvanceFrame(const std::function<bool()>& interrupted) {
-  const bool complete = sim_->StepFrame(interrupted);
+  const bool complete = stepper_.Advance(*sim_, interrupted);
   if (!sim_->alarm().empty()) {
     // The core stopped at the first step that diverged.
     alarm_ = sim_->alarm() + " (frame " + std::to_string(sim_->frame()) +
@@ -340,101 +213,37 @@ bool SimulationHost::AdvanceFrame(const std::function<bool()>& interrupted) {
   return true;
 }
 
-ControlResult SimulationHost::Apply(Control& control) {
-  ControlResult result = std::visit(
-      Overloaded{
-          [&](PauseControl&) {
-            if (running_) Log("paused at frame " + std::to_string(sim_->frame()));
-            running_ = false;
-            return ControlResult{};
-          },
-          [&](ResumeControl&) {
-            if (!alarm_.empty()) {
-              return Error(ControlCode::kFailedPrecondition,
-                           "cannot resume: " + alarm_ + " (StepBack or Reset first)");
-            }
-            if (!running_) Log("resumed at frame " + std::to_string(sim_->frame()));
-            running_ = true;
-            return ControlResult{};
-          },
-          [&](StepControl&) {
-            // Never reached: Handle hands Steps to BeginStep, which answers them later.
-            return Error(ControlCode::kFailedPrecondition, "Step is not applied at once");
-          },
-          [&](StepBackControl& c) {
-            if (c.count < 1 || c.count > kMaxStepCount) {
-              return Error(
-                  ControlCode::kInvalidArgument,
-                  "count: allowed range [1, " + std::to_string(kMaxStepCount) + "] frames");
-            }
-            running_ = false;
-            // A diverged state is not in the history: the last good frame is the one before.
-            const uint64_t from = sim_->frame();
-            const uint64_t target = from > c.count ? from - c.count : 0;
-            // A frame in progress, and a parameter change within it, go with the rest.
-            const uint64_t reached = history_.Restore(*sim_, target);
-            params_changed_in_frame_ = false;
-            alarm_.clear();
-            ControlResult r;
-            r.frames_moved = uint32_t(from - reached);
-            Publish(/*force=*/true, /*discontinuity=*/true);
-            return r;
-          },
-          [&](ResetControl&) {
-            sim_->Reset();
-            StartScene();
-            Log("reset");
-            ControlResult r;
-            r.reset = true;
-            return r;
-          },
-          [&](UpdateParamsControl& c) {
-            Params next = sim_->params();
-            try {
-              for (const auto& [name, value] : c.values) SetParam(next, name, value);
-              if (const std::string over = CheckParticleLimit(sim_->scene(), next); !over.empty()) {
-                return Error(ControlCode::kResourceExhausted, over);
-              }
-              ControlResult r;
-              r.reset = sim_->SetParams(next);
-              std::ostringstream changed;
-              for (const auto& [name, value] : c.values) changed << " " << name << "=" << value;
-              Log("parameters changed:" + changed.str() + (r.reset ? " (reset)" : ""));
-              if (r.reset) {
-                DescribeScene();
-                StartScene();
-              } else if (sim_->frame_in_progress()) {
-                params_changed_in_frame_ = true;  // recorded at the frame's end
-              } else {
-                history_.RecordParameterChange(*sim_);
-              }
-              return r;
-            } catch (const ConfigError& e) {
-              return Error(ControlCode::kInvalidArgument, e.what());
-            }
-          },
-          [&](LoadSceneControl& c) {
-            if (const std::string over = CheckParticleLimit(c.scene, c.scene.params);
-                !over.empty()) {
-              return Error(ControlCode::kResourceExhausted, over);
-            }
-            try {
-              // On a GPU, a solver without a GPU backend fails here (ConfigError "device"):
-              // the old scene runs on.
-              auto next = std::make_unique<Simulation>(std::move(c.scene), options_.device);
-              sim_ = std::move(next);
-            } catch (const ConfigError& e) {
-              return Error(ControlCode::kInvalidArgument, e.what());
-            }
-            DescribeScene();
-            StartScene();
-            ControlResult r;
-            r.reset = true;
-            return r;
-          },
-      },
-      control);
-  return result;
+void SimulationHost::LandOnFrame() {
+  if (!sim_->frame_in_progress() || !alarm_.empty()) return;
+  const Clock::time_point start = Clock::now();
+  const Clock::time_point deadline = start + options_.landing_budget;
+  const uint64_t frame = sim_->frame();
+  const uint64_t step = sim_->step();
+  if (stepper_.ExpectFinishedBy(*sim_, deadline)) {
+    // Gives up between two steps when the next would end past the deadline (the steps turned
+    // out slower than expected) and the frame's start is there to go back to.
+    AdvanceFrame(
+        [&] { return stepper_.CanRollBack(*sim_) && !stepper_.ExpectStepEndsBy(deadline); });
+    if (!sim_->frame_in_progress()) {
+      if (alarm_.empty()) {
+        Log("stopped inside frame " + std::to_string(frame + 1) + " (step " + std::to_string(step) +
+            "): finished it in " + Milliseconds(Clock::now() - start) + ", at step " +
+            std::to_string(sim_->step()));
+      }
+      return;
+    }
+  }
+  stepper_.RollBack(*sim_);
+  if (params_changed_in_frame_) {
+    history_.RecordParameterChange(*sim_);
+    params_changed_in_frame_ = false;
+  }
+  Log("stopped inside frame " + std::to_string(frame + 1) + " (step " + std::to_string(step) +
+      "): rolled back to its start, step " + std::to_string(sim_->step()) + ", in " +
+      Milliseconds(Clock::now() - start));
+  // Subscribers may not have been sent this frame (a running stream skips frames).
+  Publish(/*force=*/true, /*discontinuity=*/false);
+  RefreshStatus();
 }
 
 std::string SimulationHost::CheckParticleLimit(const Scene& scene, const Params& params) const {
@@ -452,6 +261,7 @@ void SimulationHost::StartScene() {
   alarm_.clear();
   params_changed_in_frame_ = false;
   history_.Start(*sim_);
+  stepper_.Forget();
   recent_frames_.clear();
   gather_ = {};
   publisher_.ResetTiming();
@@ -473,27 +283,6 @@ void SimulationHost::DescribeScene() {
   scene_ = std::move(d);
 }
 
-void GatherSnapshot(const Simulation& sim, uint32_t fields, FrameSnapshot& s) {
-  const size_t n = sim.particle_count();
-  s.frame = sim.frame();
-  s.step = sim.step();
-  s.time = sim.time();
-  const Aabb& domain = sim.model().domain;
-  for (int a = 0; a < 3; ++a) {
-    s.domain_min[a] = domain.min[a];
-    s.domain_max[a] = domain.max[a];
-  }
-  s.produced_unix_us = UnixMicros();
-  // Storage order is cell order and changes every step; subscribers index by id. On a GPU only
-  // the fields asked for cross to the host, already in id order.
-  const bool velocities = fields & (codec::kSpeed | codec::kVelocity);
-  const bool densities = fields & codec::kDensity;
-  s.positions.resize(3 * n);
-  s.velocities.resize(velocities ? 3 * n : 0);
-  s.densities.resize(densities ? n : 0);
-  sim.ReadParticlesById({s.positions, s.velocities, s.densities});
-}
-
 void SimulationHost::Publish(bool force, bool discontinuity) {
   const uint32_t fields = hub_.NeededFields();
   if (fields == 0) return;  // no one watches: nothing gathered, nothing encoded
@@ -504,26 +293,16 @@ void SimulationHost::Publish(bool force, bool discontinuity) {
 }
 
 void SimulationHost::RefreshStatus() {
-  // Per frame: the cheap accessors only (on a GPU, state() copies every particle array back).
   HostStatus s;
   s.running = running_;
-  s.step = sim_->step();
-  s.frame = sim_->frame();
-  s.time = sim_->time();
-  s.particles = uint32_t(sim_->particle_count());
-  s.solver = sim_->scene().solver;
-  s.scene = sim_->scene().name;
+  // Paused, the state is a frame (LandOnFrame) and worth a hash; stepping, it changes per frame.
+  DescribeSimulation(*sim_, /*hash=*/!running_ && !step_, s);
   if (recent_frames_.size() >= 2 && running_) {
     const double span =
         std::chrono::duration<double>(recent_frames_.back() - recent_frames_.front()).count();
     if (span > 0) s.frames_per_second = double(recent_frames_.size() - 1) / span;
   }
   s.target_frame_rate = options_.frame_rate;
-  for (const PassProfile& prof : sim_->profile()) {
-    s.passes.push_back(PassStatus{prof.name, prof.last_ms,
-                                  prof.calls ? prof.total_ms / double(prof.calls) : 0.0,
-                                  prof.calls});
-  }
   const auto add_stage = [&](const char* name, const StageTiming& t) {
     if (t.calls > 0) s.passes.push_back(PassStatus{name, t.last_ms, t.mean_ms, t.calls});
   };
@@ -531,12 +310,8 @@ void SimulationHost::RefreshStatus() {
   add_stage("publish_frames", publisher_.timing());
   s.solver_threads = uint32_t(running_threads_);
   s.alarm = alarm_;
-  s.warning = sim_->warning();
-  s.device = sim_->DeviceDescription();
-  s.device_memory_bytes = sim_->DeviceBytes();
   s.history_frames = history_.available(s.frame);
   s.history_bytes = history_.bytes();
-  if (!running_) s.state_hash = StateHash(sim_->state());
   s.scene_version = scene_version_;
   std::lock_guard lock(status_mu_);
   status_ = std::move(s);

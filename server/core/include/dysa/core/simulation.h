@@ -114,6 +114,9 @@ class Simulation {
   // A frame was begun by StepFrame(interrupted) and not completed: the state lies between frame()
   // and the next.
   bool frame_in_progress() const { return frame_open_; }
+  // The steps the frame in progress still owes: exact for a fixed step, estimated from the
+  // latest step's length for a physical solver (its CFL step changes); 0 with no frame open.
+  double FrameStepsLeft() const;
   // The step the latest Step() took, s.
   double last_dt() const { return state_.dt; }
   // Empty while the state is healthy. Otherwise why the simulation stopped by itself: a NaN or

@@ -22,9 +22,14 @@
 #include <mutex>
 #include <thread>
 
+#include "dysa/core/simulation.h"
 #include "dysa/service/frame_hub.h"
 
 namespace dysa::service {
+
+// Fills `snapshot` from the simulation's current frame: positions, and velocities or densities
+// when `fields` (codec fields) need them, scattered from storage order into id order.
+void GatherSnapshot(const Simulation& sim, uint32_t fields, FrameSnapshot& snapshot);
 
 // The time a per-frame stage took (gathering a frame, publishing it), as GetStatus shows it.
 struct StageTiming {
