@@ -279,6 +279,23 @@ class ClientTest(unittest.TestCase):
         self.assertLessEqual(far.frames_moved, start.frame + 1)
         self.assertEqual(far.status.frame, start.frame + 1 - far.frames_moved)
 
+    def test_pause_lands_on_a_frame(self) -> None:
+        """The issue's repro, as a script would write it: wherever a pause arrives, the paused
+        state is a frame (a whole number of iterations_per_frame steps) whose hash stepping N
+        frames forward and N back returns to."""
+        per_frame = int(self.client.params()["iterations_per_frame"].value)
+        for i in range(6):
+            self.client.resume()
+            time.sleep(0.05 * (i % 3))
+            paused = self.client.pause().status
+            self.assertTrue(paused.paused)
+            self.assertEqual(paused.step, paused.frame * per_frame)
+            self.assertEqual(self.client.status().state_hash, paused.state_hash)
+            self.assertEqual(self.client.step(12).frames_moved, 12)
+            back = self.client.back(12).status
+            self.assertEqual((back.frame, back.step), (paused.frame, paused.step))
+            self.assertEqual(back.state_hash, paused.state_hash)
+
     def test_resume_and_reset(self) -> None:
         start = self.client.status().frame
         self.assertTrue(self.client.resume().status.running)

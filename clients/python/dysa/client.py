@@ -142,6 +142,9 @@ class Status:
     # "cuda:0 NVIDIA H200, 139.8 GiB, sm_90"; empty from a server that predates it.
     device: str = ""
     device_memory_bytes: int = 0  # bytes of GPU memory the simulation holds; 0 on the CPU
+    # While paused: a hash of every particle's id, position and velocity (the state is then a
+    # frame, and stepping N frames and back N gives the same hash); 0 while running.
+    state_hash: int = 0
 
     @property
     def paused(self) -> bool:
@@ -295,7 +298,7 @@ def _status(m: Any) -> Status:
         subscribers=m.subscribers, alarm=m.alarm, warning=m.warning, history_frames=m.history_frames,
         history_bytes=m.history_bytes, frames_encoded=m.frames_encoded,
         scene_version=m.scene_version, solver_threads=m.solver_threads, device=m.device,
-        device_memory_bytes=m.device_memory_bytes)
+        device_memory_bytes=m.device_memory_bytes, state_hash=m.state_hash)
 
 
 def _control(m: Any) -> ControlResult:
