@@ -40,7 +40,7 @@ class ProbeWriter {
   }
   void Write(const Simulation& sim) {
     file_ << sim.time() << ',' << sim.step();
-    for (double v : EvaluateProbes(sim.scene().probes, sim.model(), sim.state())) file_ << ',' << v;
+    for (double v : sim.EvaluateProbes(sim.scene().probes)) file_ << ',' << v;
     file_ << '\n';
     if (!file_) throw std::runtime_error("error writing probes.csv");
   }

@@ -42,8 +42,10 @@ TEST(MakeModelTest, PhysicalSolversDeriveMassSupportAndMomentsFromTheSpacing) {
     EXPECT_TRUE(model.physical);
     EXPECT_DOUBLE_EQ(model.particle_mass, 998 * 0.02 * 0.02 * 0.02);
     EXPECT_DOUBLE_EQ(model.kernel_support, 0.04);
-    EXPECT_EQ(model.gradient_moment, CubicSplineLatticeGradientMoment(0.02, 0.04));
-    EXPECT_EQ(model.viscosity_moment, CubicSplineLatticeViscosityMoment(0.02, 0.04));
+    const PhysicalKernel<double> cubic{KernelKind::kCubicSpline, 0.04};
+    EXPECT_EQ(model.kernel_kind, KernelKind::kCubicSpline);
+    EXPECT_EQ(model.gradient_moment, LatticeGradientMoment(cubic, 0.02));
+    EXPECT_EQ(model.viscosity_moment, LatticeViscosityMoment(cubic, 0.02));
     // Not 1: the lattice's moments are what the pressure and viscous terms are divided by
     // (about 1.02 and 0.708, docs/validation.md).
     EXPECT_NEAR(model.gradient_moment, 1.02, 0.01);

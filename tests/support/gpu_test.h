@@ -45,6 +45,15 @@ inline Scene DamScene(const std::string& solver) {
                     R"("})");
 }
 
+// DamScene with DualSPHysics's kernel: Wendland C2 at h = 1.732 d (support 3.46 d, four wall
+// layers).
+inline Scene WendlandDamScene(const std::string& solver) {
+  Scene scene = DamScene(solver);
+  SetParam(scene.params, "kernel", 1);
+  SetParam(scene.params, "smoothing_length_ratio", 1.732);
+  return scene;
+}
+
 // DamScene with both obstacles moving: the box slides into the dam at 0.3 m/s over
 // [0.05, 0.25] s and the sphere rises and comes back down along a keyframed path, so the
 // boundary is moved and sorted again each step, its samples carry velocities and the contact

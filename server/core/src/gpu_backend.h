@@ -13,6 +13,7 @@
 #include "dysa/core/model.h"
 #include "dysa/core/solver.h"
 #include "dysa/core/state.h"
+#include "probe_gather.h"
 
 namespace dysa {
 
@@ -38,6 +39,8 @@ class GpuBackend {
                                         std::vector<SolverArray>& solver_arrays) const = 0;
   // Positions, velocities (xyz triples) and densities in particle-id order; null: not copied.
   virtual void DownloadById(float* position, float* velocity, float* density) const = 0;
+  // The probes' gather (probe_gather.h) over the device's particles, on the device.
+  virtual void GatherProbes(const ProbeGatherPlan& plan, ProbeGather& out) const = 0;
 
   struct StepReport {
     std::vector<double> pass_ms;  // per pass, from CUDA events

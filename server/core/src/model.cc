@@ -22,9 +22,11 @@ Model MakeModel(const Scene& scene, const Params& params, const SolverInfo& solv
   if (model.physical) {
     const double d = params.particle_spacing;
     model.particle_mass = params.rest_density * d * d * d;
-    model.kernel_support = 2 * d;
-    model.gradient_moment = CubicSplineLatticeGradientMoment(d, model.kernel_support);
-    model.viscosity_moment = CubicSplineLatticeViscosityMoment(d, model.kernel_support);
+    model.kernel_kind = KernelKind(params.kernel);
+    model.kernel_support = 2 * params.smoothing_length_ratio * d;
+    model.gradient_moment = LatticeGradientMoment(model.Kernel<double>(), d);
+    model.viscosity_moment = LatticeViscosityMoment(model.Kernel<double>(), d);
+    model.density_moment = LatticeDensityMoment(model.Kernel<double>(), d);
   } else {
     model.particle_mass = params.particle_mass;
     model.kernel_support = params.smoothing_radius;

@@ -64,7 +64,13 @@ const std::array kParamTable = {
     DYSA_PARAM(rest_density, "kg/m^3", 1.0, 1e5, kLive, kPhysical,
                "Rest density rho0 of the fluid; particle mass rho0 d^3"),
     DYSA_PARAM(particle_spacing, "m", 1e-4, 10.0, kReset, kPhysical,
-               "Lattice spacing d of the fluid; mass rho0 d^3, kernel support 2 d"),
+               "Lattice spacing d of the fluid; mass rho0 d^3"),
+    DYSA_PARAM(kernel, "", 0, 1, kReset, kPhysical,
+               "Smoothing kernel: 0 the cubic spline (Monaghan 1992), 1 Wendland C2 (Wendland "
+               "1995)"),
+    DYSA_PARAM(smoothing_length_ratio, "", 1.0, 2.5, kReset, kPhysical,
+               "Smoothing length h over the spacing d; the kernel support is 2 h (1: 2 d, about "
+               "33 neighbours; 1.732: 3.46 d, about 170)"),
     DYSA_PARAM(speed_of_sound, "m/s", 0.1, 1e5, kLive, kWcsph,
                "Speed of sound c0 of the Tait equation; stiffness B = rho0 c0^2 / 7"),
     DYSA_PARAM(kinematic_viscosity, "m^2/s", 0.0, 10.0, kLive, kPhysical,

@@ -5,6 +5,7 @@
 #include <limits>
 
 #include "dysa/core/kernels.h"
+#include "probe_stages.h"
 #include "solvers/physical/physical_passes.h"
 
 namespace dysa {
@@ -24,62 +25,37 @@ std::vector<std::string> ProbeColumns(std::span<const ProbeSpec> probes) {
 
 namespace {
 
-// Probes run once per output, not per step: plain serial loops, summed in a fixed order so the
-// CSV is identical for any thread count.
-double Front(const ParticleArrays& p, int axis) {
-  double front = -std::numeric_limits<double>::infinity();
-  for (const Vec3& x : p.position) front = std::max(front, double(x[axis]));
-  return p.size() == 0 ? std::nan("") : front;
+bool IsLocal(ProbeKind kind) {
+  return kind == ProbeKind::kHeight || kind == ProbeKind::kPressure ||
+         kind == ProbeKind::kWallPressure;
 }
 
-double Height(const ParticleArrays& p, const Model& model, const ProbeSpec& probe) {
-  const double radius = probe.radius > 0 ? probe.radius : model.kernel_support;
-  const double gap = probe.gap > 0 ? probe.gap : model.kernel_support;
-  return ConnectedColumnHeight(p, model, probe.point, radius, gap, model.domain.min.y());
+// A window reaching a hair beyond `reach`: the finish's own distance test decides, the window
+// only has to hold every particle it could accept (W vanishes at the support's edge anyway).
+constexpr double kWindowMargin = 1 + 1e-6;
+
+ProbeWindow WindowAround(const Vec3d& point, double reach_x, double reach_y, double reach_z) {
+  ProbeWindow window;
+  for (int a = 0; a < 3; ++a) window.center[a] = point[a];
+  window.half[0] = reach_x * kWindowMargin;
+  window.half[1] = reach_y * kWindowMargin;
+  window.half[2] = reach_z * kWindowMargin;
+  return window;
 }
 
-// Shepard interpolation sum_j p_j W(r_j) / sum_j W(r_j) with the poly6 kernel; 0 where no
-// particle is within the smoothing radius (a point in air has no fluid pressure).
-double PressureAt(const ParticleArrays& p, const Model& model, const Vec3d& point) {
-  const double h = model.kernel_support;
-  double weighted = 0;
-  double weights = 0;
-  for (size_t i = 0; i < p.size(); ++i) {
-    const double r = model.MinimumImage(Vec3d(p.position[i].cast<double>() - point)).norm();
-    const double w = Poly6<double>::W(r, h);
-    weighted += w * p.pressure[i];
-    weights += w;
-  }
-  return weights > 0 ? weighted / weights : 0.0;
+double HeightRadius(const ProbeSpec& probe, const Model& model) {
+  return probe.radius > 0 ? probe.radius : model.kernel_support;
 }
 
-}  // namespace
+Vec3d PositionOf(const ProbeCandidate& c) { return Vec3d(double(c.x), double(c.y), double(c.z)); }
 
-double WallPressureAt(const ParticleArrays& p, const Model& model, const Vec3d& point,
-                      const Vec3d& normal, double time) {
-  const double support = model.kernel_support;
-  const double g = physical::GravityAt(model.params, time);  // along +y
-  double weighted = 0;
-  double weights = 0;
-  for (size_t i = 0; i < p.size(); ++i) {
-    const Vec3d to_particle = model.MinimumImage(Vec3d(p.position[i].cast<double>() - point));
-    if (to_particle.dot(normal) < 0) continue;
-    const double w = CubicSpline<double>::W(to_particle.norm(), support);
-    if (w <= 0) continue;
-    // g . (x_s - x_f) = g (y_s - y_f): the weight of the water between the particle and the
-    // sensor's height.
-    weighted += (double(p.pressure[i]) - double(p.density[i]) * g * to_particle.y()) * w;
-    weights += w;
-  }
-  return weights > 0 ? std::max(0.0, weighted / weights) : 0.0;
-}
-
-double ConnectedColumnHeight(const ParticleArrays& particles, const Model& model,
-                             const Vec3d& point, double radius, double gap, double floor) {
+// The connected column's top among the candidates within `radius` of `point` horizontally.
+double ColumnHeight(std::span<const ProbeCandidate> candidates, const Model& model,
+                    const Vec3d& point, double radius, double gap, double floor) {
   std::vector<double> heights;
-  for (const Vec3& x : particles.position) {
-    const Vec3d d = model.MinimumImage(Vec3d(x.cast<double>() - point));
-    if (d.x() * d.x() + d.z() * d.z() <= radius * radius) heights.push_back(double(x.y()) - floor);
+  for (const ProbeCandidate& c : candidates) {
+    const Vec3d d = model.MinimumImage(Vec3d(PositionOf(c) - point));
+    if (d.x() * d.x() + d.z() * d.z() <= radius * radius) heights.push_back(double(c.y) - floor);
   }
   std::sort(heights.begin(), heights.end());
   double top = 0;
@@ -90,48 +66,151 @@ double ConnectedColumnHeight(const ParticleArrays& particles, const Model& model
   return top;
 }
 
-std::vector<double> EvaluateProbes(std::span<const ProbeSpec> probes, const Model& model,
-                                   const State& state) {
-  const ParticleArrays& p = state.particles;
-  std::vector<double> values;
+// Shepard interpolation sum_j p_j W(r_j) / sum_j W(r_j) with the poly6 kernel; 0 where no
+// particle is within the smoothing radius (a point in air has no fluid pressure).
+double PressureFrom(std::span<const ProbeCandidate> candidates, const Model& model,
+                    const Vec3d& point) {
+  const double h = model.kernel_support;
+  double weighted = 0;
+  double weights = 0;
+  for (const ProbeCandidate& c : candidates) {
+    const double r = model.MinimumImage(Vec3d(PositionOf(c) - point)).norm();
+    const double w = Poly6<double>::W(r, h);
+    weighted += w * c.pressure;
+    weights += w;
+  }
+  return weights > 0 ? weighted / weights : 0.0;
+}
+
+double WallPressureFrom(std::span<const ProbeCandidate> candidates, const Model& model,
+                        const Vec3d& point, const Vec3d& normal, double time) {
+  const PhysicalKernel<double> kernel = model.Kernel<double>();
+  const double g = physical::GravityAt(model.params, time);  // along +y
+  double weighted = 0;
+  double weights = 0;
+  for (const ProbeCandidate& c : candidates) {
+    const Vec3d to_particle = model.MinimumImage(Vec3d(PositionOf(c) - point));
+    if (to_particle.dot(normal) < 0) continue;
+    const double w = kernel.W(to_particle.norm());
+    if (w <= 0) continue;
+    // g . (x_s - x_f) = g (y_s - y_f): the weight of the water between the particle and the
+    // sensor's height.
+    weighted += (double(c.pressure) - double(c.density) * g * to_particle.y()) * w;
+    weights += w;
+  }
+  return weights > 0 ? std::max(0.0, weighted / weights) : 0.0;
+}
+
+// One local probe gathered from the host's arrays (the single-probe entry points below).
+std::vector<ProbeCandidate> GatherWindow(const ParticleArrays& particles, const Model& model,
+                                         const ProbeWindow& window) {
+  ProbeGatherPlan plan = PlanProbeGather({}, model);
+  plan.windows.push_back(window);
+  ProbeGather gather;
+  GatherProbes(plan, particles, gather);
+  return std::move(gather.candidates[0]);
+}
+
+}  // namespace
+
+ProbeGatherPlan PlanProbeGather(std::span<const ProbeSpec> probes, const Model& model) {
+  ProbeGatherPlan plan;
+  for (int a = 0; a < 3; ++a) {
+    plan.wrap.periodic[a] = model.periodic[a];
+    plan.wrap.period[a] = model.domain.max[a] - model.domain.min[a];
+  }
+  const double support = model.kernel_support;
+  const double everywhere = std::numeric_limits<double>::infinity();
   for (const ProbeSpec& probe : probes) {
     switch (probe.kind) {
-      case ProbeKind::kFront:
-        values.push_back(Front(p, probe.axis));
+      case ProbeKind::kHeight: {
+        const double radius = HeightRadius(probe, model);
+        plan.windows.push_back(WindowAround(probe.point, radius, everywhere, radius));
         break;
-      case ProbeKind::kHeight:
-        values.push_back(Height(p, model, probe));
-        break;
+      }
       case ProbeKind::kPressure:
-        values.push_back(PressureAt(p, model, probe.point));
-        break;
       case ProbeKind::kWallPressure:
-        values.push_back(WallPressureAt(p, model, probe.point, probe.normal, state.time));
+        plan.windows.push_back(WindowAround(probe.point, support, support, support));
         break;
-      case ProbeKind::kDensity: {
-        double sum = 0;
-        double max = 0;
-        for (Real rho : p.density) sum += rho, max = std::max(max, double(rho));
-        values.push_back(p.size() == 0 ? 0.0 : sum / double(p.size()));
-        values.push_back(max);
+      case ProbeKind::kDensity:
+        plan.density = true;
         break;
-      }
-      case ProbeKind::kKineticEnergy: {
-        double sum = 0;
-        for (const Vec3& v : p.velocity) sum += v.cast<double>().squaredNorm();
-        values.push_back(0.5 * model.particle_mass * sum);
+      case ProbeKind::kKineticEnergy:
+        plan.kinetic_energy = true;
         break;
-      }
       case ProbeKind::kCountInside: {
         const Aabb region = probe.region.value_or(model.domain);
-        double count = 0;
-        for (const Vec3& x : p.position) count += region.Contains(x.cast<double>()) ? 1 : 0;
-        values.push_back(count);
+        ProbeBox box;
+        for (int a = 0; a < 3; ++a) box.lo[a] = region.min[a], box.hi[a] = region.max[a];
+        plan.count_boxes.push_back(box);
         break;
       }
+      case ProbeKind::kFront:
+        break;  // the fronts are always reduced
+    }
+  }
+  return plan;
+}
+
+std::vector<double> FinishProbes(std::span<const ProbeSpec> probes, const Model& model, double time,
+                                 const ProbeGather& gather) {
+  const ProbeReductions& all = gather.reductions;
+  std::vector<double> values;
+  size_t window = 0;
+  size_t box = 0;
+  for (const ProbeSpec& probe : probes) {
+    std::span<const ProbeCandidate> near;
+    if (IsLocal(probe.kind)) near = gather.candidates.at(window++);
+    switch (probe.kind) {
+      case ProbeKind::kFront:
+        values.push_back(all.particles == 0 ? std::nan("") : all.front[probe.axis]);
+        break;
+      case ProbeKind::kHeight: {
+        const double gap = probe.gap > 0 ? probe.gap : model.kernel_support;
+        values.push_back(ColumnHeight(near, model, probe.point, HeightRadius(probe, model), gap,
+                                      model.domain.min.y()));
+        break;
+      }
+      case ProbeKind::kPressure:
+        values.push_back(PressureFrom(near, model, probe.point));
+        break;
+      case ProbeKind::kWallPressure:
+        values.push_back(WallPressureFrom(near, model, probe.point, probe.normal, time));
+        break;
+      case ProbeKind::kDensity:
+        values.push_back(all.particles == 0 ? 0.0 : all.density_sum / double(all.particles));
+        values.push_back(all.density_max);
+        break;
+      case ProbeKind::kKineticEnergy:
+        values.push_back(0.5 * model.particle_mass * all.speed2_sum);
+        break;
+      case ProbeKind::kCountInside:
+        values.push_back(all.counts.at(box++));
+        break;
     }
   }
   return values;
+}
+
+double WallPressureAt(const ParticleArrays& p, const Model& model, const Vec3d& point,
+                      const Vec3d& normal, double time) {
+  const double s = model.kernel_support;
+  return WallPressureFrom(GatherWindow(p, model, WindowAround(point, s, s, s)), model, point,
+                          normal, time);
+}
+
+double ConnectedColumnHeight(const ParticleArrays& particles, const Model& model,
+                             const Vec3d& point, double radius, double gap, double floor) {
+  const double everywhere = std::numeric_limits<double>::infinity();
+  const ProbeWindow window = WindowAround(point, radius, everywhere, radius);
+  return ColumnHeight(GatherWindow(particles, model, window), model, point, radius, gap, floor);
+}
+
+std::vector<double> EvaluateProbes(std::span<const ProbeSpec> probes, const Model& model,
+                                   const State& state) {
+  ProbeGather gather;
+  GatherProbes(PlanProbeGather(probes, model), state.particles, gather);
+  return FinishProbes(probes, model, state.time, gather);
 }
 
 }  // namespace dysa

@@ -496,18 +496,19 @@ Scene ParseScene(std::string_view json_text) {
 
 void CheckPeriodicDomain(const Scene& scene, const Params& params) {
   const bool physical = IsPhysicalSolver(scene.solver);
-  // The neighbour search's reach: the physical solvers' kernel support 2 d, the seed's h.
-  const double support = physical ? 2 * params.particle_spacing : params.smoothing_radius;
+  // The neighbour search's reach: the physical solvers' kernel support 2 h, the seed's h.
+  const double support = physical ? 2 * params.smoothing_length_ratio * params.particle_spacing
+                                  : params.smoothing_radius;
   const char* param = physical ? "particle_spacing" : "smoothing_radius";
   const char* axes = "xyz";
   for (int a = 0; a < 3; ++a) {
     if (!scene.periodic[a]) continue;
     const double length = scene.domain.max[a] - scene.domain.min[a];
     if (length < 3 * support * (1 - 1e-9)) {  // a hair under: 3 * 0.04 is 0.12000000000000001
-      throw ConfigError(param, "the domain is periodic in " + std::string(1, axes[a]) +
-                                   " with a length of " + Num(length) +
-                                   " m, which must be at least 3 kernel supports; at most " +
-                                   Num(length / (physical ? 6 : 3)) + " m here");
+      throw ConfigError(
+          param, "the domain is periodic in " + std::string(1, axes[a]) + " with a length of " +
+                     Num(length) + " m, which must be at least 3 kernel supports; at most " +
+                     Num(length / (physical ? 6 * params.smoothing_length_ratio : 3)) + " m here");
     }
     auto check = [&](double lo, double hi, const std::string& path) {
       if (lo < scene.domain.min[a] + support || hi > scene.domain.max[a] - support) {
@@ -550,7 +551,8 @@ void CheckParticlesPerCell(const Scene& scene, const Params& params, const Fluid
                            const std::optional<double>& spacing, const Eigen::Vector3i& n,
                            const std::string& path) {
   const bool physical = IsPhysicalSolver(scene.solver);
-  const double support = physical ? 2 * params.particle_spacing : params.smoothing_radius;
+  const double support = physical ? 2 * params.smoothing_length_ratio * params.particle_spacing
+                                  : params.smoothing_radius;
   NeighborGrid grid;
   try {
     grid.Configure(scene.domain, Real(support), scene.periodic);

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "gpu_backend.h"
+#include "probe_stages.h"
 #include "solvers/seed/seed_solver.h"
 
 namespace dysa {
@@ -24,6 +25,17 @@ Simulation::Simulation(Scene scene, const Device& device)
 Simulation::~Simulation() = default;
 Simulation::Simulation(Simulation&&) noexcept = default;
 Simulation& Simulation::operator=(Simulation&&) noexcept = default;
+
+std::vector<double> Simulation::EvaluateProbes(std::span<const ProbeSpec> probes) const {
+  const ProbeGatherPlan plan = PlanProbeGather(probes, model_);
+  ProbeGather gather;
+  if (gpu_ && host_stale_) {
+    gpu_->GatherProbes(plan, gather);
+  } else {
+    GatherProbes(plan, state_.particles, gather);
+  }
+  return FinishProbes(probes, model_, state_.time, gather);
+}
 
 const State& Simulation::state() const {
   if (host_stale_) {

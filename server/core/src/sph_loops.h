@@ -30,8 +30,8 @@ inline void ForEachWithin(const NeighborGrid& grid, const Eigen::Vector3i& cell,
 }
 
 // grad W(x_ij) = dW/dr x_ij / r (zero at r = 0).
-inline Vec3 GradW(const Vec3& xij, Real r, Real support) {
-  return r > 0 ? Vec3(xij * (CubicSpline<Real>::dW(r, support) / r)) : Vec3::Zero();
+inline Vec3 GradW(const Vec3& xij, Real r, const PhysicalKernel<Real>& kernel) {
+  return r > 0 ? Vec3(xij * (kernel.dW(r) / r)) : Vec3::Zero();
 }
 
 }  // namespace dysa

@@ -148,7 +148,7 @@ HydrostaticResult RunHydrostaticTank(const ValidationOptions& options) {
   while (sim.time() < end) {
     sim.Step(end);
     const double dt = sim.last_dt();
-    const std::vector<double> p = EvaluateProbes(probes, sim.model(), sim.state());
+    const std::vector<double> p = sim.EvaluateProbes(probes);
     const int batch = std::clamp(int((sim.time() - window_start) / batch_length - 1e-9), 0,
                                  kHydrostaticBatches - 1);
     for (size_t i = 0; i < p.size(); ++i) batch_sums[batch][i] += p[i] * dt;
@@ -219,18 +219,22 @@ DamBreakResult RunDamBreakScene(const char* name, const ValidationOptions& optio
   const double time_unit = std::sqrt(a / (2 * g));  // t = T sqrt(a / (2 g))
   result.time_unit = time_unit;
 
-  const auto front_Z = [&] {
-    double front = -1e300;
-    for (const Vec3& x : sim.state().particles.position) front = std::max(front, double(x.x()));
-    return (front + 0.5 * d - x_wall) / a;
-  };
-  // The column's height at the wall, its surface half a spacing above the top particle.
+  // The surge front (the largest x) and the column's height at the wall, evaluated as probes
+  // (on a GPU, on the device). The column's surface is half a spacing above its top particle.
   const double support = sim.model().kernel_support;
-  const Vec3d wall_point(x_wall, 0, scene.domain.Center().z());
+  ProbeSpec front_probe;
+  front_probe.kind = ProbeKind::kFront;
+  front_probe.axis = 0;
+  ProbeSpec height_probe;
+  height_probe.kind = ProbeKind::kHeight;
+  height_probe.point = Vec3d(x_wall, 0, scene.domain.Center().z());
+  height_probe.radius = support;
+  height_probe.gap = support;
+  const auto front_Z = [&] {
+    return (sim.EvaluateProbes(std::span(&front_probe, 1))[0] + 0.5 * d - x_wall) / a;
+  };
   const auto height_H = [&] {
-    const double eta = ConnectedColumnHeight(sim.state().particles, sim.model(), wall_point,
-                                             support, support, scene.domain.min.y());
-    return (eta + 0.5 * d) / (2 * a);
+    return (sim.EvaluateProbes(std::span(&height_probe, 1))[0] + 0.5 * d) / (2 * a);
   };
   const double height_time_unit = std::sqrt(a / g);  // t = tau sqrt(a / g)
   // Both tables' times in order; each row is read after the step that reaches its time.

@@ -94,7 +94,7 @@ SphericTest2Result RunSphericTest2(const ValidationOptions& options, double end_
 
   SphericTest2Result result;
   const auto sample = [&] {
-    const std::vector<double> values = EvaluateProbes(probes, sim.model(), sim.state());
+    const std::vector<double> values = sim.EvaluateProbes(probes);
     result.times.push_back(sim.time());
     for (int s = 0; s < kSphericPressureSensors; ++s) result.pressure[s].push_back(values[s]);
     for (int g = 0; g < kSphericGauges; ++g) {

@@ -20,6 +20,7 @@ using dysa::testing::ExpectAgreement;
 using dysa::testing::kGpu;
 using dysa::testing::MovingDamScene;
 using dysa::testing::PeriodicScene;
+using dysa::testing::WendlandDamScene;
 
 const char* const kSolver = "dfsph";
 
@@ -60,6 +61,12 @@ TEST(DfsphGpuTest, TheFirstStepsMatchTheCpusSolves) {
     worst = std::max(worst, double((by_id_gpu[k] - by_id_cpu[k]).norm()));
   }
   EXPECT_LT(worst, 1e-6) << "m, the largest distance between a particle on the CPU and the GPU";
+}
+
+// The Wendland kernel at a larger support (kernel and smoothing_length_ratio) on the GPU.
+TEST(DfsphGpuTest, WendlandAtALargerSupportFollowsTheCpu) {
+  SKIP_WITHOUT_GPU();
+  ExpectAgreement(WendlandDamScene(kSolver), 0.2);
 }
 
 // Moving obstacles (the move_boundary pass, the samples' velocities in the density rate, the

@@ -141,6 +141,9 @@ class SeedGpuBackend final : public GpuBackend {
   void DownloadById(float* position, float* velocity, float* density) const override {
     pipeline_.DownloadById(position, velocity, density);
   }
+  void GatherProbes(const ProbeGatherPlan& plan, ProbeGather& out) const override {
+    pipeline_.GatherProbes(plan, out);
+  }
 
   StepReport Step(const Model& model, State& state) override {
     if (model.HasMovingObstacles()) {
@@ -185,14 +188,16 @@ cuda::SphConstants PhysicalConstants(const Model& model) {
   const Params& prm = model.params;
   cuda::SphConstants c;
   const double rho0 = prm.rest_density;
+  c.kernel = int(model.kernel_kind);
   c.support = Real(model.kernel_support);
   c.mass = Real(model.particle_mass);
   c.psi_scale = Real(rho0);
+  c.density_scale = Real(1 / model.density_moment);
   c.gradient_scale = Real(1 / model.gradient_moment);
   c.viscosity_scale =
       Real(10 * prm.kinematic_viscosity * model.particle_mass / model.viscosity_moment);
   c.wall_viscosity_scale = Real(10 * prm.kinematic_viscosity / model.viscosity_moment);
-  const Real h = Real(prm.particle_spacing);
+  const Real h = Real(model.SmoothingLength());
   c.eps = Real(0.01) * h * h;
   c.rest_density = rho0;
   c.stiffness = rho0 * prm.speed_of_sound * prm.speed_of_sound / physical::kTaitExponent;
@@ -287,8 +292,8 @@ class WcsphGpuBackend final : public GpuBackend {
     config.grid = PhysicalGrid(model);
     config.constants = PhysicalConstants(model);
     // delta h c0, as ComputeDensityAndPressure
-    config.constants.diffusion = Real(model.params.density_diffusion *
-                                      model.params.particle_spacing * model.params.speed_of_sound);
+    config.constants.diffusion = Real(model.params.density_diffusion * model.SmoothingLength() *
+                                      model.params.speed_of_sound);
     const BoundaryParticles boundary(model, model.params.particle_spacing, model.kernel_support);
     config.viscosity = model.params.kinematic_viscosity > 0;
     config.wall_viscosity = config.viscosity && boundary.HasNoSlip();
@@ -322,6 +327,9 @@ class WcsphGpuBackend final : public GpuBackend {
 
   void DownloadById(float* position, float* velocity, float* density) const override {
     pipeline_.DownloadById(position, velocity, density);
+  }
+  void GatherProbes(const ProbeGatherPlan& plan, ProbeGather& out) const override {
+    pipeline_.GatherProbes(plan, out);
   }
 
   StepReport Step(const Model& model, State& state) override {
@@ -410,6 +418,9 @@ class DfsphGpuBackend final : public GpuBackend {
 
   void DownloadById(float* position, float* velocity, float* density) const override {
     pipeline_.DownloadById(position, velocity, density);
+  }
+  void GatherProbes(const ProbeGatherPlan& plan, ProbeGather& out) const override {
+    pipeline_.GatherProbes(plan, out);
   }
 
   StepReport Step(const Model& model, State& state) override {

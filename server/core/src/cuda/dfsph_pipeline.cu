@@ -13,6 +13,7 @@
 #include "cuda/device_grid.cuh"
 #include "cuda/dfsph_pipeline.h"
 #include "cuda/moving_boundary.cuh"
+#include "cuda/probe_gatherer.cuh"
 #include "cuda/sph_kernels.cuh"
 
 namespace dysa::cuda {
@@ -79,8 +80,8 @@ __global__ void DensityAndFactorKernel(DeviceGrid grid, DeviceGrid bgrid, Fluid 
   F3 grad{0, 0, 0};
   uint32_t k = s.fluid_begin[i];
   ForEachWithin(grid, {f.x, f.y, f.z}, cell, x, c.support, [&](uint32_t j, F3 xij, float r) {
-    fluid += KernelW(r, c.support);
-    const float gf = GradFactor(r, c.support);
+    fluid += KernelW(r, c);
+    const float gf = GradFactor(r, c);
     const F3 g{xij.x * gf, xij.y * gf, xij.z * gf};
     if (r > 0) s.fluid_pairs[k++] = Pair{j, g.x, g.y, g.z};
     const F3 mg{c.mass * g.x, c.mass * g.y, c.mass * g.z};
@@ -90,8 +91,8 @@ __global__ void DensityAndFactorKernel(DeviceGrid grid, DeviceGrid bgrid, Fluid 
   float wall = 0;
   uint32_t kw = s.wall_begin[i];
   ForEachWithin(bgrid, {b.x, b.y, b.z}, cell, x, c.support, [&](uint32_t o, F3 xib, float r) {
-    wall += b.volume[o] * KernelW(r, c.support);
-    const float gf = GradFactor(r, c.support);
+    wall += b.volume[o] * KernelW(r, c);
+    const float gf = GradFactor(r, c);
     const F3 g{xib.x * gf, xib.y * gf, xib.z * gf};
     if (r > 0) {
       wall_owner[kw] = i;
@@ -100,7 +101,7 @@ __global__ void DensityAndFactorKernel(DeviceGrid grid, DeviceGrid bgrid, Fluid 
     const float psi = rho0 * b.volume[o];
     grad.x += psi * g.x, grad.y += psi * g.y, grad.z += psi * g.z;
   });
-  const float rho = c.mass * fluid + rho0 * wall;
+  const float rho = (c.mass * fluid + rho0 * wall) * c.density_scale;
   f.density[i] = rho;
   const float denominator = Norm2(grad) + squares;
   s.alpha[i] = denominator > 1e-6f * rho * rho / (c.support * c.support) ? rho / denominator : 0.0f;
@@ -121,7 +122,7 @@ __global__ void BoundaryWeightsKernel(Fluid f, Boundary b, Solver s, SphConstant
       if (d[a] > length / 2) d[a] -= length;
       if (d[a] < -length / 2) d[a] += length;
     }
-    const float w = KernelW(sqrtf(Norm2({d[0], d[1], d[2]})), c.support);
+    const float w = KernelW(sqrtf(Norm2({d[0], d[1], d[2]})), c);
     s.bn_weight[k] = w;
     sum += w;
     head += w * f.density[i] * d[1];
@@ -365,6 +366,7 @@ struct DfsphPipeline::Impl {
   DeviceBuffer<uint32_t> bn_count, bn_begin;
   DeviceBuffer<float> bn_weight, hydrostatic, kappa_b;
   mutable DeviceBuffer<float> frame_staging;  // DownloadById's
+  mutable ProbeGatherer probe_gatherer;
   DeviceBuffer<SphereObstacle> spheres;
   DeviceBuffer<BoxObstacle> boxes;
   DeviceBuffer<float> device_maxima;
@@ -541,6 +543,18 @@ void DfsphPipeline::DownloadById(float* position, float* velocity, float* densit
   if (density)
     cuda::DownloadById(id, m.density.data(), nullptr, nullptr, m.n, density, m.frame_staging,
                        m.s());
+}
+
+void DfsphPipeline::GatherProbes(const ProbeGatherPlan& plan, ProbeGather& out) const {
+  Impl& m = *impl_;
+  DeviceScope scope(m.device);
+  ProbeParticles p;
+  p.n = m.n;
+  p.x = m.x.data(), p.y = m.y.data(), p.z = m.z.data();
+  p.vx = m.vx.data(), p.vy = m.vy.data(), p.vz = m.vz.data();
+  p.density = m.density.data();
+  p.pressure = m.pressure.data();
+  m.probe_gatherer.Gather(p, plan, m.stream.get(), out);
 }
 
 std::vector<std::string> DfsphPipeline::Configure(const DfsphStepConfig& config,

@@ -18,6 +18,7 @@
 
 #include "cuda/gpu_types.h"
 #include "cuda/wcsph_pipeline.h"
+#include "probe_gather.h"
 
 namespace dysa::cuda {
 
@@ -86,6 +87,9 @@ class DfsphPipeline {
   // step, or for dfsph after Prepare).
   uint32_t max_cell_count() const;
   uint64_t DeviceBytes() const;
+
+  // The probes' gather (probe_gather.h) over the particles, on the device.
+  void GatherProbes(const ProbeGatherPlan& plan, ProbeGather& out) const;
 
  private:
   struct Impl;

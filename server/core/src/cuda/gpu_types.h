@@ -39,10 +39,16 @@ struct ObstacleMotionTable {
 
 // The constants of the physical solvers (wcsph, dfsph) their kernels read, computed on the host
 // as the CPU passes compute them.
+// SphConstants::kernel: KernelKind (kernels.h) as an int the device code compares.
+constexpr int kCubicSpline = 0;
+constexpr int kWendlandC2 = 1;
+
 struct SphConstants {
-  float support = 0;               // m, the cubic spline's support 2 d
+  int kernel = kCubicSpline;       // the smoothing kernel (Params::kernel)
+  float support = 0;               // m, the kernel's support 2 h
   float mass = 0;                  // kg, rho0 d^3
   float psi_scale = 0;             // kg/m^3, rho0: Psi_b = rho0 V_b
+  float density_scale = 1;         // 1 / the lattice's density moment
   float gradient_scale = 0;        // 1 / the lattice's gradient moment
   float viscosity_scale = 0;       // 2 (dim + 2) nu m / lambda
   float wall_viscosity_scale = 0;  // 2 (dim + 2) nu / lambda

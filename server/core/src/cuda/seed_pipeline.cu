@@ -13,6 +13,7 @@
 
 #include "cuda/device_buffer.cuh"
 #include "cuda/device_grid.cuh"
+#include "cuda/probe_gatherer.cuh"
 #include "cuda/seed_pipeline.h"
 
 namespace dysa::cuda {
@@ -750,6 +751,7 @@ struct SeedPipeline::Impl {
   DeviceBuffer<float> x2, y2, z2, vx2, vy2, vz2, px2, py2, pz2;
   DeviceBuffer<uint32_t> id, id2;
   mutable DeviceBuffer<float> frame_staging;  // DownloadById's
+  mutable ProbeGatherer probe_gatherer;
   DeviceBuffer<float> density, near_density, pressure, near_pressure;
   // The grid's points (px, py, pz), for the neighbour kernels, and kLanes - 1 entries of
   // padding (DensityListKernel loads whole blocks).
@@ -1046,6 +1048,18 @@ void SeedPipeline::DownloadById(float* position, float* velocity, float* density
   if (density) {
     cuda::DownloadById(id, m.density.data(), nullptr, nullptr, m.n, density, m.frame_staging, s);
   }
+}
+
+void SeedPipeline::GatherProbes(const ProbeGatherPlan& plan, ProbeGather& out) const {
+  Impl& m = *impl_;
+  DeviceScope scope(m.device);
+  ProbeParticles p;
+  p.n = m.n;
+  p.x = m.x.data(), p.y = m.y.data(), p.z = m.z.data();
+  p.vx = m.vx.data(), p.vy = m.vy.data(), p.vz = m.vz.data();
+  p.density = m.density.data();
+  p.pressure = m.pressure.data();
+  m.probe_gatherer.Gather(p, plan, m.stream.get(), out);
 }
 
 uint32_t SeedPipeline::max_cell_count() const { return impl_->sorter.max_count(); }

@@ -22,6 +22,7 @@
 #include <vector>
 
 #include "cuda/gpu_types.h"
+#include "probe_gather.h"
 
 namespace dysa::cuda {
 
@@ -84,6 +85,9 @@ class SeedPipeline {
   // step, or for dfsph after Prepare).
   uint32_t max_cell_count() const;
   uint64_t DeviceBytes() const;
+
+  // The probes' gather (probe_gather.h) over the particles, on the device.
+  void GatherProbes(const ProbeGatherPlan& plan, ProbeGather& out) const;
 
  private:
   struct Impl;

@@ -17,19 +17,36 @@ namespace {
 
 constexpr float kPi = 3.14159265358979323846f;  // std::numbers::pi_v<float>
 
-// CubicSpline<float> (kernels.h).
-__device__ float Sigma(float support) { return 8.0f / (kPi * support * support * support); }
-__device__ float KernelW(float r, float support) {
-  const float q = r / support;
-  if (q > 1) return 0;
-  if (q <= 0.5f) return Sigma(support) * (6.0f * (q * q * q - q * q) + 1);
-  const float v = 1 - q;
-  return Sigma(support) * 2.0f * v * v * v;
+// CubicSpline<float> and WendlandC2<float> (kernels.h), chosen by SphConstants::kernel as
+// PhysicalKernel chooses on the CPU.
+__device__ float CubicSigma(float support) { return 8.0f / (kPi * support * support * support); }
+__device__ float WendlandSigma(float support) {
+  return 21.0f / (2.0f * kPi * support * support * support);
 }
-__device__ float KernelDW(float r, float support) {
+__device__ float KernelW(float r, const SphConstants& c) {
+  const float support = c.support;
   const float q = r / support;
+  if (c.kernel == kWendlandC2) {
+    if (q > 1) return 0;
+    const float v = 1 - q;
+    const float v2 = v * v;
+    return WendlandSigma(support) * (v2 * v2) * (4.0f * q + 1);
+  }
   if (q > 1) return 0;
-  const float scale = 6.0f * Sigma(support) / support;
+  if (q <= 0.5f) return CubicSigma(support) * (6.0f * (q * q * q - q * q) + 1);
+  const float v = 1 - q;
+  return CubicSigma(support) * 2.0f * v * v * v;
+}
+__device__ float KernelDW(float r, const SphConstants& c) {
+  const float support = c.support;
+  const float q = r / support;
+  if (c.kernel == kWendlandC2) {
+    if (q > 1) return 0;
+    const float v = 1 - q;
+    return -(20.0f * WendlandSigma(support) / support) * q * (v * v * v);
+  }
+  if (q > 1) return 0;
+  const float scale = 6.0f * CubicSigma(support) / support;
   if (q <= 0.5f) return scale * q * (3.0f * q - 2.0f);
   const float v = 1 - q;
   return -scale * v * v;
@@ -42,8 +59,8 @@ struct F3 {
 __device__ float Dot(F3 a, F3 b) { return a.x * b.x + (a.y * b.y + a.z * b.z); }
 __device__ float Norm2(F3 a) { return Dot(a, a); }
 // GradW (sph_loops.h): x_ij dW/dr / r, zero at r = 0; its factor dW/dr / r.
-__device__ float GradFactor(float r, float support) {
-  return r > 0 ? KernelDW(r, support) / r : 0.0f;
+__device__ float GradFactor(float r, const SphConstants& c) {
+  return r > 0 ? KernelDW(r, c) / r : 0.0f;
 }
 
 struct Points {
@@ -101,7 +118,7 @@ __global__ void ViscosityKernel(DeviceGrid fluid_grid, Fluid f, SphConstants c, 
                   if (r <= 0) return;
                   const float vx = Dot({v.x - f.vx[j], v.y - f.vy[j], v.z - f.vz[j]}, xij);
                   const float s = vx / (f.density[j] * (r * r + c.eps));
-                  const float g = GradFactor(r, c.support);
+                  const float g = GradFactor(r, c);
                   sum.x += s * (xij.x * g), sum.y += s * (xij.y * g), sum.z += s * (xij.z * g);
                 });
   f.ax[i] += c.viscosity_scale * sum.x;
@@ -120,7 +137,7 @@ __global__ void BoundaryVelocityKernel(DeviceGrid fluid_grid, DeviceGrid boundar
     const F3 x{b.x[k], b.y[k], b.z[k]};
     ForEachWithin(fluid_grid, {f.x, f.y, f.z}, boundary_grid.SortedCell(k), x, c.support,
                   [&](uint32_t j, F3, float r) {
-                    const float w = KernelW(r, c.support);
+                    const float w = KernelW(r, c);
                     weighted.x += w * f.vx[j], weighted.y += w * f.vy[j];
                     weighted.z += w * f.vz[j];
                     weights += w;
@@ -143,7 +160,7 @@ __global__ void WallViscosityKernel(DeviceGrid fluid_grid, DeviceGrid boundary_g
                   if (!b.no_slip[k] || r <= 0) return;
                   const float vx = Dot({v.x - b.vx[k], v.y - b.vy[k], v.z - b.vz[k]}, xib);
                   const float s = b.volume[k] * vx / (r * r + c.eps);
-                  const float g = GradFactor(r, c.support);
+                  const float g = GradFactor(r, c);
                   sum.x += s * (xib.x * g), sum.y += s * (xib.y * g), sum.z += s * (xib.z * g);
                 });
   f.ax[i] += c.wall_viscosity_scale * sum.x;

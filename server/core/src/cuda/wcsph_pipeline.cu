@@ -10,6 +10,7 @@
 #include "cuda/device_buffer.cuh"
 #include "cuda/device_grid.cuh"
 #include "cuda/moving_boundary.cuh"
+#include "cuda/probe_gatherer.cuh"
 #include "cuda/sph_kernels.cuh"
 #include "cuda/wcsph_pipeline.h"
 
@@ -27,11 +28,11 @@ __global__ void InitialDensityKernel(DeviceGrid fluid_grid, DeviceGrid boundary_
   const F3 x{f.x[i], f.y[i], f.z[i]};
   float fluid = 0;
   ForEachWithin(fluid_grid, {f.x, f.y, f.z}, cell, x, c.support,
-                [&](uint32_t, F3, float r) { fluid += KernelW(r, c.support); });
+                [&](uint32_t, F3, float r) { fluid += KernelW(r, c); });
   float wall = 0;
   ForEachWithin(boundary_grid, {b.x, b.y, b.z}, cell, x, c.support,
-                [&](uint32_t k, F3, float r) { wall += b.volume[k] * KernelW(r, c.support); });
-  const float rho = c.mass * fluid + c.psi_scale * wall;
+                [&](uint32_t k, F3, float r) { wall += b.volume[k] * KernelW(r, c); });
+  const float rho = (c.mass * fluid + c.psi_scale * wall) * c.density_scale;
   const float rho0 = float(c.rest_density);
   carried[i] = rho > rho0 ? rho : rho0;
 }
@@ -50,7 +51,7 @@ __global__ void DensityKernel(DeviceGrid fluid_grid, DeviceGrid boundary_grid, F
   float divergence = 0, diffused = 0;
   ForEachWithin(fluid_grid, {f.x, f.y, f.z}, cell, x, c.support, [&](uint32_t j, F3 xij, float r) {
     if (r <= 0) return;
-    const float g = GradFactor(r, c.support);
+    const float g = GradFactor(r, c);
     const F3 grad{xij.x * g, xij.y * g, xij.z * g};
     divergence += Dot({v.x - f.vx[j], v.y - f.vy[j], v.z - f.vz[j]}, grad);
     const float dynamic = carried[j] - rho_i - hydrostatic * xij.y;
@@ -59,7 +60,7 @@ __global__ void DensityKernel(DeviceGrid fluid_grid, DeviceGrid boundary_grid, F
   float wall = 0;
   ForEachWithin(
       boundary_grid, {b.x, b.y, b.z}, cell, x, c.support, [&](uint32_t k, F3 xib, float r) {
-        const float g = GradFactor(r, c.support);
+        const float g = GradFactor(r, c);
         wall += b.volume[k] * Dot(RelativeToSample(b, v, k), {xib.x * g, xib.y * g, xib.z * g});
       });
   rate[i] = c.mass * divergence + c.psi_scale * wall + 2 * c.diffusion * c.mass * diffused;
@@ -78,7 +79,7 @@ __global__ void BoundaryPressureKernel(DeviceGrid fluid_grid, DeviceGrid boundar
   float weights = 0, weighted = 0;
   ForEachWithin(fluid_grid, {f.x, f.y, f.z}, boundary_grid.SortedCell(k), x, c.support,
                 [&](uint32_t j, F3 xbf, float r) {
-                  const float w = KernelW(r, c.support);
+                  const float w = KernelW(r, c);
                   weights += w;
                   weighted += (f.pressure[j] + f.density[j] * Dot(g, xbf)) * w;
                 });
@@ -108,14 +109,14 @@ __global__ void PressureAccelerationKernel(DeviceGrid fluid_grid, DeviceGrid bou
   F3 fluid{0, 0, 0};
   ForEachWithin(fluid_grid, {f.x, f.y, f.z}, cell, x, c.support, [&](uint32_t j, F3 xij, float r) {
     const float s = pi + f.p_over_rho2[j];
-    const float g = GradFactor(r, c.support);
+    const float g = GradFactor(r, c);
     fluid.x += s * (xij.x * g), fluid.y += s * (xij.y * g), fluid.z += s * (xij.z * g);
   });
   F3 wall{0, 0, 0};
   ForEachWithin(boundary_grid, {b.x, b.y, b.z}, cell, x, c.support,
                 [&](uint32_t k, F3 xib, float r) {
                   const float s = b.volume[k] * (pi + b.p_over_rho2[k]);
-                  const float g = GradFactor(r, c.support);
+                  const float g = GradFactor(r, c);
                   wall.x += s * (xib.x * g), wall.y += s * (xib.y * g), wall.z += s * (xib.z * g);
                 });
   f.ax[i] = 0.0f - c.gradient_scale * (c.mass * fluid.x + c.psi_scale * wall.x);
@@ -164,6 +165,7 @@ struct WcsphPipeline::Impl {
   MovingBoundary moving;
   float obstacle_speed = 0;                   // m/s, the contact's fastest obstacle (MoveSurfaces)
   mutable DeviceBuffer<float> frame_staging;  // DownloadById's
+  mutable ProbeGatherer probe_gatherer;
   DeviceBuffer<SphereObstacle> spheres;
   DeviceBuffer<BoxObstacle> boxes;
   DeviceBuffer<float> device_maxima;              // [0] |v|^2, [1] |a|^2, [2] density
@@ -254,6 +256,18 @@ void WcsphPipeline::DownloadById(float* position, float* velocity, float* densit
   if (density)
     cuda::DownloadById(id, m.density.data(), nullptr, nullptr, m.n, density, m.frame_staging,
                        m.stream.get());
+}
+
+void WcsphPipeline::GatherProbes(const ProbeGatherPlan& plan, ProbeGather& out) const {
+  Impl& m = *impl_;
+  DeviceScope scope(m.device);
+  ProbeParticles p;
+  p.n = m.n;
+  p.x = m.x.data(), p.y = m.y.data(), p.z = m.z.data();
+  p.vx = m.vx.data(), p.vy = m.vy.data(), p.vz = m.vz.data();
+  p.density = m.density.data();
+  p.pressure = m.pressure.data();
+  m.probe_gatherer.Gather(p, plan, m.stream.get(), out);
 }
 
 std::vector<std::string> WcsphPipeline::Configure(const WcsphStepConfig& config,

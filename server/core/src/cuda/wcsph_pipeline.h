@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "cuda/gpu_types.h"
+#include "probe_gather.h"
 
 namespace dysa::cuda {
 
@@ -85,6 +86,9 @@ class WcsphPipeline {
   // step, or for dfsph after Prepare).
   uint32_t max_cell_count() const;
   uint64_t DeviceBytes() const;
+
+  // The probes' gather (probe_gather.h) over the particles, on the device.
+  void GatherProbes(const ProbeGatherPlan& plan, ProbeGather& out) const;
 
  private:
   struct Impl;

@@ -71,9 +71,10 @@ TEST(DfsphPairListTest, ListsEveryPairWithinTheSupportOnce) {
   ASSERT_EQ(pairs.begin.size(), n + 1);
   ASSERT_EQ(pairs.other.size(), pairs.begin[n]);
   ASSERT_EQ(pairs.grad_w.size(), pairs.begin[n]);
-  const Real support = Real(sim.model().kernel_support);
+  const PhysicalKernel<Real> kernel = sim.model().Kernel();
+  const Real support = kernel.support;
   // The gradient's scale: its largest magnitude, at r = 2/3 of the support.
-  const Real scale = GradW(Vec3(support * 2 / 3, 0, 0), support * 2 / 3, support).norm();
+  const Real scale = GradW(Vec3(support * 2 / 3, 0, 0), support * 2 / 3, kernel).norm();
   const auto& xs = state.grid.xs();
   const auto& ys = state.grid.ys();
   const auto& zs = state.grid.zs();
@@ -95,7 +96,7 @@ TEST(DfsphPairListTest, ListsEveryPairWithinTheSupportOnce) {
       }
       ++found;
       EXPECT_TRUE((r > 0 && r < support) || edge) << i << " lists " << j << " at " << r;
-      EXPECT_LE((it->second - GradW(xij, r, support)).norm(), 1e-5f * scale) << i << ", " << j;
+      EXPECT_LE((it->second - GradW(xij, r, kernel)).norm(), 1e-5f * scale) << i << ", " << j;
     }
   }
   EXPECT_EQ(found, pairs.other.size());

@@ -115,6 +115,29 @@ TEST(BoundaryParticlesTest, AFluidLatticeAtRestHasTheRestDensityAtEveryWall) {
   for (Real p : state.particles.pressure) EXPECT_LT(p, 1e-4 * 1000 * 50 * 50);
 }
 
+// A larger support reaches deeper behind the walls: as many layers as it spans, and the lattice
+// at rest still has the rest density at every wall with Wendland C2 at h = 1.732 d.
+TEST(BoundaryParticlesTest, ALargerSupportGetsTheLayersItReaches) {
+  EXPECT_EQ(BoundaryParticles::LayersFor(2 * kD, kD), 2);
+  EXPECT_EQ(BoundaryParticles::LayersFor(2 * 1.3 * kD, kD), 3);
+  EXPECT_EQ(BoundaryParticles::LayersFor(2 * 1.732 * kD, kD), 4);
+  EXPECT_EQ(BoundaryParticles::LayersFor(kD, kD), 2);  // never fewer than two
+  Scene scene = FilledDomain();
+  SetParam(scene.params, "kernel", 1);
+  SetParam(scene.params, "smoothing_length_ratio", 1.732);
+  Simulation sim(scene);
+  wcsph::BeckerTeschnerData data;
+  data.SampleBoundary(sim.model());
+  EXPECT_EQ(data.boundary->size(), 28u * 18 * 13 - 20 * 10 * 5);
+  State state = sim.state();
+  physical::SortIntoGrid(sim.model(), state);
+  wcsph::ComputeDensityAndPressure(sim.model(), data, state);
+  const auto& density = state.particles.density;
+  const auto [lo, hi] = std::minmax_element(density.begin(), density.end());
+  EXPECT_NEAR(*lo, 1000, 0.1);
+  EXPECT_NEAR(*hi, 1000, 0.1);
+}
+
 // Periodic in x and z, walls in y: the lattice filling the domain continues across the seams,
 // so at rest every particle has the rest density, at the seams as in the middle and at the
 // walls, and the walls are sampled only where they are.

@@ -3,6 +3,7 @@
 
 #include <vector>
 
+#include "dysa/core/kernels.h"
 #include "dysa/core/params.h"
 #include "dysa/core/scene.h"
 #include "dysa/core/types.h"
@@ -20,18 +21,31 @@ struct Model {
 
   // Solver-dependent constants (see SolverInfo::physical). The seed model: its particle_mass
   // and smoothing_radius, fixed step dt. A physical solver: rest_density * particle_spacing^3,
-  // 2 * particle_spacing, and an adaptive step (State::dt) of at most max_time_step; a frame
-  // is then time_scale / frame_rate simulated seconds.
+  // the support 2 h = 2 smoothing_length_ratio particle_spacing of its kernel, and an adaptive
+  // step (State::dt) of at most max_time_step; a frame is then time_scale / frame_rate
+  // simulated seconds.
   bool physical = false;
   double particle_mass = 1;   // kg
   double kernel_support = 0;  // m, the kernel's radius, also the neighbour grid's cell edge
-  // A physical solver's kernel gradient moment on the rest lattice,
-  // CubicSplineLatticeGradientMoment (kernels.h); the pressure gradients are divided by it so
-  // that hydrostatic equilibrium holds with p = rho g (H - y). 1 for the seed model.
+  KernelKind kernel_kind = KernelKind::kCubicSpline;  // a physical solver's kernel
+  // A physical solver's kernel gradient moment on the rest lattice, LatticeGradientMoment
+  // (kernels.h); the pressure gradients are divided by it so that hydrostatic equilibrium holds
+  // with p = rho g (H - y). 1 for the seed model.
   double gradient_moment = 1;
-  // Likewise its viscosity moment, CubicSplineLatticeViscosityMoment: the laminar viscosity
-  // terms are divided by it, so that kinematic_viscosity is the fluid's viscosity. 1 for seed.
+  // Likewise its viscosity moment, LatticeViscosityMoment: the laminar viscosity terms are
+  // divided by it, so that kinematic_viscosity is the fluid's viscosity. 1 for seed.
   double viscosity_moment = 1;
+  // And its density moment, LatticeDensityMoment: summation densities are divided by it and
+  // boundary volumes multiplied, so that the rest lattice has rho0. 1 for seed.
+  double density_moment = 1;
+
+  // A physical solver's kernel in precision T.
+  template <class T = Real>
+  PhysicalKernel<T> Kernel() const {
+    return {kernel_kind, T(kernel_support)};
+  }
+  // m, the smoothing length h = support / 2 (a physical solver).
+  double SmoothingLength() const { return 0.5 * kernel_support; }
 
   // Simulated seconds per displayed frame (the same for both kinds of solver).
   double FrameTime() const { return params.time_scale / params.frame_rate; }

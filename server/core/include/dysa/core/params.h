@@ -39,8 +39,14 @@ struct Params {
   // Physical (SI) solvers (wcsph, dfsph; speed_of_sound wcsph only): the seed model ignores
   // these, and they ignore the seed's parameters above but for time_scale, frame_rate, gravity
   // and spawn_size (ParamDecl::solvers says which solvers read each).
-  double rest_density = 1000.0;       // kg/m^3, rho0 (water)
-  double particle_spacing = 0.1;      // m, lattice spacing d; mass rho0 d^3, kernel support 2 d
+  double rest_density = 1000.0;   // kg/m^3, rho0 (water)
+  double particle_spacing = 0.1;  // m, lattice spacing d; mass rho0 d^3
+  // The smoothing kernel (KernelKind, kernels.h): 0 the cubic spline, 1 Wendland C2.
+  int kernel = 0;
+  // h / d, the smoothing length over the spacing; the kernel's support is 2 h. 1 (support 2 d,
+  // about 33 neighbours) is the cubic spline's classic choice; DualSPHysics's cases use
+  // Wendland C2 with 1.732 (support 3.46 d, about 170 neighbours).
+  double smoothing_length_ratio = 1.0;
   double speed_of_sound = 50.0;       // m/s, c0 of the Tait equation of state
   double kinematic_viscosity = 1e-6;  // m^2/s, nu of the laminar viscosity term (water: 1e-6)
   double cfl_factor = 0.25;           // dt <= cfl_factor d / (c0 + v_max)

@@ -26,7 +26,7 @@ double ConnectedColumnHeight(const ParticleArrays& particles, const Model& model
 // The pressure a flush-mounted sensor at `point` reads, from the fluid particles alone (so it is
 // the same on every solver and device): the Shepard interpolation over the kernel support
 //   p_s = sum_f (p_f + rho_f g . (x_s - x_f)) W(|x_s - x_f|) / sum_f W(|x_s - x_f|)
-// with the cubic spline, the hydrostatic correction carrying each particle's pressure to the
+// with the model's kernel, the hydrostatic correction carrying each particle's pressure to the
 // sensor's height, as wcsph extrapolates the fluid's pressure to its boundary particles (Adami,
 // Hu, Adams 2012, eq. 27, without the wall's acceleration: the walls do not move). Where
 // `normal` is not zero only the particles on its side of the face count ((x_f - x_s) . n > 0),

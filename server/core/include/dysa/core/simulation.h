@@ -89,6 +89,11 @@ class Simulation {
   // state() is neither read nor refreshed. Throws std::invalid_argument for a span of the wrong
   // size.
   void ReadParticlesById(const ParticlesById& out) const;
+  // The values of `probes` for the current state, in ProbeColumns() order (probes.h), as
+  // EvaluateProbes(probes, model(), state()) computes them. On a GPU they are evaluated on the
+  // device, which sends back only the particles around each local probe and the sums, not the
+  // state: cheap enough to call every step.
+  std::vector<double> EvaluateProbes(std::span<const ProbeSpec> probes) const;
 
   const Device& device() const { return device_; }
   // "cpu", or the GPU: "cuda:0 NVIDIA H200, 139.8 GiB, sm_90".

@@ -74,9 +74,11 @@ void DensityAndFactor(const Model& model, BenderKoschierData& data, State& state
   const BoundaryParticles& boundary = *data.boundary;
   ParticleArrays& p = state.particles;
   const Work w = Arrays(data, state);
-  const Real support = Real(model.kernel_support);
+  const PhysicalKernel<Real> kernel = model.Kernel();
+  const Real support = kernel.support;
   const Real mass = Real(model.particle_mass);
   const Real rho0 = Real(model.params.rest_density);
+  const Real density_scale = Real(1 / model.density_moment);  // the rest lattice has rho0
   const Real* volume = boundary.padded_volume();
   const int64_t n = int64_t(p.size());
   NeighborPairs& fluid_pairs = data.fluid_pairs;
@@ -106,8 +108,8 @@ void DensityAndFactor(const Model& model, BenderKoschierData& data, State& state
       Real fluid = 0, squares = 0;
       Vec3 grad = Vec3::Zero();
       ForEachWithin(state.grid, cell, x, support, [&](uint32_t j, const Vec3& xij, Real r) {
-        fluid += CubicSpline<Real>::W(r, support);
-        const Vec3 g = GradW(xij, r, support);
+        fluid += kernel.W(r);
+        const Vec3 g = GradW(xij, r, kernel);
         if (r > 0) fluid_block.Add(j, g);
         const Vec3 mg = mass * g;
         grad += mg;
@@ -115,14 +117,14 @@ void DensityAndFactor(const Model& model, BenderKoschierData& data, State& state
       });
       Real wall = 0;
       ForEachWithin(boundary.grid(), cell, x, support, [&](uint32_t b, const Vec3& xib, Real r) {
-        wall += volume[b] * CubicSpline<Real>::W(r, support);
-        const Vec3 g = GradW(xib, r, support);
+        wall += volume[b] * kernel.W(r);
+        const Vec3 g = GradW(xib, r, kernel);
         if (r > 0) wall_block.Add(b, g);
         grad += (rho0 * volume[b]) * g;
       });
       fluid_pairs.begin[i + 1] = fluid_block.other.size();
       wall_pairs.begin[i + 1] = wall_block.other.size();
-      const Real rho = mass * fluid + rho0 * wall;
+      const Real rho = (mass * fluid + rho0 * wall) * density_scale;
       p.density[i] = rho;
       const Real denominator = grad.squaredNorm() + squares;
       // A particle without neighbours has no pressure to solve for.

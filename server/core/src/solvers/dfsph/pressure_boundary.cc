@@ -33,7 +33,8 @@ void ListBoundaryNeighbors(const Model& model, BenderKoschierData& data, State& 
       }
     }
   }
-  const Real support = Real(model.kernel_support);
+  const PhysicalKernel<Real> kernel = model.Kernel();
+  const Real support = kernel.support;
   const Real gy = Real(physical::GravityAt(model.params, state.time));
   const Real* bx = boundary.grid().xs().data();
   const Real* by = boundary.grid().ys().data();
@@ -45,7 +46,7 @@ void ListBoundaryNeighbors(const Model& model, BenderKoschierData& data, State& 
     for (size_t k = bn.begin[b]; k < bn.begin[b + 1]; ++k) {
       // Across a periodic axis the fluid neighbour is the nearest image of x_i.
       const Vec3 xbi = model.MinimumImage(Vec3(xb - p.position[bn.fluid[k]]));
-      const Real w = CubicSpline<Real>::W(xbi.norm(), support);
+      const Real w = kernel.W(xbi.norm());
       bn.weight[k] = w;
       sum += w;
       head += w * p.density[bn.fluid[k]] * xbi.y();

@@ -11,9 +11,6 @@
 namespace dysa {
 namespace {
 
-// The fluid side of a surface needs no more layers than the kernel support (2 d) reaches.
-constexpr int kFluidSideLayers = 2;
-
 // Count and step of a lattice of about `spacing` over [lo, hi]: points lo + (k + 1/2) step.
 struct Axis {
   int n;
@@ -66,7 +63,7 @@ void SampleDomainWalls(const Aabb& domain, const Periodicity& periodic, double s
 }
 
 void SampleBox(const Aabb& box, double spacing, int layers, std::vector<Vec3>& out,
-               std::vector<Vec3>* fluid_side) {
+               std::vector<Vec3>* fluid_side, int fluid_side_layers) {
   const double depth = layers * spacing;
   SampleLattice(
       box, spacing,
@@ -75,7 +72,7 @@ void SampleBox(const Aabb& box, double spacing, int layers, std::vector<Vec3>& o
       },
       out);
   if (fluid_side == nullptr) return;
-  const Vec3d grow = Vec3d::Constant(std::min(layers, kFluidSideLayers) * spacing);
+  const Vec3d grow = Vec3d::Constant(std::min(layers, fluid_side_layers) * spacing);
   SampleLattice(
       Aabb{box.min - grow, box.max + grow}, spacing,
       [&](const Vec3d& p) { return !box.Contains(p); }, *fluid_side);
@@ -98,7 +95,7 @@ void SampleShell(const Vec3d& center, double r, double spacing, std::vector<Vec3
 }  // namespace
 
 void SampleSphere(const SphereObstacle& sphere, double spacing, int layers, std::vector<Vec3>& out,
-                  std::vector<Vec3>* fluid_side) {
+                  std::vector<Vec3>* fluid_side, int fluid_side_layers) {
   bool reached_centre = false;
   for (int k = 0; k < layers; ++k) {
     const double r = sphere.radius - (k + 0.5) * spacing;
@@ -110,15 +107,23 @@ void SampleSphere(const SphereObstacle& sphere, double spacing, int layers, std:
   }
   if (reached_centre) out.push_back(sphere.center.cast<Real>());
   if (fluid_side == nullptr) return;
-  for (int k = 0; k < std::min(layers, kFluidSideLayers); ++k) {
+  for (int k = 0; k < std::min(layers, fluid_side_layers); ++k) {
     SampleShell(sphere.center, sphere.radius + (k + 0.5) * spacing, spacing, *fluid_side);
   }
+}
+
+int BoundaryParticles::LayersFor(double support, double spacing) {
+  // A layer k lies d/2 + k d behind the surface; a fluid particle on the surface reaches the
+  // layers with k < support / d - 1/2. The ceiling of support / d keeps one layer in hand for
+  // fluid pressed against the wall, as the two layers of support 2 d did.
+  return std::max(2, int(std::ceil(support / spacing - 1e-9)));
 }
 
 BoundaryParticles::BoundaryParticles(const Model& model, double spacing, double support) {
   std::vector<Vec3> points;
   std::vector<Vec3> fluid_side;
-  SampleDomainWalls(model.domain, model.periodic, spacing, kLayers, points, &fluid_side);
+  const int layers = LayersFor(support, spacing);
+  SampleDomainWalls(model.domain, model.periodic, spacing, layers, points, &fluid_side);
   // A wall sample is no-slip when it lies beyond the domain across a no-slip axis (an edge's or
   // corner's samples lie beyond two or three walls: no-slip if any of them is).
   std::vector<uint8_t> no_slip(points.size(), 0);
@@ -134,11 +139,11 @@ BoundaryParticles::BoundaryParticles(const Model& model, double spacing, double 
   const size_t wall_samples = points.size();
   std::vector<size_t> obstacle_end;  // one past each obstacle's last sample
   for (const BoxObstacle& b : model.boxes) {
-    SampleBox(b.box, spacing, kSolid, points, &fluid_side);
+    SampleBox(b.box, spacing, kSolid, points, &fluid_side, layers);
     obstacle_end.push_back(points.size());
   }
   for (const SphereObstacle& s : model.spheres) {
-    SampleSphere(s, spacing, kSolid, points, &fluid_side);
+    SampleSphere(s, spacing, kSolid, points, &fluid_side, layers);
     obstacle_end.push_back(points.size());
   }
   const bool moving = std::any_of(model.boxes.begin(), model.boxes.end(),
@@ -173,7 +178,7 @@ BoundaryParticles::BoundaryParticles(const Model& model, double spacing, double 
   const Real* fxs = fluid_grid.xs().data();
   const Real* fys = fluid_grid.ys().data();
   const Real* fzs = fluid_grid.zs().data();
-  const Real h = Real(support);
+  const PhysicalKernel<Real> kernel{model.kernel_kind, Real(support)};
   auto kernel_sum = [&](const NeighborGrid& grid, const Real* px, const Real* py, const Real* pz,
                         const Eigen::Vector3i& cell, const Vec3& x) {
     double sum = 0;
@@ -181,17 +186,19 @@ BoundaryParticles::BoundaryParticles(const Model& model, double spacing, double 
       const Vec3 q = x + shift;
       for (uint32_t k = begin; k < end; ++k) {
         const Real dx = px[k] - q.x(), dy = py[k] - q.y(), dz = pz[k] - q.z();
-        sum += double(CubicSpline<Real>::W(std::sqrt(dx * dx + dy * dy + dz * dz), h));
+        sum += double(kernel.W(std::sqrt(dx * dx + dy * dy + dz * dz)));
       }
     });
     return sum;
   };
   // Eq. (4), V_b = 1 / sum_k W_bk, with the sum completed by the fluid at rest on the other side
-  // of the surface (fluid_side: the fluid's lattice continued kLayers deep). The boundary's own
+  // of the surface (fluid_side: the fluid's lattice continued `layers` deep). The boundary's own
   // sum alone lacks that side and inflates V_b: behind a flat wall two boundary layers would
   // then make a fluid lattice at rest 2.6% too dense at the wall, which at c0 = 10 sqrt(g H)
   // is three times the hydrostatic pressure; completed, a flat wall weighs exactly like the
-  // fluid it replaces (V_b = d^3), and a curved or sparser sampling still weighs correctly.
+  // fluid it replaces (V_b = d^3: eq. (4) times the lattice's density moment, which the
+  // solvers divide their summation densities by), and a curved or sparser sampling still
+  // weighs correctly.
   // In double: computed once, from sums of a few dozen terms.
 #pragma omp parallel for schedule(static)
   for (int64_t b = 0; b < int64_t(n); ++b) {
@@ -199,7 +206,7 @@ BoundaryParticles::BoundaryParticles(const Model& model, double spacing, double 
     const Vec3 x(xs[b], ys[b], zs[b]);
     const double sum =
         kernel_sum(grid_, xs, ys, zs, cell, x) + kernel_sum(fluid_grid, fxs, fys, fzs, cell, x);
-    volume_[b] = Real(1.0 / sum);  // sum >= W(0) > 0: b counts itself
+    volume_[b] = Real(model.density_moment / sum);  // sum >= W(0) > 0: b counts itself
   }
   padded_volume_.assign(n + NeighborGrid::kPadding, Real(0));
   std::copy(volume_.begin(), volume_.end(), padded_volume_.begin());

@@ -3,7 +3,7 @@
 // shared by the physical solvers.
 //
 // The domain walls and every obstacle surface are sampled with particles about one particle
-// spacing d apart, in layers behind the surface (kLayers outside the domain; obstacles are
+// spacing d apart, in layers behind the surface (LayersFor outside the domain; obstacles are
 // filled), each layer d/2 + k d from the surface: where the surface is a lattice plane of the
 // fluid, the boundary continues the fluid's lattice. Each boundary particle b gets the volume of
 // eq. (4) of the paper, V_b = 1 / sum_k W(x_b - x_k) (b included; the sum is completed by the
@@ -26,17 +26,18 @@ namespace dysa {
 
 class BoundaryParticles {
  public:
-  // Two layers cover the kernel support (2 d) behind a flat wall: a fluid particle at the wall
-  // then has a full neighbourhood, fluid on one side and boundary on the other.
-  static constexpr int kLayers = 2;
+  // The layers behind a flat wall that cover the kernel's support: a fluid particle at the wall
+  // then has a full neighbourhood, fluid on one side and boundary on the other. Two for the
+  // support 2 d, four for 3.46 d (Wendland C2 at h = 1.732 d).
+  static int LayersFor(double support, double spacing);
   // Obstacles are sampled through: as many layers as reach their centre.
   static constexpr int kSolid = 1 << 20;
 
   // Samples the domain walls and the obstacles of `model` at spacing `spacing`, sorts the
   // samples on a grid laid like the fluid's (NeighborGrid::Configure(model.domain, support,
   // model.periodic)),
-  // so a fluid particle's cell indexes both, and computes the volumes with the cubic spline of
-  // support `support`.
+  // so a fluid particle's cell indexes both, and computes the volumes with the kernel
+  // model.kernel_kind of support `support`.
   BoundaryParticles(const Model& model, double spacing, double support);
 
   size_t size() const { return volume_.size(); }
@@ -96,7 +97,8 @@ class BoundaryParticles {
 };
 
 // The samplers, appending to `out` the boundary particles and, when `fluid_side` is given, to it
-// the fluid's lattice continued `layers` deep on the other side of the surface (for the
+// the fluid's lattice continued `layers` deep (at most `fluid_side_layers` for obstacles, which
+// are sampled deeper than the support reaches) on the other side of the surface (for the
 // volumes; see the constructor). Lattices adjust their step per axis (the extent over
 // round(extent / spacing)) so that both ends of every edge are sampled alike.
 // Walls: the lattice over the domain grown by `layers` spacings across its non-periodic axes,
@@ -105,11 +107,11 @@ void SampleDomainWalls(const Aabb& domain, const Periodicity& periodic, double s
                        std::vector<Vec3>& out, std::vector<Vec3>* fluid_side = nullptr);
 // Box obstacle: the lattice of the box, less the points deeper than `layers` spacings.
 void SampleBox(const Aabb& box, double spacing, int layers, std::vector<Vec3>& out,
-               std::vector<Vec3>* fluid_side = nullptr);
+               std::vector<Vec3>* fluid_side = nullptr, int fluid_side_layers = 2);
 // Sphere obstacle: concentric shells of radius R - (k + 1/2) d, each a Fibonacci spiral of
 // about 4 pi r^2 / d^2 points (evenly spread, no poles); a sphere smaller than one spacing is
 // its centre. Its fluid side: shells of radius R + (k + 1/2) d.
 void SampleSphere(const SphereObstacle& sphere, double spacing, int layers, std::vector<Vec3>& out,
-                  std::vector<Vec3>* fluid_side = nullptr);
+                  std::vector<Vec3>* fluid_side = nullptr, int fluid_side_layers = 2);
 
 }  // namespace dysa

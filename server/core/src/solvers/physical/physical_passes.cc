@@ -29,8 +29,9 @@ void SortIntoGrid(const Model& model, State& state) {
 
 void AddViscosity(const Model& model, PhysicalData& data, State& state) {
   ParticleArrays& p = state.particles;
-  const Real support = Real(model.kernel_support);
-  const Real h = Real(model.params.particle_spacing);  // smoothing length, support / 2
+  const PhysicalKernel<Real> kernel = model.Kernel();
+  const Real support = kernel.support;
+  const Real h = Real(model.SmoothingLength());
   const Real eps = Real(0.01) * h * h;
   // 2 (dim + 2) nu m / lambda, lambda the lattice's viscosity moment (kernels.h)
   const Real scale =
@@ -45,7 +46,7 @@ void AddViscosity(const Model& model, PhysicalData& data, State& state) {
     ForEachWithin(state.grid, cell, x, support, [&](uint32_t j, const Vec3& xij, Real r) {
       if (r <= 0) return;
       const Real vx = (v - p.velocity[j]).dot(xij);
-      sum += (vx / (p.density[j] * (r * r + eps))) * GradW(xij, r, support);
+      sum += (vx / (p.density[j] * (r * r + eps))) * GradW(xij, r, kernel);
     });
     data.acceleration[i] += scale * sum;
   }
@@ -54,8 +55,9 @@ void AddViscosity(const Model& model, PhysicalData& data, State& state) {
 void AddWallViscosity(const Model& model, PhysicalData& data, State& state) {
   const BoundaryParticles& boundary = *data.boundary;
   ParticleArrays& p = state.particles;
-  const Real support = Real(model.kernel_support);
-  const Real h = Real(model.params.particle_spacing);
+  const PhysicalKernel<Real> kernel = model.Kernel();
+  const Real support = kernel.support;
+  const Real h = Real(model.SmoothingLength());
   const Real eps = Real(0.01) * h * h;
   // 2 (dim + 2) nu / lambda, as AddViscosity
   const Real scale = Real(10 * model.params.kinematic_viscosity / model.viscosity_moment);
@@ -77,7 +79,7 @@ void AddWallViscosity(const Model& model, PhysicalData& data, State& state) {
       const Vec3 x(bx[b], by[b], bz[b]);
       ForEachWithin(state.grid, bgrid.SortedCell(uint32_t(b)), x, support,
                     [&](uint32_t f, const Vec3&, Real r) {
-                      const Real w = CubicSpline<Real>::W(r, support);
+                      const Real w = kernel.W(r);
                       weighted += w * p.velocity[f];
                       weights += w;
                     });
@@ -94,7 +96,7 @@ void AddWallViscosity(const Model& model, PhysicalData& data, State& state) {
                   [&](uint32_t b, const Vec3& xib, Real r) {
                     if (!no_slip[b] || r <= 0) return;
                     const Real vx = (v - data.boundary_velocity[b]).dot(xib);
-                    sum += (volume[b] * vx / (r * r + eps)) * GradW(xib, r, support);
+                    sum += (volume[b] * vx / (r * r + eps)) * GradW(xib, r, kernel);
                   });
     data.acceleration[i] += scale * sum;
   }

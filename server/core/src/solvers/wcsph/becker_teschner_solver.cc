@@ -29,10 +29,12 @@ void SortIntoGrid(const Model& model, BeckerTeschnerData& data, State& state) {
 void InitialDensity(const Model& model, BeckerTeschnerData& data, State& state) {
   const BoundaryParticles& boundary = *data.boundary;
   const ParticleArrays& p = state.particles;
-  const Real support = Real(model.kernel_support);
+  const PhysicalKernel<Real> kernel = model.Kernel();
+  const Real support = kernel.support;
   const Real mass = Real(model.particle_mass);
   const Real rho0 = Real(model.params.rest_density);
   const Real psi_scale = rho0;  // Psi_b = rho0 V_b
+  const Real density_scale = Real(1 / model.density_moment);
   const Real* volume = boundary.padded_volume();
   const int64_t n = int64_t(p.size());
   data.density.resize(p.size());
@@ -41,14 +43,12 @@ void InitialDensity(const Model& model, BeckerTeschnerData& data, State& state) 
     const Eigen::Vector3i cell = state.grid.SortedCell(uint32_t(i));
     const Vec3& x = p.position[i];
     Real fluid = 0;
-    ForEachWithin(state.grid, cell, x, support, [&](uint32_t, const Vec3&, Real r) {
-      fluid += CubicSpline<Real>::W(r, support);
-    });
+    ForEachWithin(state.grid, cell, x, support,
+                  [&](uint32_t, const Vec3&, Real r) { fluid += kernel.W(r); });
     Real wall = 0;
-    ForEachWithin(boundary.grid(), cell, x, support, [&](uint32_t b, const Vec3&, Real r) {
-      wall += volume[b] * CubicSpline<Real>::W(r, support);
-    });
-    const Real rho = mass * fluid + psi_scale * wall;
+    ForEachWithin(boundary.grid(), cell, x, support,
+                  [&](uint32_t b, const Vec3&, Real r) { wall += volume[b] * kernel.W(r); });
+    const Real rho = (mass * fluid + psi_scale * wall) * density_scale;
     data.density[i] = rho > rho0 ? rho : rho0;
   }
 }
@@ -57,14 +57,15 @@ void ComputeDensityAndPressure(const Model& model, BeckerTeschnerData& data, Sta
   if (data.density.size() != state.particles.size()) InitialDensity(model, data, state);
   const BoundaryParticles& boundary = *data.boundary;
   ParticleArrays& p = state.particles;
-  const Real support = Real(model.kernel_support);
+  const PhysicalKernel<Real> kernel = model.Kernel();
+  const Real support = kernel.support;
   const Real mass = Real(model.particle_mass);
   const double rho0 = model.params.rest_density;
   const double c0 = model.params.speed_of_sound;
   const Real psi_scale = Real(rho0);                        // Psi_b = rho0 V_b
   const double stiffness = rho0 * c0 * c0 / kTaitExponent;  // B = rho0 c0^2 / gamma
-  // delta h c0 of the diffusive term, h = d (the support is 2 h)
-  const Real diffusion = Real(model.params.density_diffusion * model.params.particle_spacing * c0);
+  // delta h c0 of the diffusive term (the support is 2 h)
+  const Real diffusion = Real(model.params.density_diffusion * model.SmoothingLength() * c0);
   // rho^H_ij = -rho0 g_y y_ij / c0^2: the hydrostatic density difference rho_j - rho_i
   const Real hydrostatic = Real(-rho0 * GravityAt(model.params, state.time) / (c0 * c0));
   const Real* rho = data.density.data();
@@ -83,7 +84,7 @@ void ComputeDensityAndPressure(const Model& model, BeckerTeschnerData& data, Sta
     Real diffused = 0;    // sum_j (rho_j - rho_i - rho^H_ij) (x_ji . grad W_ij) / r^2 / rho_j
     ForEachWithin(state.grid, cell, x, support, [&](uint32_t j, const Vec3& xij, Real r) {
       if (r <= 0) return;
-      const Vec3 grad = GradW(xij, r, support);
+      const Vec3 grad = GradW(xij, r, kernel);
       divergence += (v - p.velocity[j]).dot(grad);
       const Real dynamic = rho[j] - rho_i - hydrostatic * xij.y();
       diffused += dynamic * (-xij.dot(grad)) / (r * r * rho[j]);
@@ -91,11 +92,11 @@ void ComputeDensityAndPressure(const Model& model, BeckerTeschnerData& data, Sta
     Real wall = 0;  // sum_b V_b (v_i - v_b) . grad W_ib, v_b = 0 but on moving obstacles
     if (boundary_velocity == nullptr) {
       ForEachWithin(boundary.grid(), cell, x, support, [&](uint32_t b, const Vec3& xib, Real r) {
-        wall += volume[b] * v.dot(GradW(xib, r, support));
+        wall += volume[b] * v.dot(GradW(xib, r, kernel));
       });
     } else {
       ForEachWithin(boundary.grid(), cell, x, support, [&](uint32_t b, const Vec3& xib, Real r) {
-        wall += volume[b] * (v - boundary_velocity[b]).dot(GradW(xib, r, support));
+        wall += volume[b] * (v - boundary_velocity[b]).dot(GradW(xib, r, kernel));
       });
     }
     data.density_rate[i] = mass * divergence + psi_scale * wall + 2 * diffusion * mass * diffused;
@@ -111,7 +112,8 @@ void ComputeDensityAndPressure(const Model& model, BeckerTeschnerData& data, Sta
 void ComputeBoundaryPressure(const Model& model, BeckerTeschnerData& data, State& state) {
   const BoundaryParticles& boundary = *data.boundary;
   const ParticleArrays& p = state.particles;
-  const Real support = Real(model.kernel_support);
+  const PhysicalKernel<Real> kernel = model.Kernel();
+  const Real support = kernel.support;
   const Vec3 gravity(0, Real(GravityAt(model.params, state.time)), 0);
   const NeighborGrid& bgrid = boundary.grid();
   const Real* bx = bgrid.xs().data();
@@ -127,7 +129,7 @@ void ComputeBoundaryPressure(const Model& model, BeckerTeschnerData& data, State
     // The boundary grid's cell of b is a cell of the fluid grid too (same layout).
     ForEachWithin(state.grid, bgrid.SortedCell(uint32_t(b)), x, support,
                   [&](uint32_t f, const Vec3& xbf, Real r) {
-                    const Real w = CubicSpline<Real>::W(r, support);
+                    const Real w = kernel.W(r);
                     weights += w;
                     weighted += (p.pressure[f] + p.density[f] * gravity.dot(xbf)) * w;
                   });
@@ -139,7 +141,8 @@ void ComputeBoundaryPressure(const Model& model, BeckerTeschnerData& data, State
 void ComputePressureAcceleration(const Model& model, BeckerTeschnerData& data, State& state) {
   const BoundaryParticles& boundary = *data.boundary;
   ParticleArrays& p = state.particles;
-  const Real support = Real(model.kernel_support);
+  const PhysicalKernel<Real> kernel = model.Kernel();
+  const Real support = kernel.support;
   const Real mass = Real(model.particle_mass);
   const double rho0 = model.params.rest_density;
   const Real psi_scale = Real(rho0);
@@ -173,11 +176,11 @@ void ComputePressureAcceleration(const Model& model, BeckerTeschnerData& data, S
     const Real pi = p_over_rho2[i];
     Vec3 fluid = Vec3::Zero();  // sum_j (p_i / rho_i^2 + p_j / rho_j^2) grad W_ij
     ForEachWithin(state.grid, cell, x, support, [&](uint32_t j, const Vec3& xij, Real r) {
-      fluid += (pi + p_over_rho2[j]) * GradW(xij, r, support);
+      fluid += (pi + p_over_rho2[j]) * GradW(xij, r, kernel);
     });
     Vec3 wall = Vec3::Zero();  // sum_b V_b (p_i / rho_i^2 + p_b / rho_b^2) grad W_ib
     ForEachWithin(boundary.grid(), cell, x, support, [&](uint32_t b, const Vec3& xib, Real r) {
-      wall += (volume[b] * (pi + boundary_p_over_rho2[b])) * GradW(xib, r, support);
+      wall += (volume[b] * (pi + boundary_p_over_rho2[b])) * GradW(xib, r, kernel);
     });
     data.acceleration[i] = gravity - gradient_scale * (mass * fluid + psi_scale * wall);
   }

@@ -1,0 +1,179 @@
+#include <algorithm>
+#include <cmath>
+#include <cub/block/block_reduce.cuh>
+
+#include "cuda/probe_gatherer.cuh"
+
+namespace dysa::cuda {
+
+namespace {
+
+// The most blocks of the gather: enough to fill a GPU, few enough that the partial sums are a
+// small copy (1,024 blocks x 6 + boxes doubles).
+constexpr uint32_t kMaxBlocks = 1024;
+
+// Each block's partial values, in this order, then one per count box.
+enum ReductionSlot : int {
+  kFrontX,
+  kFrontY,
+  kFrontZ,
+  kDensitySum,
+  kDensityMax,
+  kSpeed2Sum,
+  kFirstCount
+};
+
+// std::max's choice: a NaN second argument is skipped.
+struct MaxOp {
+  __device__ double operator()(double a, double b) const { return a < b ? b : a; }
+};
+
+__global__ void GatherKernel(ProbeParticles p, const ProbeWindow* windows, uint32_t window_count,
+                             const ProbeBox* boxes, uint32_t box_count, ProbeWrap wrap,
+                             bool density, bool kinetic_energy, uint32_t capacity, uint32_t* hits,
+                             ProbeCandidate* found, double* partials) {
+  using Reduce = cub::BlockReduce<double, kBlock>;
+  __shared__ typename Reduce::TempStorage storage;
+  const double inf = INFINITY;
+  double front[3] = {-inf, -inf, -inf};
+  double density_sum = 0, density_max = 0, speed2_sum = 0;
+  // Count boxes: at most a few; counted in one register each up to kCountRegisters, beyond that
+  // by further passes of the same loop (box_base).
+  constexpr uint32_t kCountRegisters = 8;
+  double counts[kCountRegisters] = {};
+  const uint32_t stride = gridDim.x * blockDim.x;
+  for (uint32_t i = blockIdx.x * blockDim.x + threadIdx.x; i < p.n; i += stride) {
+    const float x[3] = {p.x[i], p.y[i], p.z[i]};
+    for (int a = 0; a < 3; ++a) front[a] = MaxOp()(front[a], double(x[a]));
+    if (density) {
+      density_sum += double(p.density[i]);
+      density_max = MaxOp()(density_max, double(p.density[i]));
+    }
+    if (kinetic_energy) {
+      const double vx = p.vx[i], vy = p.vy[i], vz = p.vz[i];
+      speed2_sum += vx * vx + (vy * vy + vz * vz);
+    }
+    for (uint32_t b = 0; b < box_count && b < kCountRegisters; ++b) {
+      bool inside = true;
+      for (int a = 0; a < 3; ++a)
+        inside = inside && x[a] >= boxes[b].lo[a] && x[a] <= boxes[b].hi[a];
+      counts[b] += inside ? 1.0 : 0.0;
+    }
+    for (uint32_t w = 0; w < window_count; ++w) {
+      if (!InProbeWindow(wrap, windows[w], x)) continue;
+      const uint32_t slot = atomicAdd(&hits[w], 1u);
+      if (slot < capacity) {
+        found[size_t(w) * capacity + slot] = {i,
+                                              x[0],
+                                              x[1],
+                                              x[2],
+                                              p.pressure ? p.pressure[i] : 0.0f,
+                                              p.density ? p.density[i] : 0.0f};
+      }
+    }
+  }
+  const uint32_t values = kFirstCount + min(box_count, kCountRegisters);
+  double* out = partials + size_t(blockIdx.x) * values;
+  auto store = [&](int slot, double v) {
+    if (threadIdx.x == 0) out[slot] = v;
+    __syncthreads();  // the next reduction reuses the shared storage
+  };
+  for (int a = 0; a < 3; ++a) store(kFrontX + a, Reduce(storage).Reduce(front[a], MaxOp()));
+  store(kDensitySum, Reduce(storage).Sum(density_sum));
+  store(kDensityMax, Reduce(storage).Reduce(density_max, MaxOp()));
+  store(kSpeed2Sum, Reduce(storage).Sum(speed2_sum));
+  for (uint32_t b = 0; b < box_count && b < kCountRegisters; ++b) {
+    store(kFirstCount + int(b), Reduce(storage).Sum(counts[b]));
+  }
+}
+
+}  // namespace
+
+void ProbeGatherer::Gather(const ProbeParticles& particles, const ProbeGatherPlan& plan,
+                           cudaStream_t stream, ProbeGather& out) {
+  // More count boxes than the kernel's registers: the rest in further gathers of their own.
+  constexpr size_t kBoxesPerPass = 8;
+  const uint32_t window_count = uint32_t(plan.windows.size());
+  const uint32_t blocks = std::clamp<uint32_t>((particles.n + kBlock - 1) / kBlock, 1u, kMaxBlocks);
+  windows_.Assign(plan.windows, stream);
+  out.reductions = ProbeReductions{};
+  out.reductions.particles = particles.n;
+  out.reductions.counts.assign(plan.count_boxes.size(), 0.0);
+  out.candidates.assign(window_count, {});
+  size_t box_begin = 0;
+  bool first = true;
+  while (first || box_begin < plan.count_boxes.size()) {
+    const size_t box_count = std::min(kBoxesPerPass, plan.count_boxes.size() - box_begin);
+    boxes_.Assign(std::vector<ProbeBox>(plan.count_boxes.begin() + box_begin,
+                                        plan.count_boxes.begin() + box_begin + box_count),
+                  stream);
+    const size_t values = kFirstCount + box_count;
+    partials_.Resize(size_t(blocks) * values);
+    host_partials_.Resize(size_t(blocks) * values);
+    hits_.Resize(std::max<uint32_t>(window_count, 1));
+    host_hits_.Resize(std::max<uint32_t>(window_count, 1));
+    // Windows only on the first pass; a window holding more than the capacity grows it and
+    // gathers again.
+    const uint32_t windows_now = first ? window_count : 0;
+    for (;;) {
+      found_.Resize(std::max<size_t>(size_t(windows_now) * capacity_, 1));
+      CheckCuda(cudaMemsetAsync(hits_.data(), 0, hits_.capacity() * sizeof(uint32_t), stream),
+                "clearing the probes' hit counts");
+      GatherKernel<<<blocks, kBlock, 0, stream>>>(
+          particles, windows_.data(), windows_now, boxes_.data(), uint32_t(box_count), plan.wrap,
+          first && plan.density, first && plan.kinetic_energy, capacity_, hits_.data(),
+          found_.data(), partials_.data());
+      CheckCuda(cudaGetLastError(), "launching the probes' gather");
+      host_partials_.CopyFrom(partials_, size_t(blocks) * values, stream);
+      host_hits_.CopyFrom(hits_, std::max<uint32_t>(window_count, 1), stream);
+      CheckCuda(cudaStreamSynchronize(stream), "gathering the probes");
+      uint32_t most = 0;
+      for (uint32_t w = 0; w < windows_now; ++w) most = std::max(most, host_hits_.data()[w]);
+      if (most <= capacity_) break;
+      capacity_ = most + most / 4;
+    }
+    // The partials in block order.
+    ProbeReductions& r = out.reductions;
+    for (uint32_t b = 0; b < blocks; ++b) {
+      const double* v = host_partials_.data() + size_t(b) * values;
+      if (first) {
+        for (int a = 0; a < 3; ++a) r.front[a] = std::max(r.front[a], v[kFrontX + a]);
+        r.density_sum += v[kDensitySum];
+        r.density_max = std::max(r.density_max, v[kDensityMax]);
+        r.speed2_sum += v[kSpeed2Sum];
+      }
+      for (size_t k = 0; k < box_count; ++k) r.counts[box_begin + k] += v[kFirstCount + k];
+    }
+    if (windows_now > 0) {
+      size_t total = 0;
+      for (uint32_t w = 0; w < windows_now; ++w) total += host_hits_.data()[w];
+      host_found_.Resize(std::max<size_t>(total, 1));
+      size_t at = 0;
+      for (uint32_t w = 0; w < windows_now; ++w) {
+        const uint32_t count = host_hits_.data()[w];
+        if (count > 0) {
+          CheckCuda(cudaMemcpyAsync(host_found_.data() + at, found_.data() + size_t(w) * capacity_,
+                                    count * sizeof(ProbeCandidate), cudaMemcpyDeviceToHost, stream),
+                    "downloading the probes' particles");
+        }
+        at += count;
+      }
+      CheckCuda(cudaStreamSynchronize(stream), "downloading the probes' particles");
+      at = 0;
+      for (uint32_t w = 0; w < windows_now; ++w) {
+        const uint32_t count = host_hits_.data()[w];
+        std::vector<ProbeCandidate>& list = out.candidates[w];
+        list.assign(host_found_.data() + at, host_found_.data() + at + count);
+        // The atomics appended in no particular order; the finish visits storage order.
+        std::sort(list.begin(), list.end(), [](const ProbeCandidate& a, const ProbeCandidate& b) {
+          return a.index < b.index;
+        });
+        at += count;
+      }
+    }
+    box_begin += box_count;
+    first = false;
+  }
+}
+
+}  // namespace dysa::cuda

@@ -1,0 +1,42 @@
+// The probes' gather (probe_gather.h) on the GPU: one kernel reads every particle once, reduces
+// what the global probes need into per-block partial sums and appends the particles inside each
+// local probe's window to a buffer; only those cross to the host.
+#pragma once
+
+#include <cstdint>
+
+#include "cuda/device_buffer.cuh"
+#include "probe_gather.h"
+
+namespace dysa::cuda {
+
+// A pipeline's particle arrays in storage order (device pointers); velocity, density and
+// pressure may be null when the plan does not read them.
+struct ProbeParticles {
+  uint32_t n = 0;
+  const float *x = nullptr, *y = nullptr, *z = nullptr;
+  const float *vx = nullptr, *vy = nullptr, *vz = nullptr;
+  const float* density = nullptr;   // kg/m^3
+  const float* pressure = nullptr;  // Pa
+};
+
+class ProbeGatherer {
+ public:
+  // Runs on `stream` and waits for it. The partial sums are added on the host in block order,
+  // and a block's particles depend only on n: the same particles give the same values.
+  void Gather(const ProbeParticles& particles, const ProbeGatherPlan& plan, cudaStream_t stream,
+              ProbeGather& out);
+
+ private:
+  DeviceBuffer<ProbeWindow> windows_;
+  DeviceBuffer<ProbeBox> boxes_;
+  DeviceBuffer<double> partials_;       // per block: the values of ReductionSlots
+  DeviceBuffer<uint32_t> hits_;         // per window: the particles found (may exceed the capacity)
+  DeviceBuffer<ProbeCandidate> found_;  // per window: `capacity_` slots
+  PinnedBuffer<double> host_partials_;
+  PinnedBuffer<uint32_t> host_hits_;
+  PinnedBuffer<ProbeCandidate> host_found_;
+  uint32_t capacity_ = 2048;  // candidates per window; grows when a window holds more
+};
+
+}  // namespace dysa::cuda
