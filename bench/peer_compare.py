@@ -21,7 +21,7 @@ spheric2 (SPHERIC Test 2; definitions of ../shared/notes/spheric2.md, section 5)
     same threshold is used for P2, for which the note defines none), linear between samples.
   peaks: the largest 1 ms and 5 ms averages with 0.40 s <= t <= 0.46 s.
   H errors: the RMS of H - H_MARIN at the MARIN rows (every 10 ms) with t <= 0.75 s and with
-    t <= tmax, divided by the water's initial depth 0.55 m (H1-H3 start dry, where an error
+    t <= tmax (early_end_s and tmax_s: the last rows reached), divided by the water's initial depth 0.55 m (H1-H3 start dry, where an error
     relative to the measured value has no meaning; the project's SphericTest2Result does the
     same).
 martinmoyce (Martin & Moyce 1952, 2D column a = 0.05715 m):
@@ -46,6 +46,7 @@ THRESHOLD_PA = 500.0  # spheric2.md section 5: "first crossing of 500 Pa by the 
 PEAK_WINDOW = (0.40, 0.46)  # s
 SHORT_WINDOW, LONG_WINDOW = 0.001, 0.005  # s, the moving averages
 EARLY_END = 0.75  # s, the first H error window
+GAUGE_SLACK = 0.002  # s, how far past a series' last sample a MARIN row may lie
 DEPTH = 0.55  # m, the water's initial depth
 PROBE_OFFSET_H = 1.5  # the peer's pressure point: 1.5 h from the boundary particles
 # MARIN's pressure record as quoted by ../shared/notes/spheric2.md section 0 (from the SPHERIC
@@ -254,20 +255,25 @@ def first_crossing(times, values, threshold):
 
 
 def peak_in(times, values, lo, hi):
+    """The largest value with lo <= t <= hi and its time (no time when it is not above 0: the
+    sensor stayed dry)."""
     sel = (times >= lo - 1e-12) & (times <= hi + 1e-12)
     if not sel.any():
         return math.nan, math.nan
     k = np.argmax(np.where(sel, values, -np.inf))
-    return float(values[k]), float(times[k])
+    return float(values[k]), (float(times[k]) if values[k] > 0 else math.nan)
 
 
 def height_error(times, heights, ref_t, ref_h, end):
-    """RMS of H - H_ref over the reference rows with t <= end (and within the series), / DEPTH."""
-    sel = (ref_t <= end + 1e-9) & (ref_t <= times[-1] + 1e-9) & (ref_t >= times[0] - 1e-9)
+    """RMS of H - H_ref over the reference rows with t <= end, / DEPTH, and the last row's time.
+    A row up to GAUGE_SLACK after the series' last sample takes that sample (DualSPHysics's last
+    gauge reading falls up to one step before its end time)."""
+    sel = ((ref_t <= end + 1e-9) & (ref_t <= times[-1] + GAUGE_SLACK + 1e-9) &
+           (ref_t >= times[0] - 1e-9))
     if not sel.any():
-        return math.nan
+        return math.nan, math.nan
     sim = np.interp(ref_t[sel], times, heights)
-    return float(np.sqrt(np.mean((sim - ref_h[sel]) ** 2)) / DEPTH)
+    return float(np.sqrt(np.mean((sim - ref_h[sel]) ** 2)) / DEPTH), float(ref_t[sel][-1])
 
 
 def spheric_measures(series, ref_t, ref_h, tmax):
@@ -280,13 +286,14 @@ def spheric_measures(series, ref_t, ref_h, tmax):
         out[f"{p}_arrival_s"] = first_crossing(times, short, THRESHOLD_PA)
         out[f"{p}_peak_1ms_pa"], out[f"{p}_peak_1ms_time_s"] = peak_in(times, short, *PEAK_WINDOW)
         out[f"{p}_peak_5ms_pa"], out[f"{p}_peak_5ms_time_s"] = peak_in(times, long_, *PEAK_WINDOW)
-    last = min(float(series[n][0][-1]) for n in series)
-    end = min(tmax, last) if tmax else last
+    end = tmax if tmax else max(float(series[f"H{g}"][0][-1]) for g in range(1, 5))
+    out["early_end_s"] = out["tmax_s"] = 0.0  # the last MARIN rows the errors reach
     for g in range(4):
         times, h = series[f"H{g + 1}"]
-        out[f"H{g + 1}_rms_to_0.75s"] = height_error(times, h, ref_t, ref_h[g], EARLY_END)
-        out[f"H{g + 1}_rms_to_tmax"] = height_error(times, h, ref_t, ref_h[g], end)
-    out["tmax_s"] = end
+        out[f"H{g + 1}_rms_to_0.75s"], early = height_error(times, h, ref_t, ref_h[g], EARLY_END)
+        out[f"H{g + 1}_rms_to_tmax"], last = height_error(times, h, ref_t, ref_h[g], end)
+        out["early_end_s"] = max(out["early_end_s"], early)
+        out["tmax_s"] = max(out["tmax_s"], last)
     return out
 
 
@@ -430,7 +437,7 @@ def run_spheric(args, repo):
     keys = ["P1_arrival_s", "P1_arrival_error_s", "P1_peak_1ms_pa", "P1_peak_1ms_time_s",
             "P1_peak_5ms_pa", "P1_peak_5ms_time_s", "P2_arrival_s", "P2_arrival_error_s",
             "P2_peak_1ms_pa", "P2_peak_1ms_time_s", "P2_peak_5ms_pa", "P2_peak_5ms_time_s"]
-    keys += [f"H{g}_rms_to_0.75s" for g in range(1, 5)] + ["tmax_s"]
+    keys += [f"H{g}_rms_to_0.75s" for g in range(1, 5)] + ["early_end_s", "tmax_s"]
     keys += [f"H{g}_rms_to_tmax" for g in range(1, 5)]
     rows, curves = [], []
     m = MARIN_PRESSURE
@@ -457,8 +464,9 @@ def run_spheric(args, repo):
             r.update({"code": code, "dp_m": dp, "pressure_source": source})
             rows.append(r)
             curves.append((f"{code} dp {dp}", series))
+            last = min(float(series[n][0][-1]) for n in series)
             write_series(os.path.join(args.out, f"peer_series_spheric2_{code}_{dp}_{args.tag}.csv"),
-                         series, r["tmax_s"])
+                         series, min(args.tmax, last) if args.tmax else last)
             print(f"{code:13s} dp {dp}: P1 arrival {fmt(r['P1_arrival_s'])} s, 1 ms peak "
                   f"{fmt(r['P1_peak_1ms_pa'])} Pa, 5 ms peak {fmt(r['P1_peak_5ms_pa'])} Pa; P2 "
                   f"arrival {fmt(r['P2_arrival_s'])} s; H2/H4 RMS to 0.75 s "

@@ -138,6 +138,15 @@ class MovingAverageTest(unittest.TestCase):
                                                      np.array([0.0, 499.0]), 500.0)))
 
 
+    def test_height_error_rows(self):
+        # A series ending at 0.699 s still reads the row at 0.7 s (within 2 ms), not 0.71 s.
+        ref_t = np.array([0.0, 0.7, 0.71])
+        rms, last = pc.height_error(np.array([0.0, 0.699]), np.array([0.1, 0.2]), ref_t,
+                                    np.array([0.1, 0.1, 0.1]), 0.8)
+        self.assertAlmostEqual(rms, math.sqrt(0.1 ** 2 / 2) / 0.55, places=12)
+        self.assertEqual(last, 0.7)
+
+
 class SphericTest(unittest.TestCase):
     def setUp(self):
         self.tmp = tempfile.TemporaryDirectory()
@@ -169,6 +178,7 @@ class SphericTest(unittest.TestCase):
         self.assertAlmostEqual(r["H3_rms_to_0.75s"], 0.12 * math.sqrt(5 / 76) / 0.55, places=9)
         self.assertAlmostEqual(r["H3_rms_to_tmax"], 0.12 * math.sqrt(10 / 81) / 0.55, places=9)
         self.assertAlmostEqual(r["tmax_s"], 0.8)
+        self.assertAlmostEqual(r["early_end_s"], 0.75)
         self.assertIn("1.5h", r["pressure_source"])
 
     def test_project_measures(self):
@@ -180,6 +190,8 @@ class SphericTest(unittest.TestCase):
         self.assertAlmostEqual(r["P1_peak_1ms_time_s"], 0.4404, places=9)
         self.assertAlmostEqual(r["P1_peak_5ms_pa"], (19500.0 + 10 * 2000.0) / 13, places=5)
         self.assertTrue(math.isnan(r["P2_arrival_s"]))
+        self.assertEqual(r["P2_peak_1ms_pa"], 0.0)  # dry: no peak time
+        self.assertTrue(math.isnan(r["P2_peak_1ms_time_s"]))
         self.assertAlmostEqual(r["H2_rms_to_0.75s"], 0.0, places=12)
         self.assertAlmostEqual(r["H4_rms_to_0.75s"], 0.01, places=9)
         # The CSV and the PNG exist; the experiment row carries MARIN's record.
