@@ -91,11 +91,12 @@ case "$case_name" in
   dambreak) dp_list="${dp_list:-0.0085}"; tmax="${tmax:-0.5}" ;;
   martinmoyce) dp_list="${dp_list:-$(awk -v a=$a 'BEGIN { printf "%.6g,%.6g,%.6g", a/15, a/30, a/60 }')}"; tmax="${tmax:-0.2}" ;;
 esac
-is_number "$tmax" && awk -v t="$tmax" 'BEGIN { exit !(t > 0) }' || die "--tmax '$tmax' must be a positive number of seconds"
+positive() { is_number "$1" && awk -v v="$1" 'BEGIN { exit !(v > 0) }'; }
+positive "$tmax" || die "--tmax '$tmax' must be a positive number of seconds"
 IFS=',' read -r -a dps <<< "$dp_list"
 [[ ${#dps[@]} -gt 0 ]] || die "--dp '$dp_list' is empty (a comma list of spacings in m)"
 for dp in "${dps[@]}"; do
-  is_number "$dp" && awk -v d="$dp" 'BEGIN { exit !(d > 0) }' || die "--dp value '$dp' must be a positive number (m)"
+  positive "$dp" || die "--dp value '$dp' must be a positive number (m)"
 done
 # The Martin & Moyce XMLs are one per spacing: dp must be a/N for N in 15, 30, 60, 120.
 mm_n() {
@@ -187,10 +188,23 @@ run_peer() {
     peer_basis="estimate: (4/3) pi (2h)^3 / dp^3 (full lattice) with h=${peer_h} m from Run.out"
   fi
 }
-# The project's kernel support is 2 dp (params.h: particle_spacing); wcsph and dfsph have no
-# separate smoothing length.
-project_nb=$(awk 'BEGIN { print 4 / 3 * 3.14159265358979 * 2 ^ 3 }')
-project_basis="estimate: (4/3) pi (2dp)^3 / dp^3 (full lattice; support 2 dp)"
+# The project's neighbours within its kernel support 2 h, h = R dp: R is the scene's
+# smoothing_length_ratio, or that parameter's default (`dysa run --help`), where the build has
+# one; without it the support is 2 dp (params.h: particle_spacing).
+project_neighbours() {
+  local ratio
+  ratio=$(/usr/bin/python3 -c 'import json, sys; print(json.load(open(sys.argv[1])).get("params", {}).get("smoothing_length_ratio", ""))' "$1")
+  if [[ -z "$ratio" ]]; then
+    ratio=$("$dysa" run --help | awk '$1 == "smoothing_length_ratio" { for (i = 2; i < NF; ++i) if ($i == "default") { sub(/,$/, "", $(i + 1)); print $(i + 1) } }')
+  fi
+  if [[ -n "$ratio" ]]; then
+    project_nb=$(awk -v r="$ratio" 'BEGIN { print 4 / 3 * 3.14159265358979 * (2 * r) ^ 3 }')
+    project_basis="estimate: (4/3) pi (2h)^3 / dp^3 (full lattice) with h = $ratio dp (smoothing_length_ratio)"
+  else
+    project_nb=$(awk 'BEGIN { print 4 / 3 * 3.14159265358979 * 2 ^ 3 }')
+    project_basis="estimate: (4/3) pi (2dp)^3 / dp^3 (full lattice; support 2 dp)"
+  fi
+}
 
 # The numbers of `dysa run`'s summary line: "N steps of P particles in W s ...".
 dysa_summary() { grep -m 1 ' steps of .* particles in ' "$1" | awk '{ print $1, $4, $7 }'; }
@@ -212,6 +226,7 @@ for dp in "${dps[@]}"; do
       t1=$(now)
       # accuracy_spheric_test2.csv: solver,spacing_m,particles,steps,particle_steps,wall_s,end_s,...
       read -r jp js jrun jsim < <(awk -F, 'NR == 2 { print $3, $4, $6, $7 }' "$jdir/accuracy_spheric_test2.csv")
+      project_neighbours "$repo/scenes/validation/spheric_test2.json"
       row project "$dp" "$jp" "$jp" "$js" "$jsim" "$(elapsed "$t0" "$t1")" "$jrun" "$project_nb" "$project_basis"
       steps_file=$(ls "$jdir"/spheric_test2_steps_*.csv)
       compare_args+=(--run "$dp" "$pdir" "$steps_file")
@@ -226,6 +241,7 @@ for dp in "${dps[@]}"; do
         { tail -n 20 "$jdir/dysa_run.log" >&2; die "dysa run failed at dp $dp (log: $jdir/dysa_run.log)"; }
       t1=$(now)
       read -r js jp jrun < <(dysa_summary "$jdir/dysa_run.log")
+      project_neighbours "$peer/project_case_dambreak.json"
       row project "$dp" "$jp" "$jp" "$js" "$tmax" "$(elapsed "$t0" "$t1")" "$jrun" "$project_nb" "$project_basis"
       ;;
     martinmoyce)
@@ -250,6 +266,7 @@ EOF
         { tail -n 20 "$jdir/dysa_run.log" >&2; die "dysa run failed at dp $dp (log: $jdir/dysa_run.log)"; }
       t1=$(now)
       read -r js jp jrun < <(dysa_summary "$jdir/dysa_run.log")
+      project_neighbours "$jdir/scene.json"
       row project "$dp" "$jp" "$jp" "$js" "$tmax" "$(elapsed "$t0" "$t1")" "$jrun" "$project_nb" "$project_basis"
       compare_args+=(--run "$dp" "$pdir" "$jdir/probes.csv")
       ;;
