@@ -21,9 +21,9 @@ spheric2 (SPHERIC Test 2; definitions of ../shared/notes/spheric2.md, section 5)
     same threshold is used for P2, for which the note defines none), linear between samples.
   peaks: the largest 1 ms and 5 ms averages with 0.40 s <= t <= 0.46 s.
   H errors: the RMS of H - H_MARIN at the MARIN rows (every 10 ms) with t <= 0.75 s and with
-    t <= tmax (early_end_s and tmax_s: the last rows reached), divided by the water's initial depth 0.55 m (H1-H3 start dry, where an error
-    relative to the measured value has no meaning; the project's SphericTest2Result does the
-    same).
+    t <= tmax (early_end_s and tmax_s: the last rows reached), divided by the water's initial
+    depth 0.55 m (H1-H3 start dry, where an error relative to the measured value has no
+    meaning; the project's SphericTest2Result does the same).
 martinmoyce (Martin & Moyce 1952, 2D column a = 0.05715 m):
   PROJECT_PROBES is `dysa run`'s probes.csv (column front_x); the peer's front is the largest x
   of its fluid particles in data/PartCsv_NNNN.csv (time NNNN * TimePart of Run.out). Both fronts
@@ -320,7 +320,8 @@ def read_peer_front(directory):
     for name in files:
         path = os.path.join(data_dir, name)
         d = read_table(path, ";", required=("Pos.x [m]", "Type"))
-        fluid = d["Type"] == 3  # DualSPHysics's particle types: 0 fixed, 1 moving, 2 floating, 3 fluid
+        # DualSPHysics's particle types: 0 fixed, 1 moving, 2 floating, 3 fluid.
+        fluid = d["Type"] == 3
         if not fluid.any():
             raise InputError(f"{path}: column 'Type' has no fluid particles (3)")
         number = int(name[len("PartCsv_"):-len(".csv")])
@@ -449,7 +450,8 @@ def run_spheric(args, repo):
     pub = read_repo_published(repo)
     if pub:
         rows.append({"code": "experiment_published", "dp_m": "", "pressure_source":
-                     "validation_impact.h kP1ArrivalPublished/kP1PeakPublished (the project's gate)",
+                     "validation_impact.h kP1ArrivalPublished/kP1PeakPublished "
+                     "(the project's gate)",
                      "P1_arrival_s": pub.get("kP1ArrivalPublished"),
                      "P1_peak_1ms_pa": pub.get("kP1PeakPublished")})
     for dp, peer_dir, project_file in args.run:
@@ -507,7 +509,8 @@ def run_mm(args, repo):
         for r in rows:
             w.writerow([fmt(r[k]) if k != "rows" else r[k] for k in keys])
             print(f"{r['code']:13s} dp {r['dp_m']}: front RMS {100 * r['front_rms']:.1f}% "
-                  f"(best delay {r['best_delay_ms']:.1f} ms: {100 * r['front_rms_best_delay']:.1f}%)")
+                  f"(best delay {r['best_delay_ms']:.1f} ms: "
+                  f"{100 * r['front_rms_best_delay']:.1f}%)")
     png = os.path.join(args.out, f"peer_compare_martinmoyce_{args.tag}.png")
     plot_mm(png, curves, ref_T, ref_Z)
     print(f"wrote {out_csv} and {png}")
