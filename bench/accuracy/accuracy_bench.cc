@@ -8,19 +8,26 @@
 //                                      [--case all|hydrostatic|dam_break|poiseuille]
 //                                      [--solvers wcsph,dfsph] [--quick | --fine]
 //   build/release/bench/accuracy_bench --case spheric_test2 [--quick | --fine] [--device cuda]
+//                                      [--spacings 0.02,0.01] [--end 1.0] [--step-series]
 //
 // SPHERIC Test 2, a 3D case of minutes per run, is not part of `all`: `--case spheric_test2`
-// runs it alone (wcsph, to 1 s: the arrival, the peak and the H4 error all lie in the first
-// second) into accuracy_spheric_test2.csv, and writes each run's filtered sensors and gauges
-// every millisecond into spheric_test2_series_SPACING.csv for plot_accuracy.py.
+// runs it alone (wcsph, to 1 s by default: the arrival, the peak and the H4 error all lie in the
+// first second; --end changes it) into accuracy_spheric_test2.csv, and writes each run's filtered
+// sensors and gauges every millisecond into spheric_test2_series_SPACING.csv for
+// plot_accuracy.py. --spacings replaces the default spacings; --step-series also writes every
+// step's raw probe values (P1-P8 in Pa, H1-H4 in m, as the run records them) into
+// spheric_test2_steps_SPACING.csv, which bench/peer_compare.py reads beside DualSPHysics's gauges.
 #include <omp.h>
 
 #include <CLI/CLI.hpp>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iomanip>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -71,18 +78,54 @@ struct Point {
   double density_error_mean = 0;
 };
 
+// A number > 0 (CLI11's PositiveNumber prints the whole double range in its message).
+const CLI::Validator kPositive(
+    [](std::string& text) -> std::string {
+      char* end = nullptr;
+      const double v = std::strtod(text.c_str(), &end);
+      if (end == text.c_str() || *end != '\0' || !(v > 0) || !std::isfinite(v)) {
+        return "'" + text + "' is not a positive number";
+      }
+      return "";
+    },
+    "POSITIVE");
+
 double Seconds(std::chrono::steady_clock::duration d) {
   return std::chrono::duration<double>(d).count();
 }
 
+struct SphericOptions {
+  bool quick = false, fine = false;
+  std::vector<double> spacings;  // m; empty: the defaults below
+  double end = 1.0;              // s, simulated
+  bool step_series = false;      // also write every step's raw probes
+  dysa::Device device;
+};
+
+// The raw probe values after every step (SphericTest2Result::times, pressure, height).
+void WriteStepSeries(const std::filesystem::path& path, const dysa::SphericTest2Result& r) {
+  std::ofstream out(path);
+  if (!out) throw std::runtime_error("cannot write " + path.string());
+  out << "t_s,P1_pa,P2_pa,P3_pa,P4_pa,P5_pa,P6_pa,P7_pa,P8_pa,H1_m,H2_m,H3_m,H4_m\n";
+  out << std::setprecision(9);
+  for (size_t k = 0; k < r.times.size(); ++k) {
+    out << r.times[k];
+    for (const auto& p : r.pressure) out << ',' << p[k];
+    for (const auto& h : r.height) out << ',' << h[k];
+    out << '\n';
+  }
+  if (!out) throw std::runtime_error("error writing " + path.string());
+}
+
 // SPHERIC Test 2 at spacings that are whole fractions of the water's 0.55 m depth (7, 9 and 11
 // layers; --fine adds the scene's 0.025 m, 22 layers), so that the reservoir starts at the
-// experiment's depth.
-int RunSpheric(const std::filesystem::path& out_dir, bool quick, bool fine, dysa::Device device) {
+// experiment's depth; or at --spacings.
+int RunSpheric(const std::filesystem::path& out_dir, const SphericOptions& o) {
   std::vector<double> spacings = {0.55 / 7, 0.55 / 9, 0.55 / 11};
-  if (quick) spacings = {0.55 / 7, 0.55 / 9};
-  if (fine) spacings.push_back(0.025);
-  constexpr double kEnd = 1.0;  // s
+  if (o.quick) spacings = {0.55 / 7, 0.55 / 9};
+  if (o.fine) spacings.push_back(0.025);
+  if (!o.spacings.empty()) spacings = o.spacings;
+  const double end = o.end;  // s, simulated
   std::ofstream csv(out_dir / "accuracy_spheric_test2.csv");
   csv << "solver,spacing_m,particles,steps,particle_steps,wall_s,end_s,p1_arrival_s,"
          "p1_arrival_error_s,p1_peak_pa,p1_peak_error,p1_impact_mean_pa,h4_error_1s,h1_error,"
@@ -92,9 +135,9 @@ int RunSpheric(const std::filesystem::path& out_dir, bool quick, bool fine, dysa
   for (double spacing : spacings) {
     dysa::ValidationOptions options;
     options.spacing = spacing;
-    options.device = device;
+    options.device = o.device;
     const auto start = std::chrono::steady_clock::now();
-    const dysa::SphericTest2Result r = dysa::RunSphericTest2(options, kEnd);
+    const dysa::SphericTest2Result r = dysa::RunSphericTest2(options, end);
     const double wall = Seconds(std::chrono::steady_clock::now() - start);
     const double arrival = r.p1_arrival.value_or(std::nan(""));
     const double peak_error = r.p1_peak / dysa::kP1PeakPublished - 1;
@@ -110,13 +153,17 @@ int RunSpheric(const std::filesystem::path& out_dir, bool quick, bool fine, dysa
     for (double e : r.height_error) csv << ',' << e;
     csv << '\n';
     csv.flush();
-    // Every millisecond: the last step at or before it.
     char name[64];
+    if (o.step_series) {
+      std::snprintf(name, sizeof name, "spheric_test2_steps_%.4f.csv", spacing);
+      WriteStepSeries(out_dir / name, r);
+    }
+    // Every millisecond: the last step at or before it.
     std::snprintf(name, sizeof name, "spheric_test2_series_%.4f.csv", spacing);
     std::ofstream series(out_dir / name);
     series << "t_s,P1_pa,P2_pa,P3_pa,P4_pa,P5_pa,P6_pa,P7_pa,P8_pa,H1_m,H2_m,H3_m,H4_m\n";
     size_t k = 0;
-    for (int ms = 0; ms <= int(kEnd * 1000 + 0.5); ++ms) {
+    for (int ms = 0; ms <= int(end * 1000 + 0.5); ++ms) {
       const double t = 0.001 * ms;
       while (k + 1 < r.times.size() && r.times[k + 1] <= t + 1e-12) ++k;
       series << t;
@@ -148,12 +195,37 @@ int main(int argc, char** argv) {
   app.add_option("--out", out_dir, "Directory for accuracy.csv")->capture_default_str();
   std::string device = "cpu";
   app.add_option("--device", device, "cpu or cuda[:N] (spheric_test2 only)")->capture_default_str();
+  SphericOptions spheric;
+  auto* spacings_opt =
+      app.add_option("--spacings", spheric.spacings,
+                     "Comma list of particle spacings in m (spheric_test2 only; replaces the "
+                     "default ones)")
+          ->delimiter(',')
+          ->check(kPositive);
+  auto* end_opt = app.add_option("--end", spheric.end, "Simulated end time in s (spheric_test2)")
+                      ->check(kPositive)
+                      ->capture_default_str();
+  auto* steps_opt = app.add_flag("--step-series", spheric.step_series,
+                                 "Also write spheric_test2_steps_SPACING.csv: every step's raw "
+                                 "P1-P8 and H1-H4 (spheric_test2)");
   CLI11_PARSE(app, argc, argv);
   omp_set_num_threads(threads);
+  if (which != "spheric_test2") {
+    for (const CLI::Option* opt : {spacings_opt, end_opt, steps_opt}) {
+      if (opt->count() > 0) {
+        std::fprintf(stderr, "accuracy_bench: error: %s applies to --case spheric_test2 only\n",
+                     opt->get_name().c_str());
+        return 2;
+      }
+    }
+  }
   if (which == "spheric_test2") {
     try {
       std::filesystem::create_directories(out_dir);
-      return RunSpheric(out_dir, quick, fine, dysa::ParseDevice(device));
+      spheric.quick = quick;
+      spheric.fine = fine;
+      spheric.device = dysa::ParseDevice(device);
+      return RunSpheric(out_dir, spheric);
     } catch (const std::exception& e) {
       std::fprintf(stderr, "accuracy_bench: error: %s\n", e.what());
       return 1;

@@ -1,0 +1,300 @@
+"""Tests of bench/peer_compare.py (the DualSPHysics comparison, bench/README.md "Against
+DualSPHysics") on synthetic gauge files whose arrivals, peaks and errors are known exactly.
+
+Run: /usr/bin/python3 tests/python/test_peer_compare.py [unittest args]
+(ctest: python_peer_compare_test).
+"""
+
+import csv
+import math
+import os
+import subprocess
+import sys
+import tempfile
+import unittest
+from pathlib import Path
+
+import numpy as np
+
+_BENCH = Path(__file__).resolve().parents[2] / "bench"
+sys.path.insert(0, str(_BENCH))
+import peer_compare as pc  # noqa: E402
+
+B, RHO0 = 300000.0, 1000.0  # the synthetic Run.out's CteB and RhopZero
+A, G = 0.05715, 9.81
+
+
+def rho_of(p):
+    """The density a DualSPHysics mesh gauge reports for pressure p (its EOS inverted)."""
+    return RHO0 * (1.0 + p / B) ** (1.0 / 7.0)
+
+
+def write_run_out(directory, dp, kernel_h, time_part=0.01, two_d=False):
+    with open(os.path.join(directory, "Run.out"), "w") as f:
+        f.write(f"**{'2' if two_d else '3'}D-Simulation parameters:\n")
+        f.write(f"Dp={dp}\nKernelH={kernel_h}  (CoefficientH=1; H/Dp=1.73205)\n")
+        f.write(f"CteB={B}\nGamma=7\nRhopZero={RHO0}\nTimePart={time_part}\n")
+
+
+def write_mesh(path, times, columns, npt1, npt2, ref, vec1, vec2):
+    """A GaugesMesh_*_Rhop.csv: every point 1000 kg/m^3 (p = 0) but `columns` {(i, j): p(t)}."""
+    with open(path, "w") as f:
+        f.write("Format;DataName;DataUnits;DataType;Data12;Npt1;Npt2;Npt3;PtRef.x [m];PtRef.y;"
+                "PtRef.z;Vec1.x [m];Vec1.y;Vec1.z;Vec2.x;Vec2.y;Vec2.z;Vec3.x;Vec3.y;Vec3.z;"
+                "DirDat.x;DirDat.y;DirDat.z\n")
+        f.write(f"JMeshTDatas-200817;Rhop; [kg/m^3];float;false;{npt1};{npt2};1;{ref[0]};"
+                f"{ref[1]};{ref[2]};{vec1[0]};{vec1[1]};{vec1[2]};{vec2[0]};{vec2[1]};{vec2[2]};"
+                "0;0;0;1;0;0\n")
+        names = [(i, j) for j in range(npt2) for i in range(npt1)]
+        f.write("time [s];" + ";".join(f"v({i}:{j}:0)" for i, j in names) + "\n")
+        for k, t in enumerate(times):
+            vals = [repr(rho_of(columns[n][k])) if n in columns else "1000" for n in names]
+            f.write(f"{t:.6f};" + ";".join(vals) + "\n")
+
+
+def write_swl(path, times, heights, z0=0.01):
+    with open(path, "w") as f:
+        f.write("time [s];swlx [m];swly [m];swlz [m];pos0x [m];pos0y [m];pos0z [m];pos2x [m];"
+                "pos2y [m];pos2z [m]\n")
+        for t, h in zip(times, heights):
+            f.write(f"{t:.6f};0.5;0.5;{h};0.5;0.5;{z0};0.5;0.5;1\n")
+
+
+def plateau(times, start, end, value, spikes=()):
+    p = np.where((times >= start - 1e-9) & (times <= end + 1e-9), value, 0.0)
+    for t, v in spikes:
+        p[np.argmin(np.abs(times - t))] = v
+    return p
+
+
+class Fixture:
+    """A fake repository (MARIN heights, Martin & Moyce table), a DualSPHysics output directory
+    and a project step series for SPHERIC Test 2, all synthetic."""
+
+    def __init__(self, root):
+        self.root = root
+        self.repo = os.path.join(root, "repo")
+        val = os.path.join(self.repo, "scenes", "validation")
+        os.makedirs(val)
+        # MARIN: every 10 ms to 1 s; H1 and H3 dry, H2 0.1 m, H4 0.5 m.
+        with open(os.path.join(val, "spheric_test2_marin_heights.csv"), "w") as f:
+            f.write("# synthetic\nt_s,H1_m,H2_m,H3_m,H4_m\n")
+            for k in range(101):
+                f.write(f"{k / 100:.2f},0,0.1,0,0.5\n")
+        with open(os.path.join(val, "dam_break_martin_moyce_1952_front.csv"), "w") as f:
+            f.write("# synthetic\nT,Z\n0,1\n1,2\n2,3\n")
+        # The peer at dp 0.01: the face's particle layer at round(0.8245 / 0.01) 0.01 = 0.82,
+        # 1.5 h = 0.0259815 from it: the point nearest x = 0.8459815 on the 2.5 mm mesh from
+        # 0.8245 is index 9. Pressures every 0.3 ms (a 1 ms window holds 3 samples, 5 ms 17).
+        self.peer = os.path.join(root, "peer")
+        os.makedirs(self.peer)
+        write_run_out(self.peer, 0.01, 0.017321)
+        t = np.round(np.arange(2668) * 0.0003, 7)  # to 0.8001 s
+        p1 = plateau(t, 0.4101, 0.5, 3000.0,
+                     [(0.42, 6000.0), (0.4203, 12000.0), (0.4206, 9000.0), (0.47, 50000.0)])
+        p2 = plateau(t, 0.4302, 0.5, 1200.0)
+        top = plateau(t, 0.45, 0.46, 700.0)  # P5: x index 3; layer 0.16 + 1.5 h: z index 10
+        write_mesh(os.path.join(self.peer, "GaugesMesh_PFront_Rhop.csv"), t,
+                   {(9, 0): p1, (9, 1): p2, (0, 0): np.full(t.size, 99999.0)}, 25, 4,
+                   (0.8245, 0.471, 0.021), (0.0025, 0, 0), (0, 0, 0.04))
+        write_mesh(os.path.join(self.peer, "GaugesMesh_PTop_Rhop.csv"), t, {(3, 10): top}, 4, 25,
+                   (0.6835, 0.471, 0.161), (0.04, 0, 0), (0, 0, 0.0025))
+        ts = np.round(np.arange(802) * 0.001, 6)  # 1 kHz to 0.801 s
+        write_swl(os.path.join(self.peer, "GaugesSWL_H1.csv"), ts, np.full(ts.size, 0.01))
+        write_swl(os.path.join(self.peer, "GaugesSWL_H2.csv"), ts, np.full(ts.size, 0.111))
+        write_swl(os.path.join(self.peer, "GaugesSWL_H3.csv"), ts,
+                  np.where(ts > 0.7005, 0.12, 0.01))
+        write_swl(os.path.join(self.peer, "GaugesSWL_H4.csv"), ts, np.full(ts.size, 0.511))
+        # The project: every 0.4 ms (3 samples in 1 ms, 13 in 5 ms).
+        self.steps = os.path.join(root, "spheric_test2_steps_0.0100.csv")
+        tj = np.round(np.arange(2001) * 0.0004, 7)  # to 0.8 s
+        pj1 = plateau(tj, 0.402, 0.5, 2000.0, [(0.44, 5000.0), (0.4404, 8000.0), (0.4408, 6500.0)])
+        with open(self.steps, "w") as f:
+            f.write("t_s,P1_pa,P2_pa,P3_pa,P4_pa,P5_pa,P6_pa,P7_pa,P8_pa,H1_m,H2_m,H3_m,H4_m\n")
+            for k, tt in enumerate(tj):
+                f.write(f"{tt:.7f},{pj1[k]},0,0,0,0,0,0,0,0,0.1,0,{0.5 - 0.0055}\n")
+
+    def run(self, *extra):
+        out = os.path.join(self.root, "out")
+        rows = pc.main(["--case", "spheric2", "--tag", "test", "--tmax", "0.8", "--repo",
+                        self.repo, "--out", out, "--run", "0.01", self.peer, self.steps,
+                        *extra])
+        return {r["code"]: r for r in rows}, out
+
+
+class MovingAverageTest(unittest.TestCase):
+    def test_weighted_by_step_length(self):
+        # Samples at 0, 1, 3 (s): lengths 0, 1, 2. At t = 1 with a 4 s window, (-1, 3] holds
+        # all three: (0 * 100 + 1 * 10 + 2 * 40) / 3 = 30.
+        avg = pc.moving_average([0.0, 1.0, 3.0], [100.0, 10.0, 40.0], 4.0)
+        self.assertAlmostEqual(avg[1], 30.0, places=12)
+        # At t = 0: (-2, 2] holds samples 0 (weight 0) and 1: 10.
+        self.assertAlmostEqual(avg[0], 10.0, places=12)
+
+    def test_first_crossing_interpolates(self):
+        self.assertAlmostEqual(pc.first_crossing(np.array([0.0, 1.0, 2.0]),
+                                                 np.array([0.0, 200.0, 1000.0]), 500.0), 1.375)
+        self.assertTrue(math.isnan(pc.first_crossing(np.array([0.0, 1.0]),
+                                                     np.array([0.0, 499.0]), 500.0)))
+
+
+    def test_height_error_rows(self):
+        # A series ending at 0.699 s still reads the row at 0.7 s (within 2 ms), not 0.71 s.
+        ref_t = np.array([0.0, 0.7, 0.71])
+        rms, last = pc.height_error(np.array([0.0, 0.699]), np.array([0.1, 0.2]), ref_t,
+                                    np.array([0.1, 0.1, 0.1]), 0.8)
+        self.assertAlmostEqual(rms, math.sqrt(0.1 ** 2 / 2) / 0.55, places=12)
+        self.assertEqual(last, 0.7)
+
+
+class SphericTest(unittest.TestCase):
+    def setUp(self):
+        self.tmp = tempfile.TemporaryDirectory()
+        self.fx = Fixture(self.tmp.name)
+
+    def tearDown(self):
+        self.tmp.cleanup()
+
+    def test_peer_measures(self):
+        rows, _ = self.fx.run()
+        r = rows["dualsphysics"]
+        # 1 ms average: 0 at 0.4095, 1000 at 0.4098 (one of 3 samples at 3000): 500 Pa at 0.40965.
+        self.assertAlmostEqual(r["P1_arrival_s"], 0.40965, places=9)
+        self.assertAlmostEqual(r["P1_arrival_error_s"], 0.40965 - 0.393, places=9)
+        # The spike 6, 12, 9 kPa at 0.4200-0.4206: its 1 ms peak (6 + 12 + 9) / 3 at 0.4203;
+        # the 50 kPa sample at 0.47 lies outside 0.40-0.46 s.
+        self.assertAlmostEqual(r["P1_peak_1ms_pa"], 9000.0, places=5)
+        self.assertAlmostEqual(r["P1_peak_1ms_time_s"], 0.4203, places=9)
+        # 5 ms: 17 samples, the spike's 3 and 14 of the plateau.
+        self.assertAlmostEqual(r["P1_peak_5ms_pa"], (27000.0 + 14 * 3000.0) / 17, places=5)
+        # P2: 400 at 0.4299, 800 at 0.4302.
+        self.assertAlmostEqual(r["P2_arrival_s"], 0.4299 + 0.25 * 0.0003, places=9)
+        self.assertAlmostEqual(r["P2_peak_1ms_pa"], 1200.0, places=5)
+        # Heights: H1 dry (the point0 reading counts as 0), H2 and H4 11 mm high, H3 12 cm
+        # high from 0.71 s (5 of the 76 rows to 0.75 s, 10 of the 81 to 0.8 s).
+        self.assertAlmostEqual(r["H1_rms_to_0.75s"], 0.0, places=12)
+        self.assertAlmostEqual(r["H2_rms_to_0.75s"], 0.02, places=9)
+        self.assertAlmostEqual(r["H4_rms_to_tmax"], 0.02, places=9)
+        self.assertAlmostEqual(r["H3_rms_to_0.75s"], 0.12 * math.sqrt(5 / 76) / 0.55, places=9)
+        self.assertAlmostEqual(r["H3_rms_to_tmax"], 0.12 * math.sqrt(10 / 81) / 0.55, places=9)
+        self.assertAlmostEqual(r["tmax_s"], 0.8)
+        self.assertAlmostEqual(r["early_end_s"], 0.75)
+        self.assertIn("1.5h", r["pressure_source"])
+
+    def test_project_measures(self):
+        rows, out = self.fx.run()
+        r = rows["project"]
+        # 1 ms: 0 at 0.4012, 666.7 at 0.4016: 500 Pa at 0.4015.
+        self.assertAlmostEqual(r["P1_arrival_s"], 0.4015, places=9)
+        self.assertAlmostEqual(r["P1_peak_1ms_pa"], 6500.0, places=5)
+        self.assertAlmostEqual(r["P1_peak_1ms_time_s"], 0.4404, places=9)
+        self.assertAlmostEqual(r["P1_peak_5ms_pa"], (19500.0 + 10 * 2000.0) / 13, places=5)
+        self.assertTrue(math.isnan(r["P2_arrival_s"]))
+        self.assertEqual(r["P2_peak_1ms_pa"], 0.0)  # dry: no peak time
+        self.assertTrue(math.isnan(r["P2_peak_1ms_time_s"]))
+        self.assertAlmostEqual(r["H2_rms_to_0.75s"], 0.0, places=12)
+        self.assertAlmostEqual(r["H4_rms_to_0.75s"], 0.01, places=9)
+        # The CSV and the PNG exist; the experiment row carries MARIN's record.
+        with open(os.path.join(out, "peer_compare_spheric2_test.csv")) as f:
+            table = list(csv.DictReader(f))
+        self.assertEqual([t["code"] for t in table], ["experiment", "dualsphysics", "project"])
+        self.assertEqual(table[0]["P1_arrival_s"], "0.393")
+        self.assertEqual(table[0]["P2_peak_1ms_pa"], "8130")
+        self.assertEqual(float(table[2]["P1_arrival_s"]), 0.4015)
+        self.assertGreater(os.path.getsize(os.path.join(out, "peer_compare_spheric2_test.png")), 0)
+        # The converted series: the peer's P5 (top, x index 3, 1.5 h above the top's layer).
+        with open(os.path.join(out, "peer_series_spheric2_dualsphysics_0.01_test.csv")) as f:
+            series = {row["t_s"]: row for row in csv.DictReader(f)}
+        self.assertAlmostEqual(float(series["0.455"]["P5_1ms_pa"]), 700.0, places=3)
+        self.assertAlmostEqual(float(series["0.2"]["P5_1ms_pa"]), 0.0, places=3)
+
+    def test_missing_column_names_file_and_column(self):
+        path = os.path.join(self.fx.peer, "GaugesSWL_H2.csv")
+        text = Path(path).read_text().replace("swlz [m]", "level [m]", 1)
+        Path(path).write_text(text)
+        with self.assertRaises(pc.InputError) as e:
+            self.fx.run()
+        self.assertIn("GaugesSWL_H2.csv", str(e.exception))
+        self.assertIn("'swlz [m]'", str(e.exception))
+
+    def test_bad_value_names_file_column_and_line(self):
+        lines = Path(self.fx.steps).read_text().splitlines()
+        cells = lines[5].split(",")
+        cells[1] = "n/a"
+        lines[5] = ",".join(cells)
+        Path(self.fx.steps).write_text("\n".join(lines) + "\n")
+        with self.assertRaises(pc.InputError) as e:
+            self.fx.run()
+        self.assertIn("spheric_test2_steps_0.0100.csv", str(e.exception))
+        self.assertIn("'P1_pa'", str(e.exception))
+        self.assertIn("line 6", str(e.exception))
+
+    def test_short_row_and_command_line_error(self):
+        with open(os.path.join(self.fx.peer, "GaugesSWL_H4.csv"), "a") as f:
+            f.write("0.802;0.5;0.5\n")
+        proc = subprocess.run(
+            [sys.executable, str(_BENCH / "peer_compare.py"), "--case", "spheric2", "--repo",
+             self.fx.repo, "--out", os.path.join(self.fx.root, "o"), "--run", "0.01",
+             self.fx.peer, self.fx.steps], capture_output=True, text=True)
+        self.assertEqual(proc.returncode, 2)
+        self.assertIn("GaugesSWL_H4.csv", proc.stderr)
+        self.assertIn("line 804", proc.stderr)
+        self.assertIn("no value from column 'swlz [m]' on", proc.stderr)
+
+
+class MartinMoyceTest(unittest.TestCase):
+    def test_fronts(self):
+        with tempfile.TemporaryDirectory() as root:
+            fx = Fixture(root)  # for the reference table: (0, 1), (1, 2), (2, 3)
+            dp = A / 15
+            unit = math.sqrt(A / (2 * G))  # s per unit of T
+            peer = os.path.join(root, "mm_peer")
+            os.makedirs(os.path.join(peer, "data"))
+            write_run_out(peer, dp, 1.41421 * dp, time_part=0.002, two_d=True)
+            # The peer's front Z = 1 + 1.2 T (too fast), its column's back row at x = 0.
+            for k in range(61):
+                T = 0.002 * k / unit
+                front = (1 + 1.2 * T) * A - dp
+                with open(os.path.join(peer, "data", f"PartCsv_{k:04d}.csv"), "w") as f:
+                    f.write("Pos.x [m];Pos.y [m];Pos.z [m];Idp;Vel.x [m/s];Vel.y [m/s];"
+                            "Vel.z [m/s];Rho [kg/m^3];Type;\n")
+                    f.write("5.0;0;0;0;0;0;0;1000;0;\n")  # a wall particle far right: ignored
+                    for x in (0.0, 0.5 * front, front):
+                        f.write(f"{x!r};0;0.01;1;0;0;0;1000;3;\n")
+            # The project's front Z = (front_x + d / 2) / a = 1 + 0.9 T (too slow).
+            probes = os.path.join(root, "probes.csv")
+            with open(probes, "w") as f:
+                f.write("time,step,front_x,kinetic_energy\n")
+                for k in range(61):
+                    T = 0.002 * k / unit
+                    f.write(f"{0.002 * k!r},{k},{(1 + 0.9 * T) * A - 0.5 * dp!r},0\n")
+            rows = pc.main(["--case", "martinmoyce", "--tag", "test", "--repo", fx.repo,
+                            "--out", os.path.join(root, "out"), "--run", repr(dp), peer, probes])
+            peer_row, project_row = rows
+            self.assertEqual(peer_row["code"], "dualsphysics")
+            self.assertAlmostEqual(peer_row["front_rms"],
+                                   math.sqrt((0.1 ** 2 + (0.4 / 3) ** 2) / 2), places=9)
+            self.assertAlmostEqual(peer_row["front_max"], 0.4 / 3, places=9)
+            self.assertEqual(peer_row["rows"], 2)
+            # Best delay: the minimum of (0.1 - 0.6 s)^2 + (0.4/3 - 0.4 s)^2 lies at
+            # s = 0.2179..., on the 0.001 grid s = 0.218.
+            self.assertAlmostEqual(peer_row["best_delay_ms"], 0.218 * unit * 1000, places=6)
+            e1 = abs(1 + 1.2 * (1 - 0.218) - 2) / 2
+            e2 = abs(1 + 1.2 * (2 - 0.218) - 3) / 3
+            self.assertAlmostEqual(peer_row["front_rms_best_delay"],
+                                   math.sqrt((e1 ** 2 + e2 ** 2) / 2), places=9)
+            self.assertAlmostEqual(project_row["front_rms"],
+                                   math.sqrt((0.05 ** 2 + (0.2 / 3) ** 2) / 2), places=9)
+            self.assertAlmostEqual(project_row["best_delay_ms"], 0.0)
+            # No PartCsv files: a clear error naming the directory.
+            for name in os.listdir(os.path.join(peer, "data")):
+                os.remove(os.path.join(peer, "data", name))
+            with self.assertRaises(pc.InputError) as e:
+                pc.main(["--case", "martinmoyce", "--repo", fx.repo, "--out",
+                         os.path.join(root, "out"), "--run", repr(dp), peer, probes])
+            self.assertIn("PartCsv", str(e.exception))
+            self.assertIn(os.path.join(peer, "data"), str(e.exception))
+
+
+if __name__ == "__main__":
+    unittest.main()
