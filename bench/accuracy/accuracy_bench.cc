@@ -96,9 +96,11 @@ double Seconds(std::chrono::steady_clock::duration d) {
 
 struct SphericOptions {
   bool quick = false, fine = false;
-  std::vector<double> spacings;  // m; empty: the defaults below
-  double end = 1.0;              // s, simulated
-  bool step_series = false;      // also write every step's raw probes
+  std::vector<double> spacings;   // m; empty: the defaults below
+  double end = 1.0;               // s, simulated
+  bool step_series = false;       // also write every step's raw probes
+  std::vector<std::string> sets;  // NAME=VALUE overrides (the kernel, c0, ...)
+  std::string solver;             // "": the scene's (wcsph)
   dysa::Device device;
 };
 
@@ -136,6 +138,8 @@ int RunSpheric(const std::filesystem::path& out_dir, const SphericOptions& o) {
     dysa::ValidationOptions options;
     options.spacing = spacing;
     options.device = o.device;
+    options.sets = o.sets;
+    options.solver = o.solver;
     const auto start = std::chrono::steady_clock::now();
     const dysa::SphericTest2Result r = dysa::RunSphericTest2(options, end);
     const double wall = Seconds(std::chrono::steady_clock::now() - start);
@@ -208,10 +212,13 @@ int main(int argc, char** argv) {
   auto* steps_opt = app.add_flag("--step-series", spheric.step_series,
                                  "Also write spheric_test2_steps_SPACING.csv: every step's raw "
                                  "P1-P8 and H1-H4 (spheric_test2)");
+  auto* set_opt = app.add_option("--set", spheric.sets,
+                                 "Override a parameter, NAME=VALUE (repeatable; spheric_test2; "
+                                 "e.g. kernel=1, smoothing_length_ratio=1.732)");
   CLI11_PARSE(app, argc, argv);
   omp_set_num_threads(threads);
   if (which != "spheric_test2") {
-    for (const CLI::Option* opt : {spacings_opt, end_opt, steps_opt}) {
+    for (const CLI::Option* opt : {spacings_opt, end_opt, steps_opt, set_opt}) {
       if (opt->count() > 0) {
         std::fprintf(stderr, "accuracy_bench: error: %s applies to --case spheric_test2 only\n",
                      opt->get_name().c_str());
@@ -225,6 +232,11 @@ int main(int argc, char** argv) {
       spheric.quick = quick;
       spheric.fine = fine;
       spheric.device = dysa::ParseDevice(device);
+      if (solvers.size() > 1) {
+        std::fprintf(stderr, "accuracy_bench: error: --solvers: spheric_test2 runs one solver\n");
+        return 2;
+      }
+      if (!solvers.empty()) spheric.solver = solvers.front();
       return RunSpheric(out_dir, spheric);
     } catch (const std::exception& e) {
       std::fprintf(stderr, "accuracy_bench: error: %s\n", e.what());
