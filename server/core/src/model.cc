@@ -1,5 +1,7 @@
 #include "dysa/core/model.h"
 
+#include <algorithm>
+
 #include "dysa/core/kernels.h"
 #include "dysa/core/solver.h"
 
@@ -26,7 +28,11 @@ Model MakeModel(const Scene& scene, const Params& params, const SolverInfo& solv
     model.kernel_support = 2 * params.smoothing_length_ratio * d;
     model.gradient_moment = LatticeGradientMoment(model.Kernel<double>(), d);
     model.viscosity_moment = LatticeViscosityMoment(model.Kernel<double>(), d);
-    model.density_moment = LatticeDensityMoment(model.Kernel<double>(), d);
+    // Only a kernel sum above 1 is corrected: it reads as compression, which both solvers act
+    // on; one below 1 (the cubic spline at 2 d: 0.99997) leaves the rest lattice a hair under
+    // rho0, which wcsph's clamp at rho0 and dfsph's compression-only solve leave alone, and
+    // correcting it put dfsph's channel exactly at rho0, where float noise starts solves.
+    model.density_moment = std::max(1.0, LatticeDensityMoment(model.Kernel<double>(), d));
   } else {
     model.particle_mass = params.particle_mass;
     model.kernel_support = params.smoothing_radius;

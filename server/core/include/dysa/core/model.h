@@ -35,8 +35,9 @@ struct Model {
   // Likewise its viscosity moment, LatticeViscosityMoment: the laminar viscosity terms are
   // divided by it, so that kinematic_viscosity is the fluid's viscosity. 1 for seed.
   double viscosity_moment = 1;
-  // And its density moment, LatticeDensityMoment: summation densities are divided by it and
-  // boundary volumes multiplied, so that the rest lattice has rho0. 1 for seed.
+  // And its density moment, LatticeDensityMoment where above 1 (else 1): summation densities
+  // are divided by it and boundary volumes multiplied, so that the rest lattice is not read as
+  // compressed. 1 for seed and the cubic spline at 2 d.
   double density_moment = 1;
 
   // A physical solver's kernel in precision T.
