@@ -182,8 +182,9 @@ inline double LatticeGradientMoment(const PhysicalKernel<double>& kernel, double
 // d^3 sum_j W(r_ij), the summation density of the rest lattice over rho0. It is not 1: 0.99997
 // for the cubic spline at support 2 d, 1.0018 for Wendland C2 at 3.46 d (1.034 at 2 d), which
 // would start a lattice at rest 0.18% compressed (Tait: 1.6 kPa at c0 = 50 m/s) everywhere but
-// at its free surface. The physical solvers divide their summation densities by it, and the
-// boundary volumes are scaled by it, so that the rest lattice has rho0 at every wall as inside.
+// at its free surface. Where it exceeds 1 (Model::density_moment) the physical solvers divide
+// their summation densities by it and scale the boundary volumes by it, so that the rest lattice
+// has rho0 at every wall as inside.
 inline double LatticeDensityMoment(const PhysicalKernel<double>& kernel, double spacing) {
   const int reach = int(kernel.support / spacing) + 1;
   double sum = 0;
