@@ -548,13 +548,7 @@ void DfsphPipeline::DownloadById(float* position, float* velocity, float* densit
 void DfsphPipeline::GatherProbes(const ProbeGatherPlan& plan, ProbeGather& out) const {
   Impl& m = *impl_;
   DeviceScope scope(m.device);
-  ProbeParticles p;
-  p.n = m.n;
-  p.x = m.x.data(), p.y = m.y.data(), p.z = m.z.data();
-  p.vx = m.vx.data(), p.vy = m.vy.data(), p.vz = m.vz.data();
-  p.density = m.density.data();
-  p.pressure = m.pressure.data();
-  m.probe_gatherer.Gather(p, plan, m.stream.get(), out);
+  m.probe_gatherer.Gather(ProbeParticlesOf(m), plan, m.stream.get(), out);
 }
 
 std::vector<std::string> DfsphPipeline::Configure(const DfsphStepConfig& config,

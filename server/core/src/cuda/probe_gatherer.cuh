@@ -20,6 +20,19 @@ struct ProbeParticles {
   const float* pressure = nullptr;  // Pa
 };
 
+// The ProbeParticles of a pipeline's state (any struct with device buffers n, x, y, z, vx, vy,
+// vz, density and pressure: the three pipelines' Impl).
+template <class Arrays>
+ProbeParticles ProbeParticlesOf(const Arrays& a) {
+  ProbeParticles p;
+  p.n = a.n;
+  p.x = a.x.data(), p.y = a.y.data(), p.z = a.z.data();
+  p.vx = a.vx.data(), p.vy = a.vy.data(), p.vz = a.vz.data();
+  p.density = a.density.data();
+  p.pressure = a.pressure.data();
+  return p;
+}
+
 class ProbeGatherer {
  public:
   // Runs on `stream` and waits for it. The partial sums are added on the host in block order,
