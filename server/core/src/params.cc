@@ -91,6 +91,10 @@ const std::array kParamTable = {
     DYSA_PARAM(density_diffusion, "", 0.0, 1.0, kLive, kWcsph,
                "delta of the density diffusion in the continuity equation (delta-SPH, Fourtakas "
                "et al. 2019; 0: none; the literature's 0.1; above 1 it over-damps the pressure)"),
+    DYSA_PARAM(time_integration, "", 0, 1, kLive, kWcsph,
+               "Time integration: 0 symplectic Euler (one force evaluation per step), 1 the "
+               "predictor-corrector Symplectic scheme (two per step, second order; "
+               "DualSPHysics's)"),
     DYSA_PARAM(gravity_ramp_time, "s", 0.0, 100.0, kLive, kPhysical,
                "Gravity grows smoothly from 0 to its value over this time (0: at once)"),
 };

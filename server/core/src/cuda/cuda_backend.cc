@@ -297,6 +297,7 @@ class WcsphGpuBackend final : public GpuBackend {
     const BoundaryParticles boundary(model, model.params.particle_spacing, model.kernel_support);
     config.viscosity = model.params.kinematic_viscosity > 0;
     config.wall_viscosity = config.viscosity && boundary.HasNoSlip();
+    config.symplectic = model.params.time_integration == 1;
     AddObstacles(model, config.spheres, config.boxes);
     return pipeline_.Configure(config, Cloud(boundary));
   }
@@ -332,16 +333,30 @@ class WcsphGpuBackend final : public GpuBackend {
     pipeline_.GatherProbes(plan, out);
   }
 
-  StepReport Step(const Model& model, State& state) override {
-    const double g = physical::GravityAt(model.params, state.time);
+  // The gravity, rho^H_ij's factor (as ComputeDensityAndPressure) and the boundary's motion at
+  // time t for the force passes; obstacle_speed: MoveBoundary's max_obstacle_speed.
+  struct ForceInputs {
+    Real gravity = 0;
+    Real hydrostatic = 0;
+    cuda::ObstacleMotionTable motion;
+    double obstacle_speed = 0;
+  };
+  static ForceInputs ForcesAt(const Model& model, double t) {
+    ForceInputs in;
+    const double g = physical::GravityAt(model.params, t);
     const double c0 = model.params.speed_of_sound;
-    // rho^H_ij's factor, as ComputeDensityAndPressure
-    const Real hydrostatic = Real(-model.params.rest_density * g / (c0 * c0));
+    in.gravity = Real(g);
+    in.hydrostatic = Real(-model.params.rest_density * g / (c0 * c0));
+    if (model.HasMovingObstacles()) in.motion = BoundaryMotion(model, t, in.obstacle_speed);
+    return in;
+  }
+
+  StepReport Step(const Model& model, State& state) override {
     const bool moving = model.HasMovingObstacles();
-    double obstacle_speed = 0;  // MoveBoundary's max_obstacle_speed
-    const cuda::ObstacleMotionTable motion =
-        moving ? BoundaryMotion(model, state.time, obstacle_speed) : cuda::ObstacleMotionTable{};
-    const cuda::StepMaxima maxima = pipeline_.Forces(Real(g), hydrostatic, motion);
+    const ForceInputs start = ForcesAt(model, state.time);
+    const double obstacle_speed = start.obstacle_speed;
+    const cuda::StepMaxima maxima =
+        pipeline_.Forces(start.gravity, start.hydrostatic, start.motion);
     if (pipeline_.max_cell_count() > NeighborGrid::kMaxParticlesPerCell) {
       return Crowded(pipeline_.max_cell_count());
     }
@@ -353,8 +368,18 @@ class WcsphGpuBackend final : public GpuBackend {
     if (std::string warning = SupersonicWarning(model.params, speed); !warning.empty()) {
       state.warning = std::move(warning);
     }
+    if (model.params.time_integration == 0) {
+      if (moving) MoveContactSurfaces(model, state.time, state.dt, pipeline_);
+      cuda::StepOutcome outcome = pipeline_.Integrate(Real(state.dt));
+      return StepReport{std::move(outcome.pass_ms), outcome.finite, 0};
+    }
+    // The predictor-corrector (PredictHalfStep, the force passes at t + dt/2, CorrectStep).
+    if (moving) MoveContactSurfaces(model, state.time, state.dt * 0.5, pipeline_);
+    pipeline_.Predict(Real(state.dt * 0.5));
+    const ForceInputs half = ForcesAt(model, state.time + state.dt * 0.5);
+    pipeline_.CorrectorForces(half.gravity, half.hydrostatic, half.motion);
     if (moving) MoveContactSurfaces(model, state.time, state.dt, pipeline_);
-    cuda::StepOutcome outcome = pipeline_.Integrate(Real(state.dt));
+    cuda::StepOutcome outcome = pipeline_.Correct(Real(state.dt));
     return StepReport{std::move(outcome.pass_ms), outcome.finite, 0};
   }
 

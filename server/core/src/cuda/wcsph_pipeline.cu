@@ -12,6 +12,7 @@
 #include "cuda/moving_boundary.cuh"
 #include "cuda/probe_gatherer.cuh"
 #include "cuda/sph_kernels.cuh"
+#include "cuda/symplectic_kernels.cuh"
 #include "cuda/wcsph_pipeline.h"
 
 namespace dysa::cuda {
@@ -155,6 +156,10 @@ struct WcsphPipeline::Impl {
   // the permutation, and the step's D rho / Dt; carried_ready false until InitialDensityKernel.
   DeviceBuffer<float> carried, carried2, density_rate;
   bool carried_ready = false;
+  // The predictor-corrector's x^n, v^n, rho^n (allocated at the first Predict); predicted
+  // between Predict and Correct, when the corrector's sort permutes them too.
+  DeviceBuffer<float> start_x, start_y, start_z, start_vx, start_vy, start_vz, start_density;
+  bool predicted = false;
   GridSorter sorter;
   // The boundary: positions, volumes and flags in its grid's order, its grid, and per step its
   // pressures and velocities.
@@ -228,6 +233,30 @@ struct WcsphPipeline::Impl {
   void Gather(const uint32_t* order, DeviceBuffer<T>& data, DeviceBuffer<T>& target, uint32_t m) {
     GatherByOrder(order, data.data(), target.data(), m, stream.get());
     data.swap(target);
+  }
+
+  StepStart StartView() {
+    return {start_x.data(),  start_y.data(),  start_z.data(),      start_vx.data(),
+            start_vy.data(), start_vz.data(), start_density.data()};
+  }
+
+  // move_boundary ... wall_viscosity (Forces), each pass timed from index `pass` on.
+  void ForcePasses(float gravity, float hydrostatic, const ObstacleMotionTable& motion);
+
+  // After the last pass's kernel (`what` names it in errors): the finiteness check, and every
+  // pass's time.
+  StepOutcome FinishStep(const char* what) {
+    cudaStream_t s = stream.get();
+    timer.Record(pass, s);
+    const Fluid f = View();
+    CheckFinite(f.x, f.y, f.z, f.vx, f.vy, f.vz, n, device_flags.data() + 1, s);
+    CheckCuda(cudaGetLastError(), (std::string("launching ") + what).c_str());
+    flags.CopyFrom(device_flags, 2, s);
+    CheckCuda(cudaStreamSynchronize(s), (std::string("running ") + what).c_str());
+    StepOutcome outcome;
+    outcome.pass_ms = timer.ElapsedMs(pass);
+    outcome.finite = flags.data()[1] == 0;
+    return outcome;
   }
 
   void Max(const float* values, float* out) {
@@ -312,7 +341,15 @@ std::vector<std::string> WcsphPipeline::Configure(const WcsphStepConfig& config,
     if (config.wall_viscosity) m.passes.push_back("wall_viscosity");
   }
   m.passes.push_back("time_step");
-  m.passes.push_back("integrate");
+  if (config.symplectic) {
+    // The force passes again at t + dt/2 (BeckerTeschnerSolver::BuildPasses's names).
+    const size_t forces_end = m.passes.size() - 1;
+    m.passes.push_back("predict");
+    for (size_t k = 0; k < forces_end; ++k) m.passes.push_back(m.passes[k] + "_corrector");
+    m.passes.push_back("correct");
+  } else {
+    m.passes.push_back("integrate");
+  }
   m.timer.Resize(m.passes.size() + 1);
   m.device_maxima.Resize(3);
   m.device_flags.Resize(2);
@@ -377,10 +414,9 @@ void WcsphPipeline::MoveSurfaces(const std::vector<SphereObstacle>& spheres,
   m.obstacle_speed = obstacle_speed;
 }
 
-StepMaxima WcsphPipeline::Forces(float gravity, float hydrostatic,
-                                 const ObstacleMotionTable& motion) {
-  Impl& m = *impl_;
-  DeviceScope scope(m.device);
+void WcsphPipeline::Impl::ForcePasses(float gravity, float hydrostatic,
+                                      const ObstacleMotionTable& motion) {
+  Impl& m = *this;
   const WcsphStepConfig& cfg = m.config;
   const SphConstants c = cfg.constants;
   const uint32_t n = m.n;
@@ -388,7 +424,6 @@ StepMaxima WcsphPipeline::Forces(float gravity, float hydrostatic,
   const unsigned blocks = (n + kBlock - 1) / kBlock;
   const unsigned boundary_blocks = (m.nb + kBlock - 1) / kBlock;
   const unsigned either_blocks = blocks > boundary_blocks ? blocks : boundary_blocks;
-  m.pass = 0;
   auto begin_pass = [&] { m.timer.Record(m.pass++, s); };
 
   if (m.moving.active()) {
@@ -404,6 +439,12 @@ StepMaxima WcsphPipeline::Forces(float gravity, float hydrostatic,
     m.Gather(order, m.vx, m.vx2, n), m.Gather(order, m.vy, m.vy2, n);
     m.Gather(order, m.vz, m.vz2, n), m.Gather(order, m.id, m.id2, n);
     if (m.carried_ready) m.Gather(order, m.carried, m.carried2, n);
+    if (m.predicted) {
+      m.Gather(order, m.start_x, m.x2, n), m.Gather(order, m.start_y, m.y2, n);
+      m.Gather(order, m.start_z, m.z2, n), m.Gather(order, m.start_vx, m.vx2, n);
+      m.Gather(order, m.start_vy, m.vy2, n), m.Gather(order, m.start_vz, m.vz2, n);
+      m.Gather(order, m.start_density, m.carried2, n);
+    }
   }
   const DeviceGrid grid = m.sorter.View();
   const DeviceGrid bgrid = m.boundary_sorter.View();
@@ -433,9 +474,21 @@ StepMaxima WcsphPipeline::Forces(float gravity, float hydrostatic,
       if (n > 0) WallViscosityKernel<<<blocks, kBlock, 0, s>>>(grid, bgrid, f, b, c, n);
     }
   }
-  begin_pass();  // time_step: the maxima here, the step on the host (CflLimits)
+}
+
+StepMaxima WcsphPipeline::Forces(float gravity, float hydrostatic,
+                                 const ObstacleMotionTable& motion) {
+  Impl& m = *impl_;
+  DeviceScope scope(m.device);
+  const uint32_t n = m.n;
+  cudaStream_t s = m.stream.get();
+  const unsigned blocks = (n + kBlock - 1) / kBlock;
+  m.pass = 0;
+  m.ForcePasses(gravity, hydrostatic, motion);
+  m.timer.Record(m.pass++, s);  // time_step: the maxima here, the step on the host (CflLimits)
   StepMaxima result;
   if (n > 0) {
+    const Fluid f = m.View();
     MaximaInputsKernel<<<blocks, kBlock, 0, s>>>(f, m.speed2.data(), m.acceleration2.data(), n);
     m.Max(m.speed2.data(), m.device_maxima.data());
     m.Max(m.acceleration2.data(), m.device_maxima.data() + 1);
@@ -464,16 +517,51 @@ StepOutcome WcsphPipeline::Integrate(float dt) {
     IntegrateKernel<<<blocks, kBlock, 0, s>>>(m.View(), m.config.constants, m.SurfaceView(),
                                               m.carried.data(), m.density_rate.data(), dt, n);
   }
-  m.timer.Record(m.pass, s);
-  const Fluid f = m.View();
-  CheckFinite(f.x, f.y, f.z, f.vx, f.vy, f.vz, n, m.device_flags.data() + 1, s);
-  CheckCuda(cudaGetLastError(), "launching the wcsph integration");
-  m.flags.CopyFrom(m.device_flags, 2, s);
-  CheckCuda(cudaStreamSynchronize(s), "running the wcsph integration");
-  StepOutcome outcome;
-  outcome.pass_ms = m.timer.ElapsedMs(m.pass);
-  outcome.finite = m.flags.data()[1] == 0;
-  return outcome;
+  return m.FinishStep("the wcsph integration");
+}
+
+void WcsphPipeline::Predict(float half) {
+  Impl& m = *impl_;
+  DeviceScope scope(m.device);
+  const uint32_t n = m.n;
+  cudaStream_t s = m.stream.get();
+  m.timer.Record(m.pass++, s);  // predict
+  for (DeviceBuffer<float>* b : {&m.start_x, &m.start_y, &m.start_z, &m.start_vx, &m.start_vy,
+                                 &m.start_vz, &m.start_density}) {
+    b->Resize(n > 0 ? n : 1);
+  }
+  if (n > 0) {
+    PredictKernel<<<(n + kBlock - 1) / kBlock, kBlock, 0, s>>>(
+        m.View(), m.config.constants, m.SurfaceView(), m.StartView(), m.carried.data(),
+        m.density_rate.data(), half, n);
+  }
+  m.predicted = true;
+  CheckCuda(cudaGetLastError(), "launching the wcsph predictor");
+}
+
+void WcsphPipeline::CorrectorForces(float gravity, float hydrostatic,
+                                    const ObstacleMotionTable& motion) {
+  Impl& m = *impl_;
+  DeviceScope scope(m.device);
+  m.ForcePasses(gravity, hydrostatic, motion);
+  CheckCuda(cudaGetLastError(), "launching the wcsph corrector's forces");
+}
+
+StepOutcome WcsphPipeline::Correct(float dt) {
+  Impl& m = *impl_;
+  DeviceScope scope(m.device);
+  const uint32_t n = m.n;
+  cudaStream_t s = m.stream.get();
+  m.timer.Record(m.pass++, s);  // correct
+  CheckCuda(cudaMemsetAsync(m.device_flags.data(), 0, 2 * sizeof(unsigned long long), s),
+            "clearing the step's flags");
+  if (n > 0) {
+    CorrectKernel<<<(n + kBlock - 1) / kBlock, kBlock, 0, s>>>(
+        m.View(), m.config.constants, m.SurfaceView(), m.StartView(), m.carried.data(),
+        m.density_rate.data(), dt, n);
+  }
+  m.predicted = false;
+  return m.FinishStep("the wcsph correction");
 }
 
 uint32_t WcsphPipeline::max_cell_count() const { return impl_->sorter.max_count(); }

@@ -24,6 +24,7 @@ struct WcsphStepConfig {
   SphConstants constants;
   bool viscosity = false;       // kinematic_viscosity > 0
   bool wall_viscosity = false;  // and a no-slip wall
+  bool symplectic = false;      // time_integration = 1: the predictor-corrector (symplectic.h)
   std::vector<SphereObstacle> spheres;
   std::vector<BoxObstacle> boxes;
 };
@@ -78,6 +79,13 @@ class WcsphPipeline {
                     const std::vector<BoxObstacle>& boxes, float obstacle_speed);
   // The integrate pass with the step dt; the outcome holds every pass's time.
   StepOutcome Integrate(float dt);
+  // The predictor-corrector instead of Integrate (symplectic.h): the predict pass with half the
+  // step, `half` (m/s^2 and kg/m^4 as Forces, at t + dt/2); the force passes again from the
+  // predicted state (CorrectorForces, with the surfaces of the half step still in place); the
+  // correct pass with the step dt (MoveSurfaces over the whole step first where obstacles move).
+  void Predict(float half);
+  void CorrectorForces(float gravity, float hydrostatic, const ObstacleMotionTable& motion);
+  StepOutcome Correct(float dt);
   // Positions and velocities (xyz triples) and densities in particle-id order (id k at k);
   // any pointer may be null (not copied).
   void DownloadById(float* position, float* velocity, float* density) const;

@@ -55,6 +55,9 @@ struct Params {
   // wcsph only: delta of the continuity equation's density diffusion (Fourtakas et al. 2019's
   // form of delta-SPH; 0: the continuity equation without it).
   double density_diffusion = 0.1;
+  // wcsph only: the time integration (TimeIntegration): 0 symplectic Euler, one force
+  // evaluation per step; 1 the predictor-corrector Symplectic scheme, two per step, second order.
+  int time_integration = 0;
   // dfsph only: the solvers' tolerances (Bender & Koschier 2017 defaults) and iteration cap.
   double density_tolerance = 1e-4;     // mean (rho - rho0) / rho0 after the density solve
   double divergence_tolerance = 1e-3;  // mean (D rho / Dt) dt / rho0 after the divergence solve

@@ -8,6 +8,7 @@
 #include "solvers/domain_walls.h"
 #include "solvers/physical/cfl_time_step.h"
 #include "solvers/physical/physical_passes.h"
+#include "solvers/wcsph/symplectic.h"
 #include "sph_loops.h"
 
 namespace dysa::wcsph {
@@ -23,6 +24,13 @@ void SortIntoGrid(const Model& model, BeckerTeschnerData& data, State& state) {
   // not start) is left for InitialDensity.
   if (data.density.size() == state.particles.size()) {
     PermuteInPlace(state.grid.order(), data.density, state.real_scratch);
+  }
+  // Between predict and correct (symplectic.h) the step's start moves with its particle too.
+  if (data.step_start.predicted) {
+    BeckerTeschnerData::StepStart& start = data.step_start;
+    PermuteInPlace(state.grid.order(), start.position, state.vec3_scratch);
+    PermuteInPlace(state.grid.order(), start.velocity, state.vec3_scratch);
+    PermuteInPlace(state.grid.order(), start.density, state.real_scratch);
   }
 }
 
@@ -206,6 +214,7 @@ void Integrate(const Model& model, BeckerTeschnerData& data, State& state) {
 void BeckerTeschnerSolver::Reset(size_t particles) {
   (void)particles;
   data_.density.clear();  // InitialDensity at the next step, from the positions
+  data_.step_start.predicted = false;
 }
 
 std::vector<SolverArray> BeckerTeschnerSolver::SaveArrays() const {
@@ -236,7 +245,19 @@ std::vector<Pass> BeckerTeschnerSolver::BuildPasses(const Model& model) {
     }
   }
   passes.push_back(SolverPass("time_step", data_, ChooseTimeStepPass));
-  passes.push_back(SolverPass("integrate", data_, Integrate));
+  if (model.params.time_integration == 0) {
+    passes.push_back(SolverPass("integrate", data_, Integrate));
+    return passes;
+  }
+  // The predictor-corrector: the force passes again at t + dt/2, under names of their own.
+  const size_t forces_end = passes.size() - 1;  // before time_step
+  passes.push_back(SolverPass("predict", data_, PredictHalfStep));
+  for (size_t k = 0; k < forces_end; ++k) {
+    Pass corrector = passes[k];
+    corrector.name += kCorrectorSuffix;
+    passes.push_back(std::move(corrector));
+  }
+  passes.push_back(SolverPass("correct", data_, CorrectStep));
   return passes;
 }
 

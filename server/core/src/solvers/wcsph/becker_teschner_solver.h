@@ -77,7 +77,8 @@
 //   integration  semi-implicit (symplectic) Euler, v += a dt; x += v dt; rho += (D rho / Dt) dt
 //                (the rate of the step's start, like a), with the CFL step of
 //                cfl_time_step.h; the speed of sound c0 >= 10 v_max keeps density variations
-//                near 1% (Becker & Teschner, sec. 3.1; Monaghan 1994).
+//                near 1% (Becker & Teschner, sec. 3.1; Monaghan 1994). time_integration = 1
+//                takes DualSPHysics's second-order predictor-corrector instead (symplectic.h).
 // Every neighbour loop gathers into the particle it is for, reading the state of the previous
 // pass, so a step is bit-identical for any thread count. The positions are finally clamped to
 // the domain (velocity into the wall removed) as a last resort only: the boundary particles and
@@ -105,6 +106,15 @@ struct BeckerTeschnerData : physical::PhysicalData {
   std::vector<Real> density;
   // kg/m^3/s, per particle: this step's D rho / Dt.
   std::vector<Real> density_rate;
+  // The predictor-corrector's state at the step's start (symplectic.h), kept by `predict` and
+  // permuted with the particles by the corrector's neighbour sort while `predicted`.
+  struct StepStart {
+    std::vector<Vec3> position;  // m
+    std::vector<Vec3> velocity;  // m/s
+    std::vector<Real> density;   // kg/m^3, the carried density
+    double time = 0;             // s
+    bool predicted = false;      // between `predict` and `correct`
+  } step_start;
 };
 
 // The name of the carried density in a checkpoint (SolverArray::name).
