@@ -15,6 +15,8 @@
 #   cubic_1.73 the cubic spline at h = 1.732 d: the support alone
 #   wendland   Wendland C2 at h = 1.732 d (DualSPHysics's kernel and support)
 #   dfsph      the incompressible solver: no equation of state, no acoustic waves
+#   symplectic DualSPHysics's second-order predictor-corrector (time_integration = 1)
+#   dualsph    DualSPHysics's model: Wendland at h = 1.732 d, the predictor-corrector, CFL 0.2
 # Writes spheric2_causes_<device tag>.csv and each variant's step series under --out.
 set -euo pipefail
 
@@ -26,7 +28,7 @@ dp=0.02
 end=0.7
 threads=$(nproc)
 out=bench/results
-variants="base c0_100 cfl_0.1 no_diff cubic_1.73 wendland dfsph"
+variants="base c0_100 cfl_0.1 no_diff cubic_1.73 wendland dfsph symplectic dualsph"
 
 usage() {
   sed -n '8,9p' "$0" | sed 's/^# *//' >&2
@@ -68,6 +70,10 @@ for v in $variants; do
     cubic_1.73) args=(--set smoothing_length_ratio=1.732) ;;
     wendland) args=(--set kernel=1 --set smoothing_length_ratio=1.732) ;;
     dfsph) args=(--solvers dfsph) ;;
+    symplectic) args=(--set time_integration=1) ;;
+    dualsph)
+      args=(--set kernel=1 --set smoothing_length_ratio=1.732 --set time_integration=1
+        --set cfl_factor=0.2) ;;
     *) echo "spheric2_causes.sh: unknown variant '$v'" >&2; exit 2 ;;
   esac
   dir="$out/spheric2_causes_${tag}/$v"
