@@ -208,7 +208,8 @@ def read_marin_heights(repo):
 
 def read_repo_published(repo):
     """kP1ArrivalPublished and kP1PeakPublished of validation_impact.h (the project's gate)."""
-    path = os.path.join(repo, "server", "core", "include", "dysa", "core", "validation_impact.h")
+    path = os.path.join(repo, "server", "validation", "include", "dysa", "validation",
+                        "validation_impact.h")
     out = {}
     try:
         text = open(path).read()

@@ -1,5 +1,5 @@
-// SPHERIC Test 2 (dysa/core/validation_impact.h): the reference data, the sensors' filter, and
-// a quick run (11 particle layers of water, 5,500 particles) as far as P1's first impact. The
+// SPHERIC Test 2 (dysa/validation/validation_impact.h): the reference data, the sensors' filter,
+// and a quick run (11 particle layers of water, 5,500 particles) as far as P1's first impact. The
 // bounds hold with margin at that resolution (measured values in the comments, from a run to
 // 0.7 s) and fail for wrong physics: a wet sensor before the water can reach it, a front that
 // runs too slow or too fast, an impact pressure of the wrong scale, a reservoir that drains at
@@ -13,7 +13,7 @@
 #include <sstream>
 #include <string>
 
-#include "dysa/core/validation_impact.h"
+#include "dysa/validation/validation_impact.h"
 
 namespace dysa {
 namespace {

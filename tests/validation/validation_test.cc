@@ -3,7 +3,7 @@
 // The bounds hold with margin at the quick resolution (measured values in the comments, from
 // `dysa validate --quick`) and fail for wrong physics: a pressure of the wrong sign or scale, a
 // leaking or sticky wall, a front that runs too slow or faster than the shallow-water limit.
-#include "dysa/core/validation.h"
+#include "dysa/validation/validation.h"
 
 #include <gtest/gtest.h>
 

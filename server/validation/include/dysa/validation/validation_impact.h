@@ -9,7 +9,7 @@
 #include <optional>
 #include <vector>
 
-#include "dysa/core/validation.h"
+#include "dysa/validation/validation.h"
 
 namespace dysa {
 

@@ -1,7 +1,7 @@
 // The MARIN water heights of SPHERIC Test 2, as stored in
 // scenes/validation/spheric_test2_marin_heights.csv (validation_test checks that the two agree;
 // the file's header names the source).
-#include "dysa/core/validation_impact.h"
+#include "dysa/validation/validation_impact.h"
 
 namespace dysa {
 

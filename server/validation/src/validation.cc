@@ -1,4 +1,4 @@
-#include "dysa/core/validation.h"
+#include "dysa/validation/validation.h"
 
 #include <algorithm>
 #include <cmath>
