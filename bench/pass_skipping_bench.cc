@@ -25,7 +25,7 @@
 #include "dysa/core/params.h"
 #include "dysa/core/simulation.h"
 #include "dysa/core/solver.h"
-#include "dysa/core/validation.h"
+#include "dysa/validation/validation.h"
 
 namespace {
 

@@ -201,14 +201,15 @@ def read_project_steps(path):
 
 
 def read_marin_heights(repo):
-    path = os.path.join(repo, "scenes", "validation", "spheric_test2_marin_heights.csv")
+    path = os.path.join(repo, "server", "validation", "data", "spheric_test2_marin_heights.csv")
     data = read_table(path, ",", required=("t_s", "H1_m", "H2_m", "H3_m", "H4_m"))
     return data["t_s"], [data[f"H{g}_m"] for g in range(1, 5)]
 
 
 def read_repo_published(repo):
     """kP1ArrivalPublished and kP1PeakPublished of validation_impact.h (the project's gate)."""
-    path = os.path.join(repo, "server", "core", "include", "dysa", "core", "validation_impact.h")
+    path = os.path.join(repo, "server", "validation", "include", "dysa", "validation",
+                        "validation_impact.h")
     out = {}
     try:
         text = open(path).read()
@@ -298,7 +299,7 @@ def spheric_measures(series, ref_t, ref_h, tmax):
 
 
 def read_mm_reference(repo):
-    path = os.path.join(repo, "scenes", "validation", "dam_break_martin_moyce_1952_front.csv")
+    path = os.path.join(repo, "server", "validation", "data", "dam_break_martin_moyce_1952_front.csv")
     data = read_table(path, ",", required=("T", "Z"))
     return data["T"], data["Z"]
 

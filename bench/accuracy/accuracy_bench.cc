@@ -32,8 +32,8 @@
 #include <vector>
 
 #include "dysa/core/solver.h"
-#include "dysa/core/validation.h"
-#include "dysa/core/validation_impact.h"
+#include "dysa/validation/validation.h"
+#include "dysa/validation/validation_impact.h"
 
 namespace {
 

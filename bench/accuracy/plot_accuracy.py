@@ -83,7 +83,7 @@ if spheric_csv.exists():
     ax_err.legend(fontsize=7)
     marin = [line.strip().split(",") for line in
              open(Path(__file__).resolve().parents[2] /
-                  "scenes/validation/spheric_test2_marin_heights.csv")
+                  "server/validation/data/spheric_test2_marin_heights.csv")
              if line[:1].isdigit()]
     ax_h4.plot([float(m[0]) for m in marin], [float(m[4]) for m in marin], "k--", linewidth=2,
                label="MARIN (Kleefsman et al. 2005)")

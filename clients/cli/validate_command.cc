@@ -12,7 +12,7 @@
 #include <string_view>
 
 #include "dysa/core/text.h"
-#include "dysa/core/validation.h"
+#include "dysa/validation/validation.h"
 #include "validate_impact.h"
 
 namespace dysa {

@@ -1,4 +1,5 @@
-// `dysa validate`: the validation cases of dysa/core/validation.h with their errors and targets.
+// `dysa validate`: the validation cases of dysa/validation/validation.h with their errors and
+// targets.
 #pragma once
 
 #include <iosfwd>

@@ -1,11 +1,11 @@
-// `dysa validate`'s report of SPHERIC Test 2 (dysa/core/validation_impact.h): the run, P1's
+// `dysa validate`'s report of SPHERIC Test 2 (dysa/validation/validation_impact.h): the run, P1's
 // arrival and peak beside the published ones, and every sensor and gauge over the run beside
 // the MARIN heights.
 #pragma once
 
 #include <string>
 
-#include "dysa/core/validation_impact.h"
+#include "dysa/validation/validation_impact.h"
 
 namespace dysa {
 

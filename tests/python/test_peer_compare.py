@@ -74,7 +74,7 @@ class Fixture:
     def __init__(self, root):
         self.root = root
         self.repo = os.path.join(root, "repo")
-        val = os.path.join(self.repo, "scenes", "validation")
+        val = os.path.join(self.repo, "server", "validation", "data")
         os.makedirs(val)
         # MARIN: every 10 ms to 1 s; H1 and H3 dry, H2 0.1 m, H4 0.5 m.
         with open(os.path.join(val, "spheric_test2_marin_heights.csv"), "w") as f:

@@ -1,4 +1,4 @@
-#include "dysa/core/validation_impact.h"
+#include "dysa/validation/validation_impact.h"
 
 #include <algorithm>
 #include <cmath>

@@ -106,7 +106,8 @@ HydrostaticResult RunHydrostaticTank(const ValidationOptions& options = {});
 // centres) is compared with the experiment at each tabulated T = t sqrt(2 g / a).
 // Martin & Moyce 1952, collapse of a liquid column, n^2 = 2 (column width a, height 2a): the
 // surge front Z = x/a against T = t sqrt(2 g / a), as tabulated in
-// scenes/validation/dam_break_martin_moyce_1952_front.csv.
+// server/validation/data/dam_break_martin_moyce_1952_front.csv (embedded at build time, parsed on
+// first use).
 struct MartinMoyceRow {
   double T, Z;
 };
@@ -151,7 +152,7 @@ FrontDiagnostics DiagnoseFront(const std::vector<FrontSample>& trace,
 
 // Martin & Moyce 1952's second table for the same column (n^2 = 2): the residual height of the
 // column at the wall, H = eta / (2 a), against tau = t sqrt(g / a), as tabulated in
-// scenes/validation/dam_break_martin_moyce_1952_height.csv.
+// server/validation/data/dam_break_martin_moyce_1952_height.csv (as the front's).
 struct MartinMoyceHeightRow {
   double tau, H;
 };

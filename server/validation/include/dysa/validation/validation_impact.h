@@ -9,12 +9,13 @@
 #include <optional>
 #include <vector>
 
-#include "dysa/core/validation.h"
+#include "dysa/validation/validation.h"
 
 namespace dysa {
 
 // The MARIN gauge heights H1..H4 (m) at time t (s), every 10 ms over 0-2 s
-// (scenes/validation/spheric_test2_marin_heights.csv, whose header names the source).
+// (server/validation/data/spheric_test2_marin_heights.csv, whose header names the source;
+// embedded at build time, parsed on first use).
 struct GaugeRow {
   double t;
   std::array<double, 4> height;

@@ -1,4 +1,4 @@
-#include "dysa/core/validation.h"
+#include "dysa/validation/validation.h"
 
 #include <algorithm>
 #include <cmath>
@@ -12,28 +12,7 @@
 
 namespace dysa {
 
-const std::vector<MartinMoyceRow>& MartinMoyce1952Front() {
-  // scenes/validation/dam_break_martin_moyce_1952_front.csv (validation_test checks that the
-  // two agree), from J. C. Martin, W. J. Moyce 1952, "An experimental study of the collapse of
-  // liquid columns on a rigid horizontal plane", Phil. Trans. R. Soc. Lond. A 244, 312-324.
-  static const std::vector<MartinMoyceRow> rows = {
-      {0.00, 1.00}, {0.41, 1.11}, {0.84, 1.23}, {1.19, 1.44}, {1.43, 1.67},
-      {1.63, 1.89}, {1.82, 2.11}, {1.97, 2.33}, {2.20, 2.56}, {2.32, 2.78},
-      {2.50, 3.00}, {2.64, 3.22}, {2.82, 3.44}, {2.96, 3.67},
-  };
-  return rows;
-}
-
-const std::vector<MartinMoyceHeightRow>& MartinMoyce1952ResidualHeight() {
-  // scenes/validation/dam_break_martin_moyce_1952_height.csv (validation_test checks that the
-  // two agree); Martin & Moyce 1952, as above, their table of the residual column's height.
-  static const std::vector<MartinMoyceHeightRow> rows = {
-      {0.56, 0.94}, {0.77, 0.89}, {0.93, 0.83}, {1.08, 0.78}, {1.28, 0.72},
-      {1.46, 0.67}, {1.66, 0.61}, {1.84, 0.56}, {2.00, 0.50}, {2.21, 0.44},
-      {2.45, 0.39}, {2.70, 0.33}, {3.06, 0.28}, {3.44, 0.22},
-  };
-  return rows;
-}
+// MartinMoyce1952Front and MartinMoyce1952ResidualHeight: reference_data.cc.
 
 Scene SlabAtSpacing(Scene scene, double spacing, int layers) {
   SetParam(scene.params, "particle_spacing", spacing);
