@@ -124,12 +124,33 @@ TEST(WcsphGpuTest, SymplecticIsBitIdenticalToTheCpu) {
   ExpectAgreement(scene, 0.3);
 }
 
+// Particle shifting (particle_shifting.h) on both devices, with either integration: the same
+// pass list and the first steps bit for bit.
+TEST(WcsphGpuTest, ParticleShiftingIsBitIdenticalToTheCpu) {
+  SKIP_WITHOUT_GPU();
+  for (const int integration : {0, 1}) {
+    SCOPED_TRACE(integration);
+    Scene scene = MovingDamScene(kSolver);
+    SetParam(scene.params, "particle_shifting", 2);
+    SetParam(scene.params, "time_integration", integration);
+    Simulation cpu(scene);
+    Simulation gpu(scene, kGpu);
+    EXPECT_EQ(gpu.PassNames(), cpu.PassNames());
+    for (int i = 0; i < 5; ++i) {
+      cpu.Step();
+      gpu.Step();
+    }
+    EXPECT_EQ(StateHash(gpu.state()), StateHash(cpu.state()));
+  }
+}
+
 TEST(WcsphGpuTest, EveryPassIsTimed) {
   SKIP_WITHOUT_GPU();
   for (const int integration : {0, 1}) {
     SCOPED_TRACE(integration);
     Scene scene = DamScene(kSolver);
     SetParam(scene.params, "time_integration", integration);
+    SetParam(scene.params, "particle_shifting", 2);
     Simulation sim(scene, kGpu);
     for (int i = 0; i < 4; ++i) sim.Step();
     for (const PassProfile& pass : sim.profile()) {

@@ -16,6 +16,7 @@
 #include "solvers/dfsph/bender_koschier_solver.h"
 #include "solvers/physical/boundary_particles.h"
 #include "solvers/physical/cfl_time_step.h"
+#include "solvers/physical/particle_shifting.h"
 #include "solvers/physical/physical_passes.h"
 #include "solvers/seed/seed_solver.h"
 #include "solvers/wcsph/becker_teschner_solver.h"
@@ -298,6 +299,9 @@ class WcsphGpuBackend final : public GpuBackend {
     config.viscosity = model.params.kinematic_viscosity > 0;
     config.wall_viscosity = config.viscosity && boundary.HasNoSlip();
     config.symplectic = model.params.time_integration == 1;
+    // A h and the free surface's div r, as ComputeParticleShifting
+    config.shifting = Real(model.params.particle_shifting * model.SmoothingLength());
+    config.free_surface_divergence = Real(physical::kFreeSurfaceDivergence);
     AddObstacles(model, config.spheres, config.boxes);
     return pipeline_.Configure(config, Cloud(boundary));
   }

@@ -16,6 +16,11 @@ struct StepStart {
   float *x, *y, *z, *vx, *vy, *vz, *density;
 };
 
+// The particle shifting's displacement rate (m/s) per particle; null when it is off.
+struct Shift {
+  const float *x = nullptr, *y = nullptr, *z = nullptr;
+};
+
 // Stores x (one axis at a time through the last-resort clamp, which may cut v) of particle i.
 __device__ void ClampAndStorePosition(const SphConstants& c, const Surfaces& s, Fluid f, uint32_t i,
                                       float (&xs)[3], float (&vs)[3]) {
@@ -47,9 +52,10 @@ __global__ void PredictKernel(Fluid f, SphConstants c, Surfaces s, StepStart sta
 }
 
 // v^(n+1) = v^n + dt a^(n+1/2), x^(n+1) = x^n + dt (v^n + v^(n+1)) / 2 (each cut by the contact
-// from x^n), rho^(n+1) = rho^n (2 - e) / (2 + e), e = -(D rho / Dt)^(n+1/2) dt / rho^(n+1/2).
+// from x^n, plus the particle shifting's `shift` where it is on), rho^(n+1) = rho^n (2 - e) /
+// (2 + e), e = -(D rho / Dt)^(n+1/2) dt / rho^(n+1/2).
 __global__ void CorrectKernel(Fluid f, SphConstants c, Surfaces s, StepStart start, float* carried,
-                              const float* rate, float dt, uint32_t n) {
+                              const float* rate, Shift shift, float dt, uint32_t n) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= n) return;
   const F3 x0{start.x[i], start.y[i], start.z[i]};
@@ -57,6 +63,7 @@ __global__ void CorrectKernel(Fluid f, SphConstants c, Surfaces s, StepStart sta
   F3 v{v0.x + f.ax[i] * dt, v0.y + f.ay[i] * dt, v0.z + f.az[i] * dt};
   LimitApproachToSurfaces(c, s, x0, dt, v);
   F3 drift{(v0.x + v.x) * 0.5f, (v0.y + v.y) * 0.5f, (v0.z + v.z) * 0.5f};
+  if (shift.x != nullptr) drift.x += shift.x[i], drift.y += shift.y[i], drift.z += shift.z[i];
   LimitApproachToSurfaces(c, s, x0, dt, drift);
   float xs[3] = {x0.x + drift.x * dt, x0.y + drift.y * dt, x0.z + drift.z * dt};
   float vs[3] = {v.x, v.y, v.z};

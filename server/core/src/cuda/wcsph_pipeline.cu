@@ -10,6 +10,7 @@
 #include "cuda/device_buffer.cuh"
 #include "cuda/device_grid.cuh"
 #include "cuda/moving_boundary.cuh"
+#include "cuda/particle_shifting.cuh"
 #include "cuda/probe_gatherer.cuh"
 #include "cuda/sph_kernels.cuh"
 #include "cuda/symplectic_kernels.cuh"
@@ -128,13 +129,23 @@ __global__ void PressureAccelerationKernel(DeviceGrid fluid_grid, DeviceGrid bou
 // v += a dt, the wall contact, x += v dt, rho += (D rho / Dt) dt (Integrate in
 // becker_teschner_solver.cc).
 __global__ void IntegrateKernel(Fluid f, SphConstants c, Surfaces s, float* carried,
-                                const float* rate, float dt, uint32_t n) {
+                                const float* rate, Shift shift, float dt, uint32_t n) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= n) return;
   F3 v{f.vx[i] + f.ax[i] * dt, f.vy[i] + f.ay[i] * dt, f.vz[i] + f.az[i] * dt};
   const F3 x{f.x[i], f.y[i], f.z[i]};
   LimitApproachToSurfaces(c, s, x, dt, v);
-  MoveAndStore(c, s, f, i, x, v, dt);
+  if (shift.x == nullptr) {
+    MoveAndStore(c, s, f, i, x, v, dt);
+  } else {
+    // The shift's displacement too, cut by the contact as the velocity's.
+    F3 drift{v.x + shift.x[i], v.y + shift.y[i], v.z + shift.z[i]};
+    LimitApproachToSurfaces(c, s, x, dt, drift);
+    float xs[3] = {x.x + drift.x * dt, x.y + drift.y * dt, x.z + drift.z * dt};
+    float vs[3] = {v.x, v.y, v.z};
+    ClampAndStorePosition(c, s, f, i, xs, vs);
+    f.vx[i] = vs[0], f.vy[i] = vs[1], f.vz[i] = vs[2];
+  }
   carried[i] += rate[i] * dt;
   f.density[i] = carried[i];
 }
@@ -160,6 +171,8 @@ struct WcsphPipeline::Impl {
   // between Predict and Correct, when the corrector's sort permutes them too.
   DeviceBuffer<float> start_x, start_y, start_z, start_vx, start_vy, start_vz, start_density;
   bool predicted = false;
+  // The particle shifting's displacement rate (allocated at its first pass).
+  DeviceBuffer<float> shift_x, shift_y, shift_z;
   GridSorter sorter;
   // The boundary: positions, volumes and flags in its grid's order, its grid, and per step its
   // pressures and velocities.
@@ -234,6 +247,9 @@ struct WcsphPipeline::Impl {
     GatherByOrder(order, data.data(), target.data(), m, stream.get());
     data.swap(target);
   }
+
+  // The shifting pass where it is on (timed as the next pass); the shift to integrate with.
+  Shift ShiftingPass();
 
   StepStart StartView() {
     return {start_x.data(),  start_y.data(),  start_z.data(),      start_vx.data(),
@@ -346,10 +362,9 @@ std::vector<std::string> WcsphPipeline::Configure(const WcsphStepConfig& config,
     const size_t forces_end = m.passes.size() - 1;
     m.passes.push_back("predict");
     for (size_t k = 0; k < forces_end; ++k) m.passes.push_back(m.passes[k] + "_corrector");
-    m.passes.push_back("correct");
-  } else {
-    m.passes.push_back("integrate");
   }
+  if (config.shifting > 0) m.passes.push_back("shifting");
+  m.passes.push_back(config.symplectic ? "correct" : "integrate");
   m.timer.Resize(m.passes.size() + 1);
   m.device_maxima.Resize(3);
   m.device_flags.Resize(2);
@@ -510,14 +525,30 @@ StepOutcome WcsphPipeline::Integrate(float dt) {
   const uint32_t n = m.n;
   cudaStream_t s = m.stream.get();
   const unsigned blocks = (n + kBlock - 1) / kBlock;
+  const Shift shift = m.ShiftingPass();
   m.timer.Record(m.pass++, s);  // integrate
   CheckCuda(cudaMemsetAsync(m.device_flags.data(), 0, 2 * sizeof(unsigned long long), s),
             "clearing the step's flags");
   if (n > 0) {
     IntegrateKernel<<<blocks, kBlock, 0, s>>>(m.View(), m.config.constants, m.SurfaceView(),
-                                              m.carried.data(), m.density_rate.data(), dt, n);
+                                              m.carried.data(), m.density_rate.data(), shift, dt,
+                                              n);
   }
   return m.FinishStep("the wcsph integration");
+}
+
+Shift WcsphPipeline::Impl::ShiftingPass() {
+  if (!(config.shifting > 0)) return {};
+  cudaStream_t s = stream.get();
+  timer.Record(pass++, s);  // shifting
+  for (DeviceBuffer<float>* b : {&shift_x, &shift_y, &shift_z}) b->Resize(n > 0 ? n : 1);
+  if (n > 0) {
+    ParticleShiftingKernel<<<(n + kBlock - 1) / kBlock, kBlock, 0, s>>>(
+        sorter.View(), boundary_sorter.View(), View(), BoundaryView(), config.constants,
+        config.shifting, config.free_surface_divergence, shift_x.data(), shift_y.data(),
+        shift_z.data(), n);
+  }
+  return {shift_x.data(), shift_y.data(), shift_z.data()};
 }
 
 void WcsphPipeline::Predict(float half) {
@@ -552,13 +583,14 @@ StepOutcome WcsphPipeline::Correct(float dt) {
   DeviceScope scope(m.device);
   const uint32_t n = m.n;
   cudaStream_t s = m.stream.get();
+  const Shift shift = m.ShiftingPass();
   m.timer.Record(m.pass++, s);  // correct
   CheckCuda(cudaMemsetAsync(m.device_flags.data(), 0, 2 * sizeof(unsigned long long), s),
             "clearing the step's flags");
   if (n > 0) {
     CorrectKernel<<<(n + kBlock - 1) / kBlock, kBlock, 0, s>>>(
         m.View(), m.config.constants, m.SurfaceView(), m.StartView(), m.carried.data(),
-        m.density_rate.data(), dt, n);
+        m.density_rate.data(), shift, dt, n);
   }
   m.predicted = false;
   return m.FinishStep("the wcsph correction");

@@ -25,6 +25,8 @@ struct WcsphStepConfig {
   bool viscosity = false;       // kinematic_viscosity > 0
   bool wall_viscosity = false;  // and a no-slip wall
   bool symplectic = false;      // time_integration = 1: the predictor-corrector (symplectic.h)
+  float shifting = 0;           // m, A h of the particle shifting (particle_shifting.h; 0: off)
+  float free_surface_divergence = 0;  // its kFreeSurfaceDivergence
   std::vector<SphereObstacle> spheres;
   std::vector<BoxObstacle> boxes;
 };
@@ -77,12 +79,14 @@ class WcsphPipeline {
   // over the coming integration and their velocities, obstacle_speed the largest |u| (m/s).
   void MoveSurfaces(const std::vector<SphereObstacle>& spheres,
                     const std::vector<BoxObstacle>& boxes, float obstacle_speed);
-  // The integrate pass with the step dt; the outcome holds every pass's time.
+  // The shifting pass where it is on, then the integrate pass with the step dt; the outcome holds
+  // every pass's time.
   StepOutcome Integrate(float dt);
   // The predictor-corrector instead of Integrate (symplectic.h): the predict pass with half the
   // step, `half` (m/s^2 and kg/m^4 as Forces, at t + dt/2); the force passes again from the
   // predicted state (CorrectorForces, with the surfaces of the half step still in place); the
-  // correct pass with the step dt (MoveSurfaces over the whole step first where obstacles move).
+  // shifting pass where it is on and the correct pass with the step dt (MoveSurfaces over the
+  // whole step first where obstacles move).
   void Predict(float half);
   void CorrectorForces(float gravity, float hydrostatic, const ObstacleMotionTable& motion);
   StepOutcome Correct(float dt);

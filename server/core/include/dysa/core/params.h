@@ -58,6 +58,8 @@ struct Params {
   // wcsph only: the time integration (TimeIntegration): 0 symplectic Euler, one force
   // evaluation per step; 1 the predictor-corrector Symplectic scheme, two per step, second order.
   int time_integration = 0;
+  // wcsph only: A of the particle shifting dr = -A h |v| dt grad C (Lind et al. 2012; 0: off).
+  double particle_shifting = 0.0;
   // dfsph only: the solvers' tolerances (Bender & Koschier 2017 defaults) and iteration cap.
   double density_tolerance = 1e-4;     // mean (rho - rho0) / rho0 after the density solve
   double divergence_tolerance = 1e-3;  // mean (D rho / Dt) dt / rho0 after the divergence solve

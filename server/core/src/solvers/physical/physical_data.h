@@ -33,6 +33,9 @@ struct PhysicalData {
   // m/s, per boundary particle of a no-slip wall: the fluid's velocity extrapolated to it,
   // mirrored (so that the velocity falls to 0 at the wall); 0 elsewhere. Per step.
   std::vector<Vec3> boundary_velocity;
+  // m/s, per particle: the particle shifting's displacement rate (particle_shifting.h), which
+  // the integration adds to the velocity's; computed by the `shifting` pass where it is on.
+  std::vector<Vec3> shift;
 
   // Samples the boundary particles of `model` at its particle spacing and kernel support.
   void SampleBoundary(const Model& model) {

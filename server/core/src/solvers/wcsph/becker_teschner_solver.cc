@@ -7,6 +7,7 @@
 #include "dysa/core/kernels.h"
 #include "solvers/domain_walls.h"
 #include "solvers/physical/cfl_time_step.h"
+#include "solvers/physical/particle_shifting.h"
 #include "solvers/physical/physical_passes.h"
 #include "solvers/wcsph/symplectic.h"
 #include "sph_loops.h"
@@ -200,11 +201,19 @@ void Integrate(const Model& model, BeckerTeschnerData& data, State& state) {
   const int64_t n = int64_t(p.size());
   const std::vector<physical::ObstacleFrame> frames =
       physical::ObstacleFramesOverStep(model, state.time, state.dt);
+  const Vec3* shift = model.params.particle_shifting > 0 ? data.shift.data() : nullptr;
 #pragma omp parallel for schedule(static)
   for (int64_t i = 0; i < n; ++i) {
     p.velocity[i] += data.acceleration[i] * dt;
     physical::LimitApproachToSurfaces(model, frames, dt, p.position[i], p.velocity[i]);
-    p.position[i] += p.velocity[i] * dt;
+    if (shift == nullptr) {
+      p.position[i] += p.velocity[i] * dt;
+    } else {
+      // The shift's displacement too, cut by the contact as the velocity's.
+      Vec3 drift = p.velocity[i] + shift[i];
+      physical::LimitApproachToSurfaces(model, frames, dt, p.position[i], drift);
+      p.position[i] += drift * dt;
+    }
     CollideWithDomainWalls(model.domain, model.periodic, Real(0), p.position[i], p.velocity[i]);
     data.density[i] += data.density_rate[i] * dt;
     p.density[i] = data.density[i];
@@ -244,20 +253,25 @@ std::vector<Pass> BeckerTeschnerSolver::BuildPasses(const Model& model) {
       passes.push_back(SolverPass("wall_viscosity", data_, AddWallViscosity));
     }
   }
+  const size_t forces_end = passes.size();
   passes.push_back(SolverPass("time_step", data_, ChooseTimeStepPass));
-  if (model.params.time_integration == 0) {
+  if (model.params.time_integration == 1) {
+    // The predictor-corrector: the force passes again at t + dt/2, under names of their own.
+    passes.push_back(SolverPass("predict", data_, PredictHalfStep));
+    for (size_t k = 0; k < forces_end; ++k) {
+      Pass corrector = passes[k];
+      corrector.name += kCorrectorSuffix;
+      passes.push_back(std::move(corrector));
+    }
+  }
+  if (model.params.particle_shifting > 0) {
+    passes.push_back(SolverPass("shifting", data_, physical::ComputeParticleShifting));
+  }
+  if (model.params.time_integration == 1) {
+    passes.push_back(SolverPass("correct", data_, CorrectStep));
+  } else {
     passes.push_back(SolverPass("integrate", data_, Integrate));
-    return passes;
   }
-  // The predictor-corrector: the force passes again at t + dt/2, under names of their own.
-  const size_t forces_end = passes.size() - 1;  // before time_step
-  passes.push_back(SolverPass("predict", data_, PredictHalfStep));
-  for (size_t k = 0; k < forces_end; ++k) {
-    Pass corrector = passes[k];
-    corrector.name += kCorrectorSuffix;
-    passes.push_back(std::move(corrector));
-  }
-  passes.push_back(SolverPass("correct", data_, CorrectStep));
   return passes;
 }
 

@@ -150,8 +150,8 @@ void ComputeDensityAndPressure(const Model& model, BeckerTeschnerData& data, Sta
 void ComputeBoundaryPressure(const Model& model, BeckerTeschnerData& data, State& state);
 // Sets data.acceleration to gravity plus the pressure acceleration.
 void ComputePressureAcceleration(const Model& model, BeckerTeschnerData& data, State& state);
-// v += a dt, the wall contact (physical::LimitApproachToSurfaces), x += v dt, the last-resort
-// clamp, rho += (D rho / Dt) dt.
+// v += a dt, the wall contact (physical::LimitApproachToSurfaces), x += v dt (plus the particle
+// shifting's data.shift dt where it is on), the last-resort clamp, rho += (D rho / Dt) dt.
 void Integrate(const Model& model, BeckerTeschnerData& data, State& state);
 
 }  // namespace dysa::wcsph

@@ -43,6 +43,7 @@ void CorrectStep(const Model& model, BeckerTeschnerData& data, State& state) {
   const int64_t n = int64_t(p.size());
   const std::vector<physical::ObstacleFrame> frames =
       physical::ObstacleFramesOverStep(model, start.time, state.dt);
+  const Vec3* shift = model.params.particle_shifting > 0 ? data.shift.data() : nullptr;
 #pragma omp parallel for schedule(static)
   for (int64_t i = 0; i < n; ++i) {
     const Vec3& x0 = start.position[i];
@@ -52,6 +53,7 @@ void CorrectStep(const Model& model, BeckerTeschnerData& data, State& state) {
     Vec3 v = v0 + data.acceleration[i] * dt;
     physical::LimitApproachToSurfaces(model, frames, dt, x0, v);
     Vec3 drift = (v0 + v) * Real(0.5);
+    if (shift != nullptr) drift += shift[i];  // the particle shifting's (particle_shifting.h)
     physical::LimitApproachToSurfaces(model, frames, dt, x0, drift);
     p.position[i] = x0 + drift * dt;
     CollideWithDomainWalls(model.domain, model.periodic, Real(0), p.position[i], v);

@@ -15,7 +15,9 @@
 // Second order in dt where the symplectic Euler step (Integrate) is first order, at two force
 // evaluations per step; DualSPHysics's Test 2 and dam break cases use it. The wall contact
 // (LimitApproachToSurfaces) cuts the drift velocity of each half against the surfaces over that
-// half, as Integrate does over the step, and the last-resort clamp acts on the result.
+// half, as Integrate does over the step, and the last-resort clamp acts on the result. Particle
+// shifting (particle_shifting.h), where it is on, is computed from the half step's state and
+// added to the corrector's drift.
 #pragma once
 
 #include <string_view>
