@@ -17,6 +17,7 @@
 #   dfsph      the incompressible solver: no equation of state, no acoustic waves
 #   symplectic DualSPHysics's second-order predictor-corrector (time_integration = 1)
 #   dualsph    DualSPHysics's model: Wendland at h = 1.732 d, the predictor-corrector, CFL 0.2
+#   shifting   particle shifting at A = 2 (Lind et al. 2012): what a disordered lattice adds
 # Writes spheric2_causes_<device tag>.csv and each variant's step series under --out.
 set -euo pipefail
 
@@ -28,7 +29,7 @@ dp=0.02
 end=0.7
 threads=$(nproc)
 out=bench/results
-variants="base c0_100 cfl_0.1 no_diff cubic_1.73 wendland dfsph symplectic dualsph"
+variants="base c0_100 cfl_0.1 no_diff cubic_1.73 wendland dfsph symplectic dualsph shifting"
 
 usage() {
   sed -n '8,9p' "$0" | sed 's/^# *//' >&2
@@ -71,6 +72,7 @@ for v in $variants; do
     wendland) args=(--set kernel=1 --set smoothing_length_ratio=1.732) ;;
     dfsph) args=(--solvers dfsph) ;;
     symplectic) args=(--set time_integration=1) ;;
+    shifting) args=(--set particle_shifting=2) ;;
     dualsph)
       args=(--set kernel=1 --set smoothing_length_ratio=1.732 --set time_integration=1
         --set cfl_factor=0.2) ;;
