@@ -433,6 +433,97 @@ def plot_mm(path, curves, ref_T, ref_Z):
     plt.close(fig)
 
 
+def read_throughput(path):
+    """{(code, dp): wall seconds} of peer_dualsphysics.sh's peer_throughput_CASE_TAG.csv."""
+    try:
+        with open(path, newline="") as f:
+            table = list(csv.DictReader(f))
+    except OSError as e:
+        raise InputError(f"{path}: cannot read ({e.strerror})") from None
+    wall = {}
+    for n, r in enumerate(table, start=2):
+        for name in ("code", "dp_m", "wall_s"):
+            if r.get(name) is None:
+                raise InputError(f"{path}: line {n} has no '{name}'")
+        wall[(r["code"], _number(path, "dp_m", r["dp_m"], n))] = _number(path, "wall_s",
+                                                                          r["wall_s"], n)
+    return wall
+
+
+PARETO_MEASURES = (
+    ("P1_peak_1ms_rel_error", "P1 1 ms peak, |error| / 11.24 kPa"),
+    ("P1_arrival_error_ms", "P1 arrival, |error| (ms)"),
+    ("H4_rms_to_0.75s", "H4 RMS to 0.75 s / 0.55 m"),
+)
+
+
+def pareto_rows(rows, wall):
+    """Wall time against the errors, one row per code and spacing that has both."""
+    m = MARIN_PRESSURE
+    out = []
+    for r in rows:
+        if r["code"] not in ("dualsphysics", "project"):
+            continue
+        key = (r["code"], float(r["dp_m"]))
+        if key not in wall:
+            continue
+        peak, arrival = r.get("P1_peak_1ms_pa"), r.get("P1_arrival_s")
+        dry = peak is None or not peak > 0  # no reading at the sensor (the peer's wall gap)
+        out.append({
+            "code": r["code"], "dp_m": float(r["dp_m"]), "wall_s": wall[key],
+            "P1_peak_1ms_rel_error": math.nan if dry else abs(peak - m["P1_peak_pa"]) /
+            m["P1_peak_pa"],
+            "P1_arrival_error_ms": math.nan if dry or arrival is None or math.isnan(arrival)
+            else abs(arrival - m["P1_arrival_s"]) * 1000,
+            "H4_rms_to_0.75s": r.get("H4_rms_to_0.75s"),
+        })
+    return out
+
+
+def write_pareto(args, rows):
+    """pareto_spheric2_TAG.csv/png: each code's wall time against its errors, where
+    peer_throughput_spheric2_TAG.csv (peer_dualsphysics.sh) is in --out; None without it."""
+    path = os.path.join(args.out, f"peer_throughput_spheric2_{args.tag}.csv")
+    if not os.path.exists(path):
+        print(f"no {path}: no Pareto plot (peer_dualsphysics.sh writes it)")
+        return None
+    points = pareto_rows(rows, read_throughput(path))
+    csv_path = os.path.join(args.out, f"pareto_spheric2_{args.tag}.csv")
+    keys = ["code", "dp_m", "wall_s"] + [k for k, _ in PARETO_MEASURES]
+    with open(csv_path, "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(keys)
+        for r in points:
+            w.writerow([fmt(r[k]) for k in keys])
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, ax = plt.subplots(1, len(PARETO_MEASURES), figsize=(13, 4))
+    for a, (key, label) in zip(ax, PARETO_MEASURES):
+        for code, marker in (("dualsphysics", "s"), ("project", "o")):
+            pts = sorted((r["wall_s"], r[key], r["dp_m"]) for r in points
+                         if r["code"] == code and r[key] is not None and not math.isnan(r[key]))
+            if not pts:
+                continue
+            a.plot([p[0] for p in pts], [p[1] for p in pts], marker=marker, label=code)
+            for x, y, dp in pts:
+                a.annotate(f"{dp:g}", (x, y), fontsize=7, xytext=(3, 3),
+                           textcoords="offset points")
+        a.set_xscale("log")
+        a.set_xlabel("wall time (s)")
+        a.set_ylabel(label)
+        a.grid(alpha=0.3)
+        a.legend(fontsize=7)
+    fig.suptitle(f"SPHERIC Test 2 ({args.tag}): wall time against error, labels dp (m); "
+                 "a code without a P1 reading has no point there")
+    fig.tight_layout()
+    png = os.path.join(args.out, f"pareto_spheric2_{args.tag}.png")
+    fig.savefig(png, dpi=90)
+    plt.close(fig)
+    print(f"wrote {csv_path} and {png}")
+    return points
+
+
 def run_spheric(args, repo):
     ref_t, ref_h = read_marin_heights(repo)
     columns = ["code", "dp_m", "pressure_source"]
@@ -483,6 +574,7 @@ def run_spheric(args, repo):
     png = os.path.join(args.out, f"peer_compare_spheric2_{args.tag}.png")
     plot_spheric(png, curves, ref_t, ref_h)
     print(f"wrote {out_csv} and {png}")
+    write_pareto(args, rows)
     return rows
 
 

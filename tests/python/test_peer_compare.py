@@ -208,6 +208,30 @@ class SphericTest(unittest.TestCase):
         self.assertAlmostEqual(float(series["0.455"]["P5_1ms_pa"]), 700.0, places=3)
         self.assertAlmostEqual(float(series["0.2"]["P5_1ms_pa"]), 0.0, places=3)
 
+    def test_pareto_pairs_wall_time_with_errors(self):
+        out = os.path.join(self.fx.root, "out")
+        os.makedirs(out)
+        with open(os.path.join(out, "peer_throughput_spheric2_test.csv"), "w") as f:
+            f.write("code,case,dp_m,wall_s\ndualsphysics,spheric2,0.01,156\n"
+                    "project,spheric2,0.01,40\n")
+        self.fx.run()
+        with open(os.path.join(out, "pareto_spheric2_test.csv")) as f:
+            table = {r["code"]: r for r in csv.DictReader(f)}
+        self.assertEqual(float(table["dualsphysics"]["wall_s"]), 156)
+        # The peer's 1 ms peak 9 kPa, arrival 0.40965 s; the project's 6.5 kPa, 0.4015 s.
+        self.assertAlmostEqual(float(table["dualsphysics"]["P1_peak_1ms_rel_error"]),
+                               2240 / 11240, places=5)
+        self.assertAlmostEqual(float(table["dualsphysics"]["P1_arrival_error_ms"]), 16.65,
+                               places=5)
+        self.assertAlmostEqual(float(table["project"]["P1_peak_1ms_rel_error"]), 4740 / 11240,
+                               places=5)
+        self.assertAlmostEqual(float(table["project"]["H4_rms_to_0.75s"]), 0.01, places=6)
+        self.assertGreater(os.path.getsize(os.path.join(out, "pareto_spheric2_test.png")), 0)
+
+    def test_no_pareto_without_throughput(self):
+        _, out = self.fx.run()
+        self.assertFalse(os.path.exists(os.path.join(out, "pareto_spheric2_test.csv")))
+
     def test_missing_column_names_file_and_column(self):
         path = os.path.join(self.fx.peer, "GaugesSWL_H2.csv")
         text = Path(path).read_text().replace("swlz [m]", "level [m]", 1)
