@@ -292,7 +292,7 @@ class WcsphGpuBackend final : public GpuBackend {
     cuda::WcsphStepConfig config;
     config.grid = PhysicalGrid(model);
     config.constants = PhysicalConstants(model);
-    // delta h c0, as ComputeDensityAndPressure
+    // delta h c0, as ComputeInteractions
     config.constants.diffusion = Real(model.params.density_diffusion * model.SmoothingLength() *
                                       model.params.speed_of_sound);
     const BoundaryParticles boundary(model, model.params.particle_spacing, model.kernel_support);
@@ -337,7 +337,7 @@ class WcsphGpuBackend final : public GpuBackend {
     pipeline_.GatherProbes(plan, out);
   }
 
-  // The gravity, rho^H_ij's factor (as ComputeDensityAndPressure) and the boundary's motion at
+  // The gravity, rho^H_ij's factor (as ComputeInteractions) and the boundary's motion at
   // time t for the force passes; obstacle_speed: MoveBoundary's max_obstacle_speed.
   struct ForceInputs {
     Real gravity = 0;

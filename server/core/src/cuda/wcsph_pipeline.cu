@@ -1,6 +1,5 @@
-// The wcsph solver's passes as CUDA kernels, each the CPU pass of
-// solvers/wcsph/becker_teschner_solver.cc with the same name and the same operations in the same
-// order (wcsph_pipeline.h). One thread per fluid (or boundary) particle, gathering only.
+// The wcsph solver's step on the GPU (wcsph_pipeline.h): its buffers and the order of its
+// kernels (wcsph_kernels.cuh, symplectic_kernels.cuh, particle_shifting.cuh).
 #include <cuda_runtime.h>
 
 #include <cub/device/device_reduce.cuh>
@@ -14,141 +13,13 @@
 #include "cuda/probe_gatherer.cuh"
 #include "cuda/sph_kernels.cuh"
 #include "cuda/symplectic_kernels.cuh"
+#include "cuda/wcsph_kernels.cuh"
 #include "cuda/wcsph_pipeline.h"
 
 namespace dysa::cuda {
 namespace {
 
 using namespace sph;  // NOLINT: this file is the wcsph half of those kernels
-
-// The carried density's start: max(summation density, rho0) (InitialDensity).
-__global__ void InitialDensityKernel(DeviceGrid fluid_grid, DeviceGrid boundary_grid, Fluid f,
-                                     Boundary b, SphConstants c, float* carried, uint32_t n) {
-  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
-  if (i >= n) return;
-  const int3 cell = fluid_grid.SortedCell(i);
-  const F3 x{f.x[i], f.y[i], f.z[i]};
-  float fluid = 0;
-  ForEachWithin(fluid_grid, {f.x, f.y, f.z}, cell, x, c.support,
-                [&](uint32_t, F3, float r) { fluid += KernelW(r, c); });
-  float wall = 0;
-  ForEachWithin(boundary_grid, {b.x, b.y, b.z}, cell, x, c.support,
-                [&](uint32_t k, F3, float r) { wall += b.volume[k] * KernelW(r, c); });
-  const float rho = (c.mass * fluid + c.psi_scale * wall) * c.density_scale;
-  const float rho0 = float(c.rest_density);
-  carried[i] = rho > rho0 ? rho : rho0;
-}
-
-// D rho / Dt of the continuity equation with the density diffusion, and the density and
-// pressure of the carried density (ComputeDensityAndPressure). hydrostatic: -rho0 g_y / c0^2.
-__global__ void DensityKernel(DeviceGrid fluid_grid, DeviceGrid boundary_grid, Fluid f, Boundary b,
-                              SphConstants c, const float* carried, float* rate, float hydrostatic,
-                              uint32_t n) {
-  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
-  if (i >= n) return;
-  const int3 cell = fluid_grid.SortedCell(i);
-  const F3 x{f.x[i], f.y[i], f.z[i]};
-  const F3 v{f.vx[i], f.vy[i], f.vz[i]};
-  const float rho_i = carried[i];
-  float divergence = 0, diffused = 0;
-  ForEachWithin(fluid_grid, {f.x, f.y, f.z}, cell, x, c.support, [&](uint32_t j, F3 xij, float r) {
-    if (r <= 0) return;
-    const float g = GradFactor(r, c);
-    const F3 grad{xij.x * g, xij.y * g, xij.z * g};
-    divergence += Dot({v.x - f.vx[j], v.y - f.vy[j], v.z - f.vz[j]}, grad);
-    const float dynamic = carried[j] - rho_i - hydrostatic * xij.y;
-    diffused += dynamic * Dot({-xij.x, -xij.y, -xij.z}, grad) / (r * r * carried[j]);
-  });
-  float wall = 0;
-  ForEachWithin(
-      boundary_grid, {b.x, b.y, b.z}, cell, x, c.support, [&](uint32_t k, F3 xib, float r) {
-        const float g = GradFactor(r, c);
-        wall += b.volume[k] * Dot(RelativeToSample(b, v, k), {xib.x * g, xib.y * g, xib.z * g});
-      });
-  rate[i] = c.mass * divergence + c.psi_scale * wall + 2 * c.diffusion * c.mass * diffused;
-  f.density[i] = rho_i;
-  const double ratio = double(rho_i) / c.rest_density;
-  const double pressure = c.stiffness * (pow(ratio, 7.0) - 1);
-  f.pressure[i] = float(pressure > 0 ? pressure : 0);
-}
-
-__global__ void BoundaryPressureKernel(DeviceGrid fluid_grid, DeviceGrid boundary_grid, Fluid f,
-                                       Boundary b, SphConstants c, float gravity) {
-  const uint32_t k = blockIdx.x * blockDim.x + threadIdx.x;
-  if (k >= b.n) return;
-  const F3 x{b.x[k], b.y[k], b.z[k]};
-  const F3 g{0, gravity, 0};
-  float weights = 0, weighted = 0;
-  ForEachWithin(fluid_grid, {f.x, f.y, f.z}, boundary_grid.SortedCell(k), x, c.support,
-                [&](uint32_t j, F3 xbf, float r) {
-                  const float w = KernelW(r, c);
-                  weights += w;
-                  weighted += (f.pressure[j] + f.density[j] * Dot(g, xbf)) * w;
-                });
-  const float pressure = weights > 0 ? weighted / weights : 0.0f;
-  b.pressure[k] = pressure > 0 ? pressure : 0.0f;
-}
-
-// p / rho^2 of the fluid particles and of the boundary particles (their density from their
-// pressure through the inverse Tait equation).
-__global__ void PressureRatioKernel(Fluid f, Boundary b, SphConstants c, uint32_t n) {
-  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
-  if (i < n) f.p_over_rho2[i] = f.pressure[i] / (f.density[i] * f.density[i]);
-  if (i < b.n) {
-    const double pb = b.pressure[i];
-    const double rho = c.rest_density * pow(pb / c.stiffness + 1, 1 / 7.0);
-    b.p_over_rho2[i] = float(pb / (rho * rho));
-  }
-}
-
-__global__ void PressureAccelerationKernel(DeviceGrid fluid_grid, DeviceGrid boundary_grid, Fluid f,
-                                           Boundary b, SphConstants c, float gravity, uint32_t n) {
-  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
-  if (i >= n) return;
-  const int3 cell = fluid_grid.SortedCell(i);
-  const F3 x{f.x[i], f.y[i], f.z[i]};
-  const float pi = f.p_over_rho2[i];
-  F3 fluid{0, 0, 0};
-  ForEachWithin(fluid_grid, {f.x, f.y, f.z}, cell, x, c.support, [&](uint32_t j, F3 xij, float r) {
-    const float s = pi + f.p_over_rho2[j];
-    const float g = GradFactor(r, c);
-    fluid.x += s * (xij.x * g), fluid.y += s * (xij.y * g), fluid.z += s * (xij.z * g);
-  });
-  F3 wall{0, 0, 0};
-  ForEachWithin(boundary_grid, {b.x, b.y, b.z}, cell, x, c.support,
-                [&](uint32_t k, F3 xib, float r) {
-                  const float s = b.volume[k] * (pi + b.p_over_rho2[k]);
-                  const float g = GradFactor(r, c);
-                  wall.x += s * (xib.x * g), wall.y += s * (xib.y * g), wall.z += s * (xib.z * g);
-                });
-  f.ax[i] = 0.0f - c.gradient_scale * (c.mass * fluid.x + c.psi_scale * wall.x);
-  f.ay[i] = gravity - c.gradient_scale * (c.mass * fluid.y + c.psi_scale * wall.y);
-  f.az[i] = 0.0f - c.gradient_scale * (c.mass * fluid.z + c.psi_scale * wall.z);
-}
-
-// v += a dt, the wall contact, x += v dt, rho += (D rho / Dt) dt (Integrate in
-// becker_teschner_solver.cc).
-__global__ void IntegrateKernel(Fluid f, SphConstants c, Surfaces s, float* carried,
-                                const float* rate, Shift shift, float dt, uint32_t n) {
-  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
-  if (i >= n) return;
-  F3 v{f.vx[i] + f.ax[i] * dt, f.vy[i] + f.ay[i] * dt, f.vz[i] + f.az[i] * dt};
-  const F3 x{f.x[i], f.y[i], f.z[i]};
-  LimitApproachToSurfaces(c, s, x, dt, v);
-  if (shift.x == nullptr) {
-    MoveAndStore(c, s, f, i, x, v, dt);
-  } else {
-    // The shift's displacement too, cut by the contact as the velocity's.
-    F3 drift{v.x + shift.x[i], v.y + shift.y[i], v.z + shift.z[i]};
-    LimitApproachToSurfaces(c, s, x, dt, drift);
-    float xs[3] = {x.x + drift.x * dt, x.y + drift.y * dt, x.z + drift.z * dt};
-    float vs[3] = {v.x, v.y, v.z};
-    ClampAndStorePosition(c, s, f, i, xs, vs);
-    f.vx[i] = vs[0], f.vy[i] = vs[1], f.vz[i] = vs[2];
-  }
-  carried[i] += rate[i] * dt;
-  f.density[i] = carried[i];
-}
 
 }  // namespace
 
@@ -349,12 +220,8 @@ std::vector<std::string> WcsphPipeline::Configure(const WcsphStepConfig& config,
   m.obstacle_speed = 0;
   m.passes.clear();
   if (m.moving.active()) m.passes.push_back("move_boundary");
-  for (const char* name : {"neighbour_grid", "density", "boundary_pressure", "pressure_force"}) {
+  for (const char* name : {"neighbour_grid", "pressure", "boundary_pressure", "interactions"}) {
     m.passes.push_back(name);
-  }
-  if (config.viscosity) {
-    m.passes.push_back("viscosity");
-    if (config.wall_viscosity) m.passes.push_back("wall_viscosity");
   }
   m.passes.push_back("time_step");
   if (config.symplectic) {
@@ -438,7 +305,6 @@ void WcsphPipeline::Impl::ForcePasses(float gravity, float hydrostatic,
   cudaStream_t s = m.stream.get();
   const unsigned blocks = (n + kBlock - 1) / kBlock;
   const unsigned boundary_blocks = (m.nb + kBlock - 1) / kBlock;
-  const unsigned either_blocks = blocks > boundary_blocks ? blocks : boundary_blocks;
   auto begin_pass = [&] { m.timer.Record(m.pass++, s); };
 
   if (m.moving.active()) {
@@ -465,29 +331,26 @@ void WcsphPipeline::Impl::ForcePasses(float gravity, float hydrostatic,
   const DeviceGrid bgrid = m.boundary_sorter.View();
   const Fluid f = m.View();
   const Boundary b = m.BoundaryView();
-  begin_pass();  // density
+  begin_pass();  // pressure
   if (n > 0) {
     if (!m.carried_ready) {
       InitialDensityKernel<<<blocks, kBlock, 0, s>>>(grid, bgrid, f, b, c, m.carried.data(), n);
     }
-    DensityKernel<<<blocks, kBlock, 0, s>>>(grid, bgrid, f, b, c, m.carried.data(),
-                                            m.density_rate.data(), hydrostatic, n);
+    PressureKernel<<<blocks, kBlock, 0, s>>>(f, c, m.carried.data(), n);
   }
   m.carried_ready = true;
-  begin_pass();  // boundary_pressure
-  if (m.nb > 0)
+  begin_pass();  // boundary_pressure (and the no-slip walls' extrapolated velocity)
+  if (m.nb > 0) {
     BoundaryPressureKernel<<<boundary_blocks, kBlock, 0, s>>>(grid, bgrid, f, b, c, gravity);
-  begin_pass();  // pressure_force
-  if (either_blocks > 0) PressureRatioKernel<<<either_blocks, kBlock, 0, s>>>(f, b, c, n);
-  if (n > 0) PressureAccelerationKernel<<<blocks, kBlock, 0, s>>>(grid, bgrid, f, b, c, gravity, n);
-  if (cfg.viscosity) {
-    begin_pass();  // viscosity
-    if (n > 0) ViscosityKernel<<<blocks, kBlock, 0, s>>>(grid, f, c, n);
     if (cfg.wall_viscosity) {
-      begin_pass();  // wall_viscosity
-      if (m.nb > 0) BoundaryVelocityKernel<<<boundary_blocks, kBlock, 0, s>>>(grid, bgrid, f, b, c);
-      if (n > 0) WallViscosityKernel<<<blocks, kBlock, 0, s>>>(grid, bgrid, f, b, c, n);
+      BoundaryVelocityKernel<<<boundary_blocks, kBlock, 0, s>>>(grid, bgrid, f, b, c);
     }
+  }
+  begin_pass();  // interactions
+  if (n > 0) {
+    InteractionKernel<<<blocks, kBlock, 0, s>>>(grid, bgrid, f, b, c, m.carried.data(),
+                                                m.density_rate.data(), hydrostatic, gravity,
+                                                cfg.viscosity, cfg.wall_viscosity, n);
   }
 }
 

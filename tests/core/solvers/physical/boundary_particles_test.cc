@@ -105,7 +105,7 @@ TEST(BoundaryParticlesTest, AFluidLatticeAtRestHasTheRestDensityAtEveryWall) {
   data.SampleBoundary(sim.model());
   State state = sim.state();
   physical::SortIntoGrid(sim.model(), state);
-  wcsph::ComputeDensityAndPressure(sim.model(), data, state);
+  wcsph::ComputePressure(sim.model(), data, state);
   const auto& density = state.particles.density;
   ASSERT_EQ(density.size(), 20u * 10 * 5);
   const auto [lo, hi] = std::minmax_element(density.begin(), density.end());
@@ -131,7 +131,7 @@ TEST(BoundaryParticlesTest, ALargerSupportGetsTheLayersItReaches) {
   EXPECT_EQ(data.boundary->size(), 28u * 18 * 13 - 20 * 10 * 5);
   State state = sim.state();
   physical::SortIntoGrid(sim.model(), state);
-  wcsph::ComputeDensityAndPressure(sim.model(), data, state);
+  wcsph::ComputePressure(sim.model(), data, state);
   const auto& density = state.particles.density;
   const auto [lo, hi] = std::minmax_element(density.begin(), density.end());
   EXPECT_NEAR(*lo, 1000, 0.1);
@@ -156,7 +156,7 @@ TEST(BoundaryParticlesTest, APeriodicDomainFilledAtRestHasTheRestDensityEverywhe
   data.SampleBoundary(sim.model());
   State state = sim.state();
   physical::SortIntoGrid(sim.model(), state);
-  wcsph::ComputeDensityAndPressure(sim.model(), data, state);
+  wcsph::ComputePressure(sim.model(), data, state);
   const auto& density = state.particles.density;
   ASSERT_EQ(density.size(), 20u * 10 * 6);
   const auto [lo, hi] = std::minmax_element(density.begin(), density.end());

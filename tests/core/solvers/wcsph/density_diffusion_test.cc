@@ -44,7 +44,9 @@ std::vector<Real> Rates(const Simulation& sim, Field density, State* out = nullp
   for (size_t i = 0; i < data.density.size(); ++i) {
     data.density[i] = Real(density(state.particles.position[i].template cast<double>()));
   }
-  wcsph::ComputeDensityAndPressure(sim.model(), data, state);
+  wcsph::ComputePressure(sim.model(), data, state);
+  wcsph::ComputeBoundaryPressure(sim.model(), data, state);
+  wcsph::ComputeInteractions(sim.model(), data, state);
   if (out) *out = state;
   return data.density_rate;
 }

@@ -56,17 +56,15 @@ double RmsDistance(const std::vector<Vec3d>& a, const std::vector<Vec3d>& b) {
 TEST(SymplecticPassListTest, RepeatsTheForcePassesAtTheHalfStep) {
   const Simulation sim(Column(1, 1e-4));
   const std::vector<std::string> expected = {"neighbour_grid",
-                                             "density",
+                                             "pressure",
                                              "boundary_pressure",
-                                             "pressure_force",
-                                             "viscosity",
+                                             "interactions",
                                              "time_step",
                                              "predict",
                                              "neighbour_grid_corrector",
-                                             "density_corrector",
+                                             "pressure_corrector",
                                              "boundary_pressure_corrector",
-                                             "pressure_force_corrector",
-                                             "viscosity_corrector",
+                                             "interactions_corrector",
                                              "correct"};
   EXPECT_EQ(sim.PassNames(), expected);
   EXPECT_EQ(Simulation(Column(0, 1e-4)).PassNames().back(), "integrate");

@@ -52,21 +52,16 @@ void AddViscosity(const Model& model, PhysicalData& data, State& state) {
   }
 }
 
-void AddWallViscosity(const Model& model, PhysicalData& data, State& state) {
+void ExtrapolateWallVelocity(const Model& model, PhysicalData& data, State& state) {
   const BoundaryParticles& boundary = *data.boundary;
-  ParticleArrays& p = state.particles;
+  const ParticleArrays& p = state.particles;
   const PhysicalKernel<Real> kernel = model.Kernel();
   const Real support = kernel.support;
-  const Real h = Real(model.SmoothingLength());
-  const Real eps = Real(0.01) * h * h;
-  // 2 (dim + 2) nu / lambda, as AddViscosity
-  const Real scale = Real(10 * model.params.kinematic_viscosity / model.viscosity_moment);
   const NeighborGrid& bgrid = boundary.grid();
   const Real* bx = bgrid.xs().data();
   const Real* by = bgrid.ys().data();
   const Real* bz = bgrid.zs().data();
   const std::span<const uint8_t> no_slip = boundary.no_slip();
-  const Real* volume = boundary.padded_volume();
   const int64_t nb = int64_t(boundary.size());
   data.boundary_velocity.resize(size_t(nb));
   // v_b = -(Shepard mean of the fluid's velocity around b): the wall's velocity (0) at the
@@ -86,6 +81,20 @@ void AddWallViscosity(const Model& model, PhysicalData& data, State& state) {
     }
     data.boundary_velocity[b] = weights > 0 ? Vec3(-weighted / weights) : Vec3::Zero();
   }
+}
+
+void AddWallViscosity(const Model& model, PhysicalData& data, State& state) {
+  ExtrapolateWallVelocity(model, data, state);
+  const BoundaryParticles& boundary = *data.boundary;
+  ParticleArrays& p = state.particles;
+  const PhysicalKernel<Real> kernel = model.Kernel();
+  const Real support = kernel.support;
+  const Real h = Real(model.SmoothingLength());
+  const Real eps = Real(0.01) * h * h;
+  // 2 (dim + 2) nu / lambda, as AddViscosity
+  const Real scale = Real(10 * model.params.kinematic_viscosity / model.viscosity_moment);
+  const std::span<const uint8_t> no_slip = boundary.no_slip();
+  const Real* volume = boundary.padded_volume();
   const int64_t n = int64_t(p.size());
 #pragma omp parallel for schedule(static)
   for (int64_t i = 0; i < n; ++i) {

@@ -31,8 +31,11 @@ void SortIntoGrid(const Model& model, State& state);
 // Adds the fluid's viscous acceleration (the laminar viscosity of becker_teschner_solver.h) to
 // data.acceleration.
 void AddViscosity(const Model& model, PhysicalData& data, State& state);
+// data.boundary_velocity: at each no-slip wall's boundary particle the fluid's velocity
+// extrapolated to it and mirrored (Shepard mean, negated), 0 elsewhere.
+void ExtrapolateWallVelocity(const Model& model, PhysicalData& data, State& state);
 // Adds the no-slip walls' viscous acceleration (Model::no_slip) to data.acceleration, from the
-// fluid's velocity extrapolated to the walls' boundary particles (data.boundary_velocity).
+// fluid's velocity extrapolated to the walls' boundary particles (ExtrapolateWallVelocity).
 void AddWallViscosity(const Model& model, PhysicalData& data, State& state);
 
 // Each obstacle's frame (boxes, then spheres, as the Model lists them) for the step [t, t + dt]:

@@ -14,8 +14,6 @@
 
 namespace dysa::wcsph {
 
-using physical::AddViscosity;
-using physical::AddWallViscosity;
 using physical::GravityAt;
 using physical::kTaitExponent;
 
@@ -62,59 +60,23 @@ void InitialDensity(const Model& model, BeckerTeschnerData& data, State& state) 
   }
 }
 
-void ComputeDensityAndPressure(const Model& model, BeckerTeschnerData& data, State& state) {
+void ComputePressure(const Model& model, BeckerTeschnerData& data, State& state) {
   if (data.density.size() != state.particles.size()) InitialDensity(model, data, state);
-  const BoundaryParticles& boundary = *data.boundary;
   ParticleArrays& p = state.particles;
-  const PhysicalKernel<Real> kernel = model.Kernel();
-  const Real support = kernel.support;
-  const Real mass = Real(model.particle_mass);
   const double rho0 = model.params.rest_density;
   const double c0 = model.params.speed_of_sound;
-  const Real psi_scale = Real(rho0);                        // Psi_b = rho0 V_b
   const double stiffness = rho0 * c0 * c0 / kTaitExponent;  // B = rho0 c0^2 / gamma
-  // delta h c0 of the diffusive term (the support is 2 h)
-  const Real diffusion = Real(model.params.density_diffusion * model.SmoothingLength() * c0);
-  // rho^H_ij = -rho0 g_y y_ij / c0^2: the hydrostatic density difference rho_j - rho_i
-  const Real hydrostatic = Real(-rho0 * GravityAt(model.params, state.time) / (c0 * c0));
-  const Real* rho = data.density.data();
-  const Real* volume = boundary.padded_volume();
-  const Vec3* boundary_velocity =
-      boundary.HasMovingObstacles() ? boundary.velocity().data() : nullptr;
   const int64_t n = int64_t(p.size());
-  data.density_rate.resize(p.size());
+  data.p_over_rho2.resize(p.size());
 #pragma omp parallel for schedule(static)
   for (int64_t i = 0; i < n; ++i) {
-    const Eigen::Vector3i cell = state.grid.SortedCell(uint32_t(i));
-    const Vec3& x = p.position[i];
-    const Vec3& v = p.velocity[i];
-    const Real rho_i = rho[i];
-    Real divergence = 0;  // sum_j m (v_i - v_j) . grad W_ij
-    Real diffused = 0;    // sum_j (rho_j - rho_i - rho^H_ij) (x_ji . grad W_ij) / r^2 / rho_j
-    ForEachWithin(state.grid, cell, x, support, [&](uint32_t j, const Vec3& xij, Real r) {
-      if (r <= 0) return;
-      const Vec3 grad = GradW(xij, r, kernel);
-      divergence += (v - p.velocity[j]).dot(grad);
-      const Real dynamic = rho[j] - rho_i - hydrostatic * xij.y();
-      diffused += dynamic * (-xij.dot(grad)) / (r * r * rho[j]);
-    });
-    Real wall = 0;  // sum_b V_b (v_i - v_b) . grad W_ib, v_b = 0 but on moving obstacles
-    if (boundary_velocity == nullptr) {
-      ForEachWithin(boundary.grid(), cell, x, support, [&](uint32_t b, const Vec3& xib, Real r) {
-        wall += volume[b] * v.dot(GradW(xib, r, kernel));
-      });
-    } else {
-      ForEachWithin(boundary.grid(), cell, x, support, [&](uint32_t b, const Vec3& xib, Real r) {
-        wall += volume[b] * (v - boundary_velocity[b]).dot(GradW(xib, r, kernel));
-      });
-    }
-    data.density_rate[i] = mass * divergence + psi_scale * wall + 2 * diffusion * mass * diffused;
-    p.density[i] = rho_i;
+    const Real rho = data.density[i];
+    p.density[i] = rho;
     // In double: (rho / rho0)^7 - 1 of a 0.1% compression is 7e-3, which float would round to
     // a few digits.
-    const double ratio = double(rho_i) / rho0;
-    const double pressure = stiffness * (std::pow(ratio, kTaitExponent) - 1);
+    const double pressure = stiffness * (std::pow(double(rho) / rho0, kTaitExponent) - 1);
     p.pressure[i] = Real(pressure > 0 ? pressure : 0);
+    data.p_over_rho2[i] = p.pressure[i] / (p.density[i] * p.density[i]);
   }
 }
 
@@ -123,6 +85,9 @@ void ComputeBoundaryPressure(const Model& model, BeckerTeschnerData& data, State
   const ParticleArrays& p = state.particles;
   const PhysicalKernel<Real> kernel = model.Kernel();
   const Real support = kernel.support;
+  const double rho0 = model.params.rest_density;
+  const double stiffness =
+      rho0 * model.params.speed_of_sound * model.params.speed_of_sound / kTaitExponent;
   const Vec3 gravity(0, Real(GravityAt(model.params, state.time)), 0);
   const NeighborGrid& bgrid = boundary.grid();
   const Real* bx = bgrid.xs().data();
@@ -130,6 +95,7 @@ void ComputeBoundaryPressure(const Model& model, BeckerTeschnerData& data, State
   const Real* bz = bgrid.zs().data();
   const int64_t n = int64_t(boundary.size());
   data.boundary_pressure.resize(boundary.size());
+  data.boundary_p_over_rho2.resize(boundary.size());
 #pragma omp parallel for schedule(static)
   for (int64_t b = 0; b < n; ++b) {
     const Vec3 x(bx[b], by[b], bz[b]);
@@ -144,54 +110,106 @@ void ComputeBoundaryPressure(const Model& model, BeckerTeschnerData& data, State
                   });
     const Real pressure = weights > 0 ? weighted / weights : Real(0);
     data.boundary_pressure[b] = pressure > 0 ? pressure : Real(0);
+    // p_b / rho_b^2, rho_b from p_b by the inverse Tait equation.
+    const double pb = data.boundary_pressure[b];
+    const double rho = rho0 * std::pow(pb / stiffness + 1, 1 / kTaitExponent);
+    data.boundary_p_over_rho2[b] = Real(pb / (rho * rho));
+  }
+  if (model.params.kinematic_viscosity > 0 && boundary.HasNoSlip()) {
+    physical::ExtrapolateWallVelocity(model, data, state);
   }
 }
 
-void ComputePressureAcceleration(const Model& model, BeckerTeschnerData& data, State& state) {
+namespace {
+
+// The interactions' constants, read once per pass.
+struct InteractionConstants {
+  Real support, mass, psi_scale, gradient_scale, diffusion, hydrostatic;
+  Real eps, viscosity_scale, wall_viscosity_scale;
+  bool viscosity, wall_viscosity;
+  Vec3 gravity;
+};
+
+}  // namespace
+
+void ComputeInteractions(const Model& model, BeckerTeschnerData& data, State& state) {
   const BoundaryParticles& boundary = *data.boundary;
   ParticleArrays& p = state.particles;
   const PhysicalKernel<Real> kernel = model.Kernel();
-  const Real support = kernel.support;
-  const Real mass = Real(model.particle_mass);
   const double rho0 = model.params.rest_density;
-  const Real psi_scale = Real(rho0);
-  const Real gradient_scale = Real(1 / model.gradient_moment);
-  const double stiffness =
-      rho0 * model.params.speed_of_sound * model.params.speed_of_sound / kTaitExponent;
-  const Vec3 gravity(0, Real(GravityAt(model.params, state.time)), 0);
+  const double c0 = model.params.speed_of_sound;
+  const double nu = model.params.kinematic_viscosity;
+  const Real h = Real(model.SmoothingLength());
+  InteractionConstants k;
+  k.support = kernel.support;
+  k.mass = Real(model.particle_mass);
+  k.psi_scale = Real(rho0);  // Psi_b = rho0 V_b
+  k.gradient_scale = Real(1 / model.gradient_moment);
+  // delta h c0 of the diffusive term (the support is 2 h)
+  k.diffusion = Real(model.params.density_diffusion * model.SmoothingLength() * c0);
+  // rho^H_ij = -rho0 g_y y_ij / c0^2: the hydrostatic density difference rho_j - rho_i
+  k.hydrostatic = Real(-rho0 * GravityAt(model.params, state.time) / (c0 * c0));
+  k.eps = Real(0.01) * h * h;
+  // 2 (dim + 2) nu m / lambda and 2 (dim + 2) nu / lambda, lambda the lattice's viscosity
+  // moment (kernels.h)
+  k.viscosity_scale = Real(10 * nu * model.particle_mass / model.viscosity_moment);
+  k.wall_viscosity_scale = Real(10 * nu / model.viscosity_moment);
+  k.viscosity = nu > 0;
+  k.wall_viscosity = k.viscosity && boundary.HasNoSlip();
+  k.gravity = Vec3(0, Real(GravityAt(model.params, state.time)), 0);
+  const Real* rho = data.density.data();
+  const Real* p_over_rho2 = data.p_over_rho2.data();
+  const Real* boundary_p_over_rho2 = data.boundary_p_over_rho2.data();
   const Real* volume = boundary.padded_volume();
-  const size_t n = p.size();
-  const size_t nb = boundary.size();
-  data.acceleration.resize(n);
-  // p_j / rho_j^2 of every fluid particle, then of every boundary particle (its density from
-  // its pressure through the inverse Tait equation), read by the neighbours.
-  state.real_scratch.resize(n + nb);
-  Real* p_over_rho2 = state.real_scratch.data();
-  Real* boundary_p_over_rho2 = p_over_rho2 + n;
+  const std::span<const uint8_t> no_slip = boundary.no_slip();
+  const Vec3* sample_velocity =
+      boundary.HasMovingObstacles() ? boundary.velocity().data() : nullptr;
+  const Vec3* wall_velocity = data.boundary_velocity.data();
+  const int64_t n = int64_t(p.size());
+  data.density_rate.resize(p.size());
+  data.acceleration.resize(p.size());
 #pragma omp parallel for schedule(static)
-  for (int64_t j = 0; j < int64_t(n); ++j) {
-    p_over_rho2[j] = p.pressure[j] / (p.density[j] * p.density[j]);
-  }
-#pragma omp parallel for schedule(static)
-  for (int64_t b = 0; b < int64_t(nb); ++b) {
-    const double pb = data.boundary_pressure[b];
-    const double rho = rho0 * std::pow(pb / stiffness + 1, 1 / kTaitExponent);
-    boundary_p_over_rho2[b] = Real(pb / (rho * rho));
-  }
-#pragma omp parallel for schedule(static)
-  for (int64_t i = 0; i < int64_t(n); ++i) {
+  for (int64_t i = 0; i < n; ++i) {
     const Eigen::Vector3i cell = state.grid.SortedCell(uint32_t(i));
     const Vec3& x = p.position[i];
+    const Vec3& v = p.velocity[i];
+    const Real rho_i = rho[i];
     const Real pi = p_over_rho2[i];
+    // Each sum keeps its own accumulator and the grid's order, as when each had its own pass.
+    Real divergence = 0;        // sum_j m (v_i - v_j) . grad W_ij / m
+    Real diffused = 0;          // sum_j (rho_j - rho_i - rho^H_ij) (x_ji . grad W_ij) / r^2 / rho_j
     Vec3 fluid = Vec3::Zero();  // sum_j (p_i / rho_i^2 + p_j / rho_j^2) grad W_ij
-    ForEachWithin(state.grid, cell, x, support, [&](uint32_t j, const Vec3& xij, Real r) {
-      fluid += (pi + p_over_rho2[j]) * GradW(xij, r, kernel);
+    Vec3 viscous = Vec3::Zero();  // sum_j (v_ij . x_ij) / (rho_j (r^2 + eps)) grad W_ij
+    ForEachWithin(state.grid, cell, x, k.support, [&](uint32_t j, const Vec3& xij, Real r) {
+      const Vec3 grad = GradW(xij, r, kernel);
+      fluid += (pi + p_over_rho2[j]) * grad;
+      if (r <= 0) return;
+      divergence += (v - p.velocity[j]).dot(grad);
+      const Real dynamic = rho[j] - rho_i - k.hydrostatic * xij.y();
+      diffused += dynamic * (-xij.dot(grad)) / (r * r * rho[j]);
+      if (k.viscosity) {
+        const Real vx = (v - p.velocity[j]).dot(xij);
+        viscous += (vx / (p.density[j] * (r * r + k.eps))) * grad;
+      }
     });
-    Vec3 wall = Vec3::Zero();  // sum_b V_b (p_i / rho_i^2 + p_b / rho_b^2) grad W_ib
-    ForEachWithin(boundary.grid(), cell, x, support, [&](uint32_t b, const Vec3& xib, Real r) {
-      wall += (volume[b] * (pi + boundary_p_over_rho2[b])) * GradW(xib, r, kernel);
+    Real wall = 0;                     // sum_b V_b (v_i - v_b) . grad W_ib, v_b = 0 unless moving
+    Vec3 wall_force = Vec3::Zero();    // sum_b V_b (p_i / rho_i^2 + p_b / rho_b^2) grad W_ib
+    Vec3 wall_viscous = Vec3::Zero();  // sum_b V_b ((v_i - v_b) . x_ib) / (r^2 + eps) grad W_ib
+    ForEachWithin(boundary.grid(), cell, x, k.support, [&](uint32_t b, const Vec3& xib, Real r) {
+      const Vec3 grad = GradW(xib, r, kernel);
+      wall += volume[b] * (sample_velocity ? Vec3(v - sample_velocity[b]) : v).dot(grad);
+      wall_force += (volume[b] * (pi + boundary_p_over_rho2[b])) * grad;
+      if (k.wall_viscosity && no_slip[b] && r > 0) {
+        const Real vx = (v - wall_velocity[b]).dot(xib);
+        wall_viscous += (volume[b] * vx / (r * r + k.eps)) * grad;
+      }
     });
-    data.acceleration[i] = gravity - gradient_scale * (mass * fluid + psi_scale * wall);
+    data.density_rate[i] =
+        k.mass * divergence + k.psi_scale * wall + 2 * k.diffusion * k.mass * diffused;
+    Vec3 a = k.gravity - k.gradient_scale * (k.mass * fluid + k.psi_scale * wall_force);
+    if (k.viscosity) a += k.viscosity_scale * viscous;
+    if (k.wall_viscosity) a += k.wall_viscosity_scale * wall_viscous;
+    data.acceleration[i] = a;
   }
 }
 
@@ -244,15 +262,9 @@ std::vector<Pass> BeckerTeschnerSolver::BuildPasses(const Model& model) {
     passes.push_back(SolverPass("move_boundary", data_, physical::MoveBoundary));
   }
   passes.push_back(SolverPass("neighbour_grid", data_, SortIntoGrid));
-  passes.push_back(SolverPass("density", data_, ComputeDensityAndPressure));
+  passes.push_back(SolverPass("pressure", data_, ComputePressure));
   passes.push_back(SolverPass("boundary_pressure", data_, ComputeBoundaryPressure));
-  passes.push_back(SolverPass("pressure_force", data_, ComputePressureAcceleration));
-  if (model.params.kinematic_viscosity > 0) {
-    passes.push_back(SolverPass("viscosity", data_, AddViscosity));
-    if (data_.boundary->HasNoSlip()) {
-      passes.push_back(SolverPass("wall_viscosity", data_, AddWallViscosity));
-    }
-  }
+  passes.push_back(SolverPass("interactions", data_, ComputeInteractions));
   const size_t forces_end = passes.size();
   passes.push_back(SolverPass("time_step", data_, ChooseTimeStepPass));
   if (model.params.time_integration == 1) {

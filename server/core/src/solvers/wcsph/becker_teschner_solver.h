@@ -98,8 +98,12 @@ namespace dysa::wcsph {
 
 // What wcsph keeps besides the shared State and the physical solvers' data; per step.
 struct BeckerTeschnerData : physical::PhysicalData {
-  // Pa, per boundary particle: the pressure extrapolated from the fluid around it.
+  // Pa, per boundary particle: the pressure extrapolated from the fluid around it, and
+  // p_b / rho_b^2 (Pa m^6/kg^2), rho_b from p_b by the inverse Tait equation.
   std::vector<Real> boundary_pressure;
+  std::vector<Real> boundary_p_over_rho2;
+  // Pa m^6/kg^2, per particle: p_i / rho_i^2, which the pressure force reads of each neighbour.
+  std::vector<Real> p_over_rho2;
   // kg/m^3, per particle in storage order: the density the continuity equation carries from
   // step to step (a checkpoint holds it: SaveArrays), permuted with the particles; empty or of
   // another size until InitialDensity.
@@ -143,13 +147,19 @@ std::unique_ptr<Solver> CreateBeckerTeschnerSolver();
 void SortIntoGrid(const Model& model, BeckerTeschnerData& data, State& state);
 // data.density of every particle from the positions: max(summation density, rho0).
 void InitialDensity(const Model& model, BeckerTeschnerData& data, State& state);
-// p.density and p.pressure from the carried density (InitialDensity first where it has another
-// size than the particles), and data.density_rate, D rho / Dt of the continuity equation.
-void ComputeDensityAndPressure(const Model& model, BeckerTeschnerData& data, State& state);
-// data.boundary_pressure: each boundary particle's pressure extrapolated from the fluid.
+// The `pressure` pass: p.density, p.pressure (Tait) and data.p_over_rho2 from the carried
+// density (InitialDensity first where it has another size than the particles). No neighbours.
+void ComputePressure(const Model& model, BeckerTeschnerData& data, State& state);
+// The `boundary_pressure` pass, over the boundary particles only: data.boundary_pressure and
+// boundary_p_over_rho2, and with viscosity and a no-slip wall data.boundary_velocity
+// (physical::ExtrapolateWallVelocity).
 void ComputeBoundaryPressure(const Model& model, BeckerTeschnerData& data, State& state);
-// Sets data.acceleration to gravity plus the pressure acceleration.
-void ComputePressureAcceleration(const Model& model, BeckerTeschnerData& data, State& state);
+// The `interactions` pass, the step's one sweep over each particle's neighbours: everything it
+// needs is the state of the step's start and the two passes above, so the continuity
+// equation's data.density_rate, the pressure force, the viscosity and the no-slip walls'
+// viscosity are summed in the same sweep, each in its own accumulator in the grid's order (the
+// same bits as when each had its own pass); data.acceleration = gravity + all of them.
+void ComputeInteractions(const Model& model, BeckerTeschnerData& data, State& state);
 // v += a dt, the wall contact (physical::LimitApproachToSurfaces), x += v dt (plus the particle
 // shifting's data.shift dt where it is on), the last-resort clamp, rho += (D rho / Dt) dt.
 void Integrate(const Model& model, BeckerTeschnerData& data, State& state);

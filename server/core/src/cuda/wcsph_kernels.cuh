@@ -1,0 +1,155 @@
+// The wcsph solver's passes as CUDA kernels (wcsph_pipeline.cu launches them), each the CPU pass
+// of solvers/wcsph/becker_teschner_solver.cc with the same name and the same operations in the
+// same order. One thread per fluid (or boundary) particle, gathering only.
+#pragma once
+
+#include <cstdint>
+
+#include "cuda/device_grid.cuh"
+#include "cuda/sph_kernels.cuh"
+#include "cuda/symplectic_kernels.cuh"
+
+namespace dysa::cuda::sph {
+namespace {
+// The carried density's start: max(summation density, rho0) (InitialDensity).
+__global__ void InitialDensityKernel(DeviceGrid fluid_grid, DeviceGrid boundary_grid, Fluid f,
+                                     Boundary b, SphConstants c, float* carried, uint32_t n) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= n) return;
+  const int3 cell = fluid_grid.SortedCell(i);
+  const F3 x{f.x[i], f.y[i], f.z[i]};
+  float fluid = 0;
+  ForEachWithin(fluid_grid, {f.x, f.y, f.z}, cell, x, c.support,
+                [&](uint32_t, F3, float r) { fluid += KernelW(r, c); });
+  float wall = 0;
+  ForEachWithin(boundary_grid, {b.x, b.y, b.z}, cell, x, c.support,
+                [&](uint32_t k, F3, float r) { wall += b.volume[k] * KernelW(r, c); });
+  const float rho = (c.mass * fluid + c.psi_scale * wall) * c.density_scale;
+  const float rho0 = float(c.rest_density);
+  carried[i] = rho > rho0 ? rho : rho0;
+}
+
+// The density, pressure (Tait, in double as the CPU) and p / rho^2 of the carried density
+// (ComputePressure).
+__global__ void PressureKernel(Fluid f, SphConstants c, const float* carried, uint32_t n) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= n) return;
+  const float rho_i = carried[i];
+  f.density[i] = rho_i;
+  const double ratio = double(rho_i) / c.rest_density;
+  const double pressure = c.stiffness * (pow(ratio, 7.0) - 1);
+  f.pressure[i] = float(pressure > 0 ? pressure : 0);
+  f.p_over_rho2[i] = f.pressure[i] / (f.density[i] * f.density[i]);
+}
+
+// Each boundary particle's pressure extrapolated from the fluid, and its p / rho^2 (its density
+// from its pressure through the inverse Tait equation) (ComputeBoundaryPressure).
+__global__ void BoundaryPressureKernel(DeviceGrid fluid_grid, DeviceGrid boundary_grid, Fluid f,
+                                       Boundary b, SphConstants c, float gravity) {
+  const uint32_t k = blockIdx.x * blockDim.x + threadIdx.x;
+  if (k >= b.n) return;
+  const F3 x{b.x[k], b.y[k], b.z[k]};
+  const F3 g{0, gravity, 0};
+  float weights = 0, weighted = 0;
+  ForEachWithin(fluid_grid, {f.x, f.y, f.z}, boundary_grid.SortedCell(k), x, c.support,
+                [&](uint32_t j, F3 xbf, float r) {
+                  const float w = KernelW(r, c);
+                  weights += w;
+                  weighted += (f.pressure[j] + f.density[j] * Dot(g, xbf)) * w;
+                });
+  const float pressure = weights > 0 ? weighted / weights : 0.0f;
+  b.pressure[k] = pressure > 0 ? pressure : 0.0f;
+  const double pb = b.pressure[k];
+  const double rho = c.rest_density * pow(pb / c.stiffness + 1, 1 / 7.0);
+  b.p_over_rho2[k] = float(pb / (rho * rho));
+}
+
+// The step's one sweep over each particle's neighbours (ComputeInteractions): D rho / Dt of the
+// continuity equation with its diffusion (hydrostatic: -rho0 g_y / c0^2), and the acceleration:
+// gravity, the pressure force, the viscosity and the no-slip walls' viscosity, each sum in its
+// own accumulator in the grid's order.
+__global__ void InteractionKernel(DeviceGrid fluid_grid, DeviceGrid boundary_grid, Fluid f,
+                                  Boundary b, SphConstants c, const float* carried, float* rate,
+                                  float hydrostatic, float gravity, bool viscosity,
+                                  bool wall_viscosity, uint32_t n) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= n) return;
+  const int3 cell = fluid_grid.SortedCell(i);
+  const F3 x{f.x[i], f.y[i], f.z[i]};
+  const F3 v{f.vx[i], f.vy[i], f.vz[i]};
+  const float rho_i = carried[i];
+  const float pi = f.p_over_rho2[i];
+  float divergence = 0, diffused = 0;
+  F3 fluid{0, 0, 0}, viscous{0, 0, 0};
+  ForEachWithin(fluid_grid, {f.x, f.y, f.z}, cell, x, c.support, [&](uint32_t j, F3 xij, float r) {
+    const float g = GradFactor(r, c);
+    const F3 grad{xij.x * g, xij.y * g, xij.z * g};
+    const float s = pi + f.p_over_rho2[j];
+    fluid.x += s * grad.x, fluid.y += s * grad.y, fluid.z += s * grad.z;
+    if (r <= 0) return;
+    const F3 vij{v.x - f.vx[j], v.y - f.vy[j], v.z - f.vz[j]};
+    divergence += Dot(vij, grad);
+    const float dynamic = carried[j] - rho_i - hydrostatic * xij.y;
+    diffused += dynamic * Dot({-xij.x, -xij.y, -xij.z}, grad) / (r * r * carried[j]);
+    if (viscosity) {
+      const float sv = Dot(vij, xij) / (f.density[j] * (r * r + c.eps));
+      viscous.x += sv * grad.x, viscous.y += sv * grad.y, viscous.z += sv * grad.z;
+    }
+  });
+  float wall = 0;
+  F3 wall_force{0, 0, 0}, wall_viscous{0, 0, 0};
+  ForEachWithin(
+      boundary_grid, {b.x, b.y, b.z}, cell, x, c.support, [&](uint32_t k, F3 xib, float r) {
+        const float g = GradFactor(r, c);
+        const F3 grad{xib.x * g, xib.y * g, xib.z * g};
+        wall += b.volume[k] * Dot(RelativeToSample(b, v, k), grad);
+        const float s = b.volume[k] * (pi + b.p_over_rho2[k]);
+        wall_force.x += s * grad.x, wall_force.y += s * grad.y, wall_force.z += s * grad.z;
+        if (wall_viscosity && b.no_slip[k] && r > 0) {
+          const float vx = Dot({v.x - b.vx[k], v.y - b.vy[k], v.z - b.vz[k]}, xib);
+          const float sw = b.volume[k] * vx / (r * r + c.eps);
+          wall_viscous.x += sw * grad.x, wall_viscous.y += sw * grad.y;
+          wall_viscous.z += sw * grad.z;
+        }
+      });
+  rate[i] = c.mass * divergence + c.psi_scale * wall + 2 * c.diffusion * c.mass * diffused;
+  F3 a{0.0f - c.gradient_scale * (c.mass * fluid.x + c.psi_scale * wall_force.x),
+       gravity - c.gradient_scale * (c.mass * fluid.y + c.psi_scale * wall_force.y),
+       0.0f - c.gradient_scale * (c.mass * fluid.z + c.psi_scale * wall_force.z)};
+  if (viscosity) {
+    a.x += c.viscosity_scale * viscous.x, a.y += c.viscosity_scale * viscous.y;
+    a.z += c.viscosity_scale * viscous.z;
+  }
+  if (wall_viscosity) {
+    a.x += c.wall_viscosity_scale * wall_viscous.x, a.y += c.wall_viscosity_scale * wall_viscous.y;
+    a.z += c.wall_viscosity_scale * wall_viscous.z;
+  }
+  f.ax[i] = a.x, f.ay[i] = a.y, f.az[i] = a.z;
+}
+
+// v += a dt, the wall contact, x += v dt, rho += (D rho / Dt) dt (Integrate in
+// becker_teschner_solver.cc).
+__global__ void IntegrateKernel(Fluid f, SphConstants c, Surfaces s, float* carried,
+                                const float* rate, Shift shift, float dt, uint32_t n) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= n) return;
+  F3 v{f.vx[i] + f.ax[i] * dt, f.vy[i] + f.ay[i] * dt, f.vz[i] + f.az[i] * dt};
+  const F3 x{f.x[i], f.y[i], f.z[i]};
+  LimitApproachToSurfaces(c, s, x, dt, v);
+  if (shift.x == nullptr) {
+    MoveAndStore(c, s, f, i, x, v, dt);
+  } else {
+    // The shift's displacement too, cut by the contact as the velocity's.
+    F3 drift{v.x + shift.x[i], v.y + shift.y[i], v.z + shift.z[i]};
+    LimitApproachToSurfaces(c, s, x, dt, drift);
+    float xs[3] = {x.x + drift.x * dt, x.y + drift.y * dt, x.z + drift.z * dt};
+    float vs[3] = {v.x, v.y, v.z};
+    ClampAndStorePosition(c, s, f, i, xs, vs);
+    f.vx[i] = vs[0], f.vy[i] = vs[1], f.vz[i] = vs[2];
+  }
+  carried[i] += rate[i] * dt;
+  f.density[i] = carried[i];
+}
+
+}  // namespace
+}  // namespace dysa::cuda::sph
