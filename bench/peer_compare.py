@@ -207,7 +207,7 @@ def read_marin_heights(repo):
 
 
 def read_repo_published(repo):
-    """kP1ArrivalPublished and kP1PeakPublished of validation_impact.h (the project's gate)."""
+    """kP1ArrivalMeasured and kP1PeakMeasured of validation_impact.h (the project's gate)."""
     path = os.path.join(repo, "server", "validation", "include", "dysa", "validation",
                         "validation_impact.h")
     out = {}
@@ -215,7 +215,7 @@ def read_repo_published(repo):
         text = open(path).read()
     except OSError:
         return out
-    for key in ("kP1ArrivalPublished", "kP1PeakPublished"):
+    for key in ("kP1ArrivalMeasured", "kP1PeakMeasured"):
         m = re.search(key + r"\s*=\s*([0-9.eE+-]+)", text)
         if m:
             out[key] = float(m.group(1))
@@ -542,10 +542,10 @@ def run_spheric(args, repo):
     pub = read_repo_published(repo)
     if pub:
         rows.append({"code": "experiment_published", "dp_m": "", "pressure_source":
-                     "validation_impact.h kP1ArrivalPublished/kP1PeakPublished "
+                     "validation_impact.h kP1ArrivalMeasured/kP1PeakMeasured "
                      "(the project's gate)",
-                     "P1_arrival_s": pub.get("kP1ArrivalPublished"),
-                     "P1_peak_1ms_pa": pub.get("kP1PeakPublished")})
+                     "P1_arrival_s": pub.get("kP1ArrivalMeasured"),
+                     "P1_peak_1ms_pa": pub.get("kP1PeakMeasured")})
     for dp, peer_dir, project_file in args.run:
         ps, note = read_peer_spheric(peer_dir)
         js = read_project_steps(project_file)

@@ -25,21 +25,29 @@ size_t SampleAt(const std::vector<double>& times, double t) {
 std::string SphericDiagnosticsText(const SphericTest2Result& r) {
   std::string s;
   if (r.p1_arrival) {
+    s += Format("    P1 arrival (%.0f ms P1 > %.0f Pa) at %.4f s (MARIN %.3f s): %+.1f ms\n",
+                1000 * kSensorWindow, kArrivalThreshold, *r.p1_arrival, kP1ArrivalMeasured,
+                1000 * (*r.p1_arrival - kP1ArrivalMeasured));
     s += Format(
-        "    P1 arrival (filtered P1 > %.0f Pa) at %.4f s (published %.3f s, 0.39-0.40): "
-        "%+.1f ms\n",
-        kArrivalThreshold, *r.p1_arrival, kP1ArrivalPublished,
-        1000 * (*r.p1_arrival - kP1ArrivalPublished));
-    s += Format(
-        "    P1 peak (filtered over %.0f ms, within %.1f s of the arrival) %.2f kPa at "
-        "%.4f s (published about %.0f kPa): %+.0f%%\n",
-        1000 * kSensorFilterWindow, kImpactWindow, r.p1_peak / 1000, r.p1_peak_time,
-        kP1PeakPublished / 1000, 100 * (r.p1_peak / kP1PeakPublished - 1));
+        "    P1 peak (%.0f ms, within %.1f s of the arrival) %.2f kPa at %.4f s (MARIN %.2f kPa "
+        "at %.3f s): %+.0f%%; over %.0f ms %.2f kPa\n",
+        1000 * kSensorWindow, kImpactWindow, r.p1_peak / 1000, r.p1_peak_time,
+        kP1PeakMeasured / 1000, kP1PeakTimeMeasured, 100 * (r.p1_peak / kP1PeakMeasured - 1),
+        1000 * kHistoryWindow, r.p1_peak_5ms / 1000);
     s += Format("    P1 mean over the %.1f s after the arrival: %.2f kPa\n", kImpactWindow,
                 r.p1_impact_mean / 1000);
   } else {
-    s += "    P1 stayed dry (filtered P1 never above " + Format("%.0f", kArrivalThreshold) +
-         " Pa)\n";
+    s += "    P1 stayed dry (1 ms P1 never above " + Format("%.0f", kArrivalThreshold) + " Pa)\n";
+  }
+  if (r.p2_arrival) {
+    s += Format(
+        "    P2 arrival %.4f s (MARIN %.3f s): %+.1f ms; peak %.2f kPa at %.4f s (MARIN %.2f "
+        "kPa): %+.0f%%\n",
+        *r.p2_arrival, kP2ArrivalMeasured, 1000 * (*r.p2_arrival - kP2ArrivalMeasured),
+        r.p2_peak / 1000, r.p2_peak_time, kP2PeakMeasured / 1000,
+        100 * (r.p2_peak / kP2PeakMeasured - 1));
+  } else {
+    s += "    P2 stayed dry\n";
   }
   s += Format(
       "    H4 RMS relative error over t <= 1 s: %.2f%%; RMS |H - H_ref| / %.2f m over "
@@ -51,7 +59,7 @@ std::string SphericDiagnosticsText(const SphericTest2Result& r) {
 
 std::string SphericSeriesText(const SphericTest2Result& r, double interval) {
   std::string s =
-      "\nspheric_test2: pressure (kPa, filtered) and water height (m, simulated / MARIN)\n"
+      "\nspheric_test2: pressure (kPa, 1 ms average) and water height (m, simulated / MARIN)\n"
       "     t     P1     P2     P3     P4     P5     P6     P7     P8   H1 sim/ref     H2 sim/ref"
       "     H3 sim/ref     H4 sim/ref\n";
   if (r.times.empty()) return s;

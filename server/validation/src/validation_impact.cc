@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <string>
 
 #include "dysa/core/probes.h"
@@ -48,6 +49,19 @@ double TraceAt(const std::vector<double>& times, const std::vector<double>& trac
   const size_t hi = size_t(std::lower_bound(times.begin(), times.end(), t) - times.begin());
   const double f = (t - times[hi - 1]) / (times[hi] - times[hi - 1]);
   return trace[hi - 1] + f * (trace[hi] - trace[hi - 1]);
+}
+
+// A sensor's first impact in its 1 ms series: the arrival (the first value above
+// kArrivalThreshold; none while dry) and the largest value within kImpactWindow after it.
+void FirstImpact(const std::vector<double>& times, const std::vector<double>& series,
+                 std::optional<double>& arrival, double& peak, double& peak_time) {
+  for (size_t k = 0; k < series.size(); ++k) {
+    if (!arrival && series[k] > kArrivalThreshold) arrival = times[k];
+    if (arrival && times[k] <= *arrival + kImpactWindow && series[k] > peak) {
+      peak = series[k];
+      peak_time = times[k];
+    }
+  }
 }
 
 }  // namespace
@@ -112,16 +126,20 @@ SphericTest2Result RunSphericTest2(const ValidationOptions& options, double end_
   result.run = {scene.solver, d, sim.particle_count(), sim.step(), sim.time()};
 
   for (int s = 0; s < kSphericPressureSensors; ++s) {
-    result.pressure_filtered[s] =
-        MovingAverage(result.times, result.pressure[s], kSensorFilterWindow);
+    result.pressure_filtered[s] = MovingAverage(result.times, result.pressure[s], kSensorWindow);
   }
-  const std::vector<double>& p1 = result.pressure_filtered[0];
-  for (size_t k = 0; k < p1.size(); ++k) {
-    if (!result.p1_arrival && p1[k] > kArrivalThreshold) result.p1_arrival = result.times[k];
-    if (result.p1_arrival && result.times[k] <= *result.p1_arrival + kImpactWindow &&
-        p1[k] > result.p1_peak) {
-      result.p1_peak = p1[k];
-      result.p1_peak_time = result.times[k];
+  FirstImpact(result.times, result.pressure_filtered[0], result.p1_arrival, result.p1_peak,
+              result.p1_peak_time);
+  FirstImpact(result.times, result.pressure_filtered[1], result.p2_arrival, result.p2_peak,
+              result.p2_peak_time);
+  if (result.p1_arrival) {
+    const std::vector<double> history =
+        MovingAverage(result.times, result.pressure[0], kHistoryWindow);
+    for (size_t k = 0; k < history.size(); ++k) {
+      const double t = result.times[k];
+      if (t >= *result.p1_arrival && t <= *result.p1_arrival + kImpactWindow) {
+        result.p1_peak_5ms = std::max(result.p1_peak_5ms, history[k]);
+      }
     }
   }
 
