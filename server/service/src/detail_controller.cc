@@ -1,6 +1,7 @@
 #include "dysa/service/detail_controller.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -45,6 +46,15 @@ DetailController::DetailController(DetailBudget budget) : budget_(budget) {}
 
 uint32_t DetailController::threshold() const {
   return level_ == 0 ? 0 : codec::DetailThreshold(fraction());
+}
+
+double SteadySeconds() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+void DetailController::SetTotal(double now, uint32_t total) {
+  total_ = total;
+  Decide(now);
 }
 
 void DetailController::OnFrameStart(double now, size_t bytes, uint32_t particles, uint32_t total,

@@ -114,6 +114,8 @@ class FrameEncoder {
   void RequestKeyframe() { keyframe_requested_ = true; }
   // Whether the last Encode() wrote a keyframe.
   bool last_was_keyframe() const { return last_was_keyframe_; }
+  // Particles in the last frame encoded (after stride and detail threshold).
+  uint32_t last_count() const { return count_; }
   // Bytes its buffers hold between frames: the decoder's state it predicts from, recycled
   // buffers and the gathered values (a few values per particle and field).
   size_t buffer_bytes() const;

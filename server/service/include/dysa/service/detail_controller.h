@@ -44,6 +44,15 @@ struct DetailStatus {
   double link_bytes_per_second = 0;  // measured while sending; 0: not measured yet
 };
 
+// One stream in GetStatus: its budget and what it delivers.
+struct StreamReport {
+  DetailBudget budget;
+  DetailStatus status;
+};
+
+// Seconds of the steady clock, the controller's clock in the server.
+double SteadySeconds();
+
 class DetailController {
  public:
   static constexpr int kLevels = 49;  // level 0: every particle, level 48: 1/4096
@@ -60,6 +69,10 @@ class DetailController {
   // A new frame was ready at `now` while the current one was still being written.
   void OnLate(double now);
 
+  // The stream's particle count before selection, known before its first frame (a late joiner).
+  void SetTotal(double now, uint32_t total);
+
+  uint32_t total() const { return total_; }
   int level() const { return level_; }
   double fraction() const { return LevelFraction(level_); }
   // The codec's detail threshold for fraction() (0: every particle).
