@@ -566,8 +566,9 @@ class ClientTest(unittest.TestCase):
 
     def test_frames_budget(self) -> None:
         # A particle budget: a stable subset by rank, the same ids in every frame, each frame
-        # naming them; GetStatus reports the stream.
-        stream = self.client.frames(fields=("positions",), fps_target=30,
+        # naming them; GetStatus reports the stream. (No fps_target: the detail then follows
+        # the particle count alone, whatever the machine's load does to the link.)
+        stream = self.client.frames(fields=("positions",), max_fps=30,
                                     particle_budget=_PARTICLES // 4)
         self.client.resume()
         try:
@@ -585,7 +586,7 @@ class ClientTest(unittest.TestCase):
             self._check_positions(frame)
         self.assertFalse(frames[1].keyframe)  # delta coding goes on within the subset
         [s] = [s for s in status.streams if s.particle_budget == _PARTICLES // 4]
-        self.assertEqual(s.fps_target, 30)
+        self.assertEqual(s.fps_target, 0)
         self.assertAlmostEqual(s.detail, frames[-1].detail_fraction, places=6)
         # Without budgets, ids are 0 .. count - 1 and the detail is whole.
         [whole] = _read_frames(self.client.frames(fields=("positions",)), 1)
