@@ -47,6 +47,9 @@ struct Options {
   std::string mode = "particles";
   uint32_t stride = 1;
   double max_fps = 0;
+  double fps_target = 0;
+  uint64_t byte_budget = 0;
+  uint32_t particle_budget = 0;
   bool vsync = true;
 };
 
@@ -96,12 +99,27 @@ int ParseOptions(int argc, char** argv, Options& options) {
   app.add_option("--max-fps", options.max_fps, "Frames per second to ask the server for (0: all)")
       ->check(CLI::Range(0.0, 1000.0))
       ->capture_default_str();
+  app.add_option("--fps-target", options.fps_target,
+                 "Frames per second to hold on this link: the server sends a stable, even subset "
+                 "of the particles that fits, drawn larger (docs/viewer.md)")
+      ->check(CLI::Range(0.001, 1000.0));
+  app.add_option("--byte-budget", options.byte_budget,
+                 "With --fps-target: at most B bytes per second (>= 1000)")
+      ->check(CLI::Range(uint64_t{1000}, uint64_t{1} << 50));
+  app.add_option("--particle-budget", options.particle_budget, "At most P particles per frame")
+      ->check(CLI::Range(1u, 20000000u));
   app.add_flag("!--no-vsync", options.vsync, "Render as fast as possible (benchmarks)");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     const int status = app.exit(e);
     return status == 0 ? -1 : status;  // -1: help printed, exit 0
+  }
+  if (options.byte_budget > 0 && options.fps_target == 0) {
+    std::fprintf(stderr,
+                 "dysa-viewer: error: --byte-budget: needs --fps-target (bytes per second are "
+                 "spread over the target frame rate)\n");
+    return 2;
   }
   return 0;
 }
@@ -222,6 +240,9 @@ int Run(const Options& options) {
     settings.mode = options.mode == "fluid" ? RenderMode::kFluidSurface : RenderMode::kParticles;
     settings.stream.stride = options.stride;
     settings.stream.max_fps = options.max_fps;
+    settings.stream.fps_target = options.fps_target;
+    settings.stream.byte_budget = options.byte_budget;
+    settings.stream.particle_budget = options.particle_budget;
     const bool screenshot = !options.screenshot.empty();
     settings.show_panel = !screenshot || options.screenshot_panel;
     // A screenshot shows what the server sends, not where the pointer happens to hover.
@@ -270,6 +291,8 @@ int Run(const Options& options) {
       if (receiver.TakeLatest(frame)) {
         scene_renderer.UploadParticles(frame.frame);
         render_stats.particles_drawn = frame.frame.count;
+        render_stats.detail = scene_renderer.detail();
+        render_stats.detail_scale = scene_renderer.detail_scale();
         if (!have_particles) first_particles = Clock::now();
         have_particles = true;
       }

@@ -269,6 +269,16 @@ class RemoteCommands {
         ->check(CLI::Range(1u, 1u << 30));
     cmd->add_option("--max-fps", max_fps_, "At most F frames per second (default: every frame)")
         ->check(CLI::Range(0.0, 1e6));
+    cmd->add_option("--fps-target", fps_target_,
+                    "Hold F frames per second on this link: the server sends the largest "
+                    "stable, even subset of the particles that fits (also caps the frame rate)")
+        ->check(CLI::Range(0.001, 1000.0));
+    cmd->add_option("--byte-budget", byte_budget_,
+                    "With --fps-target: at most B bytes per second (>= 1000)")
+        ->check(CLI::Range(uint64_t{1000}, uint64_t{1} << 50));
+    cmd->add_option("--particle-budget", particle_budget_,
+                    "At most P particles per frame (a stable, even subset)")
+        ->check(CLI::Range(1u, 20000000u));
     cmd->add_option("--velocity-encoding", velocity_encoding_,
                     "With velocity: components (the tightest bound per component) or octahedral "
                     "(|v| and direction, an error relative to the speed)")
@@ -281,6 +291,14 @@ class RemoteCommands {
         remote::ParseFields(fields_.empty() ? std::vector<std::string>{"speed"} : fields_);
     stream.stride = stride_;
     stream.max_fps = max_fps_;
+    if (byte_budget_ > 0 && fps_target_ == 0) {
+      throw remote::UsageError(
+          "--byte-budget: needs --fps-target (bytes per second are spread over the target frame "
+          "rate)");
+    }
+    stream.fps_target = fps_target_;
+    stream.byte_budget = byte_budget_;
+    stream.particle_budget = particle_budget_;
     stream.velocity_encoding = velocity_encoding_ == "octahedral"
                                    ? dysa::codec::VelocityEncoding::kOctahedral
                                    : dysa::codec::VelocityEncoding::kComponents;
@@ -298,6 +316,9 @@ class RemoteCommands {
   std::vector<std::string> fields_;
   uint32_t stride_ = 0;
   double max_fps_ = 0;
+  double fps_target_ = 0;
+  uint64_t byte_budget_ = 0;
+  uint32_t particle_budget_ = 0;
   std::string velocity_encoding_ = "components";
   remote::RecordOptions record_;
   std::vector<std::pair<CLI::App*, std::function<void(remote::Client&)>>> commands_;

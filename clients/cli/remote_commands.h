@@ -87,10 +87,11 @@ struct RecordOptions {
 };
 
 // Receives options.frames frames and writes them. vtk: one .vtp per frame (positions, the fields
-// received, id = k * stride) and a .pvd; npz: positions (F,N,3) float32, speed/density (F,N)
-// and velocity (F,N,3) when received, time float64 (F), step and frame uint64 (F), ids uint32
-// (N). When interrupted, writes the frames received so far and throws std::runtime_error
-// saying so; the same when the particle count changes in an npz recording.
+// received, id: each particle's, k * stride or the detail subset's) and a .pvd; npz: positions
+// (F,N,3) float32, speed/density (F,N) and velocity (F,N,3) when received, time float64 (F), step
+// and frame uint64 (F), ids uint32 (N). When interrupted, writes the frames received so far and
+// throws std::runtime_error saying so; the same when the particle count changes in an npz
+// recording.
 void Record(Client& client, const RecordOptions& options, std::ostream& out, std::ostream& err);
 
 }  // namespace dysa::remote

@@ -79,6 +79,18 @@ Json ToJson(const ServerStatus& s) {
     passes.push_back(
         {{"name", p.name}, {"last_ms", p.last_ms}, {"mean_ms", p.mean_ms}, {"calls", p.calls}});
   }
+  Json streams = Json::array();
+  for (const StreamStatus& t : s.streams) {
+    streams.push_back({{"detail", t.detail},
+                       {"particles", t.particles},
+                       {"bytes_per_second", t.bytes_per_second},
+                       {"frames_per_second", t.frames_per_second},
+                       {"age_s", t.age_s},
+                       {"link_bytes_per_second", t.link_bytes_per_second},
+                       {"fps_target", t.fps_target},
+                       {"byte_budget", t.byte_budget},
+                       {"particle_budget", t.particle_budget}});
+  }
   return {{"state", s.state},
           {"step", s.step},
           {"frame", s.frame},
@@ -99,7 +111,8 @@ Json ToJson(const ServerStatus& s) {
           {"scene_version", s.scene_version},
           {"solver_threads", s.solver_threads},
           {"device", s.device},
-          {"device_memory_bytes", s.device_memory_bytes}};
+          {"device_memory_bytes", s.device_memory_bytes},
+          {"streams", streams}};
 }
 
 Json ToJson(const ControlResult& r) {

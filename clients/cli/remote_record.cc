@@ -33,8 +33,7 @@ std::vector<char> FloatBytes(const std::vector<float>& values) {
 VtpPoints ToVtp(const codec::Frame& frame) {
   VtpPoints points;
   points.positions = frame.positions;
-  std::vector<uint32_t> ids(frame.count);
-  for (uint32_t k = 0; k < frame.count; ++k) ids[k] = k * frame.stride;
+  const std::vector<uint32_t> ids = codec::ParticleIds(frame);
   VtpArray id{"id", "UInt32", 1, std::vector<char>(ids.size() * sizeof(uint32_t))};
   if (!ids.empty()) std::memcpy(id.bytes.data(), ids.data(), id.bytes.size());
   points.arrays.push_back(std::move(id));
@@ -55,8 +54,9 @@ VtpPoints ToVtp(const codec::Frame& frame) {
 
 // The frames of an npz recording, appended frame by frame: (F, N, ...) arrays in C order.
 struct NpzFrames {
-  uint32_t count = 0;  // N
-  uint32_t stride = 1;
+  uint32_t count = 0;         // N
+  std::vector<uint32_t> ids;  // N, the same in every frame
+  uint32_t threshold = 0;     // the frames' detail threshold (0: every stride-th particle)
   uint32_t fields = 0;
   std::vector<float> positions, speed, velocity, density;
   std::vector<double> time;
@@ -65,7 +65,12 @@ struct NpzFrames {
   // Returns why the frame cannot join the others, or "".
   std::string Append(const codec::Frame& f, uint64_t frame_number) {
     if (time.empty()) {
-      count = f.count, stride = f.stride, fields = f.fields;
+      count = f.count, fields = f.fields, threshold = f.detail_threshold;
+      ids = codec::ParticleIds(f);
+    } else if (f.detail_threshold != threshold) {
+      return "the frame's particles changed at frame " + std::to_string(frame_number) +
+             " (the server changed the detail to fit --fps-target or --byte-budget; record a "
+             "fixed subset with --particle-budget alone, or to vtk)";
     } else if (f.count != count || f.fields != fields) {
       return "the frame changed from " + std::to_string(count) + " particles (" +
              FieldNames(fields) + ") to " + std::to_string(f.count) + " (" + FieldNames(f.fields) +
@@ -99,8 +104,6 @@ struct NpzFrames {
     npz.Add("time", std::span<const double>(time), {frames});
     npz.Add("step", std::span<const uint64_t>(step), {frames});
     npz.Add("frame", std::span<const uint64_t>(frame), {frames});
-    std::vector<uint32_t> ids(n);
-    for (uint32_t k = 0; k < n; ++k) ids[k] = k * stride;
     npz.Add("ids", std::span<const uint32_t>(ids), {n});
     npz.Close();
   }

@@ -36,6 +36,22 @@ void PrintStatus(Client& client, bool json, std::ostream& out) {
   if (!s.alarm.empty()) rows.push_back({"alarm", s.alarm});
   if (!s.warning.empty()) rows.push_back({"warning", s.warning});
   PrintTable(rows, {}, out);
+  if (!s.streams.empty()) {
+    out << "\n";
+    std::vector<std::vector<std::string>> streams = {
+        {"stream", "detail", "particles", "frames/s", "delivered/s", "age ms", "budget"}};
+    for (size_t i = 0; i < s.streams.size(); ++i) {
+      const StreamStatus& t = s.streams[i];
+      std::string budget;
+      if (t.fps_target > 0) budget += Short(t.fps_target) + " fps ";
+      if (t.byte_budget > 0) budget += HumanBytes(double(t.byte_budget)) + "/s ";
+      if (t.particle_budget > 0) budget += std::to_string(t.particle_budget) + " particles";
+      streams.push_back({std::to_string(i + 1), Fixed(t.detail, 3), std::to_string(t.particles),
+                         Fixed(t.frames_per_second, 1), HumanBytes(t.bytes_per_second),
+                         Fixed(1000 * t.age_s, 0), budget.empty() ? "-" : budget});
+    }
+    PrintTable(streams, {1, 2, 3, 4, 5}, out);
+  }
   if (s.passes.empty()) return;
   out << "\n";
   std::vector<std::vector<std::string>> passes = {{"pass", "last ms", "mean ms", "calls"}};

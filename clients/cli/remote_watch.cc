@@ -9,6 +9,7 @@
 #include <string>
 
 #include "dysa/client/frame_assembler.h"
+#include "dysa/codec/detail_subset.h"
 #include "remote_commands.h"
 #include "remote_format.h"
 #include "stream_watchdog.h"
@@ -32,6 +33,7 @@ struct WatchStats {
   uint64_t frame = 0;
   double time = 0;
   uint32_t particles = 0;
+  double detail = 1;  // fraction of the particles the frame holds
   uint64_t frame_bytes = 0;
   double latency_ms = 0;
 
@@ -55,9 +57,10 @@ struct WatchStats {
              (waited >= 2 ? " (" + Fixed(waited, 0) + " s; is the simulation paused?)" : "");
     }
     std::string line = "frame " + std::to_string(frame) + "  t " + Fixed(time, 3) + " s  " +
-                       std::to_string(particles) + " particles  " + Fixed(rate, 1) + " frames/s  " +
-                       HumanBytes(double(frame_bytes)) + "/frame  " +
-                       Fixed(particles ? double(frame_bytes) / particles : 0, 2) +
+                       std::to_string(particles) + " particles" +
+                       (detail < 1 ? " (detail " + Fixed(detail, 3) + ")" : "") + "  " +
+                       Fixed(rate, 1) + " frames/s  " + HumanBytes(double(frame_bytes)) +
+                       "/frame  " + Fixed(particles ? double(frame_bytes) / particles : 0, 2) +
                        " B/particle  latency " + Fixed(latency_ms, 1) + " ms";
     if (frames_skipped) line += "  skipped " + std::to_string(frames_skipped);
     if (decode_errors) line += "  decode errors " + std::to_string(decode_errors);
@@ -120,6 +123,7 @@ void Watch(Client& client, const WatchOptions& options, std::ostream& out) {
     stats.frame = message.frame;
     stats.time = frame.time;
     stats.particles = frame.count;
+    stats.detail = codec::DetailFraction(frame.detail_threshold);
     stats.frame_bytes = progress.frame_bytes;
     stats.latency_ms = progress.latency_ms;
   }
@@ -139,6 +143,7 @@ void Watch(Client& client, const WatchOptions& options, std::ostream& out) {
                       {"last_frame", stats.frame},
                       {"time", stats.time},
                       {"particles", stats.particles},
+                      {"detail", stats.detail},
                       {"frames_skipped", stats.frames_skipped},
                       {"decode_errors", stats.decode_errors},
                       {"device", status.device}},

@@ -205,12 +205,30 @@ TEST(DysaRemoteBinaryTest, UsageErrorsExitWithTwoBeforeAnyCall) {
   TempDir dir;
   // No server listens at 127.0.0.1:1, so an exit status of 2 (not 1) shows no call was made.
   const std::string server = "--server 127.0.0.1:1 ";
-  for (const char* args :
-       {"step 0", "back -1", "set", "set viscosity", "set viscosity=abc", "load",
-        "record --frames 5", "record --out x.npz", "record --frames 0 --out x.npz",
-        "record --frames 1 --out x.npz --format csv", "watch --fields pressure",
-        "watch --seconds 0", "status --no-such-flag", "frobnicate", "step 10001", "back 10001",
-        "set viscosity=1e-400", "set viscosity=1e999", "set viscosity=inf"}) {
+  for (const char* args : {"step 0",
+                           "back -1",
+                           "set",
+                           "set viscosity",
+                           "set viscosity=abc",
+                           "load",
+                           "record --frames 5",
+                           "record --out x.npz",
+                           "record --frames 0 --out x.npz",
+                           "record --frames 1 --out x.npz --format csv",
+                           "watch --fields pressure",
+                           "watch --seconds 0",
+                           "status --no-such-flag",
+                           "frobnicate",
+                           "step 10001",
+                           "back 10001",
+                           "set viscosity=1e-400",
+                           "set viscosity=1e999",
+                           "set viscosity=inf",
+                           "watch --fps-target 0",
+                           "watch --fps-target 5000",
+                           "watch --byte-budget 10",
+                           "watch --byte-budget 100000",
+                           "watch --particle-budget 0"}) {
     const Result r = RunDysa(dir.path(), server + args);
     EXPECT_EQ(r.exit_code, 2) << args << "\n" << r.err << r.out;
   }
@@ -226,6 +244,11 @@ TEST(DysaRemoteBinaryTest, UsageErrorsExitWithTwoBeforeAnyCall) {
   EXPECT_EQ(kMaxStepFrames, service::kMaxStepCount);
   r = RunDysa(dir.path(), server + "step 10001");
   EXPECT_THAT(r.err + r.out, HasSubstr("not in range 1 to 10000"));
+  // Budgets: the flag and its range, or what it needs.
+  r = RunDysa(dir.path(), server + "watch --fps-target 5000");
+  EXPECT_THAT(r.err + r.out, HasSubstr("--fps-target: Value 5000 not in range"));
+  r = RunDysa(dir.path(), server + "record --frames 1 --out x.npz --byte-budget 100000");
+  EXPECT_THAT(r.err, HasSubstr("dysa record: error: --byte-budget: needs --fps-target"));
   // Not "A subcommand is required".
   r = RunDysa(dir.path(), server + "frobnicate");
   EXPECT_THAT(r.err, HasSubstr("dysa: error: unknown command 'frobnicate'; the commands are run, "
@@ -740,6 +763,38 @@ print('ok')
                       "'" + npz2.string() + "'", output),
             0)
       << output;
+}
+
+TEST_F(RemoteTest, RecordNpzWithAParticleBudgetKeepsAnEvenSubsetAndItsIds) {
+  StartServer({"--scene", "seed_basic"});
+  const fs::path npz = dir_.path() / "budget.npz";
+  const Json j = DysaJson("record --frames 3 --particle-budget 3000 --out '" + npz.string() + "'");
+  EXPECT_EQ(j["frames"], 3);
+  std::string output;
+  EXPECT_EQ(
+      RunPython(dir_.path(), R"(import sys
+import numpy as np
+sys.path.insert(0, sys.argv[2])
+from dysa import detail
+d = np.load(sys.argv[1])
+ids = d['ids']
+assert 2000 < len(ids) <= 3000, len(ids)
+assert d['positions'].shape == (3, len(ids), 3)
+assert np.all(np.diff(ids.astype(np.int64)) > 0)
+# The subset by rank: the ids whose rank is below a threshold, not every n-th id.
+assert detail.detail_rank(ids).max() < detail.detail_rank(np.setdiff1d(np.arange(27000), ids)).min()
+assert len(set((ids % 9).tolist())) == 9
+print('ok')
+)",
+                "'" + npz.string() + "' '" +
+                    (fs::path(DYSA_SCENES_DIR).parent_path() / "clients/python").string() + "'",
+                output),
+      0)
+      << output;
+  // dysa watch shows the detail.
+  const Json w = DysaJson("watch --seconds 1 --particle-budget 3000");
+  EXPECT_LT(w["detail"].get<double>(), 0.12);
+  EXPECT_LE(w["particles"].get<int>(), 3000);
 }
 
 TEST_F(RemoteTest, RecordVtkWritesASeries) {

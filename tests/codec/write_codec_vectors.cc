@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "codec/frame_codec_test_util.h"
+#include "dysa/codec/detail_subset.h"
 #include "dysa/codec/frame_codec.h"
 
 namespace {
@@ -96,6 +97,8 @@ json WriteScenario(const fs::path& dir, const Scenario& s) {
     entry["keyframe"] = frame->keyframe;
     entry["count"] = frame->count;
     entry["stride"] = frame->stride;
+    entry["detail_threshold"] = frame->detail_threshold;
+    entry["ids"] = dysa::codec::ParticleIds(*frame);
     entry["fields"] = frame->fields;
     entry["chunks"] = chunk_files;
     const uint32_t fields = frame->fields;
@@ -193,6 +196,18 @@ std::vector<Scenario> Scenarios() {
     s.config.chunk_particles = 400;
     s.config.keyframe_interval = 5;
     s.keyframes = {true, false, false, false, false, true};
+    out.push_back(s);
+  }
+  {
+    // A subset by rank (format version 3): the ids follow from the header's threshold.
+    Scenario s;
+    s.name = "f_detail_subset";
+    s.particles = 3000;
+    s.frames = 4;
+    s.config.fields = dysa::codec::kPositions | dysa::codec::kSpeed;
+    s.config.detail_threshold = dysa::codec::DetailThreshold(0.3);
+    s.config.chunk_particles = 300;
+    s.keyframes = {true, false, false, false};
     out.push_back(s);
   }
   return out;

@@ -41,6 +41,7 @@ _CLIENT = _REPO / "clients" / "python"
 if str(_CLIENT) not in sys.path:
     sys.path.append(str(_CLIENT))
 
+from dysa import detail  # noqa: E402
 from dysa.client import Client, DysaError  # noqa: E402
 
 _SCENE = "seed_basic"
@@ -185,6 +186,14 @@ class OfflineTest(unittest.TestCase):
                 client.set(viscosity="thick")
             with self.assertRaises(FileNotFoundError):
                 client.load("no/such/scene.json")
+            for kwargs, message in (
+                    ({"fps_target": 5000}, "fps_target must be in \\(0, 1000\\]"),
+                    ({"fps_target": -1}, "fps_target must be in"),
+                    ({"fps_target": 30, "byte_budget": 10}, "byte_budget must be >= 1000"),
+                    ({"byte_budget": 100000}, "byte_budget needs fps_target"),
+                    ({"particle_budget": 30_000_000}, "particle_budget must be in \\[1, ")):
+                with self.assertRaisesRegex(ValueError, message):
+                    client.frames(**kwargs)
 
     def test_codec_imports_without_stubs(self) -> None:
         # A copy of the package, away from this repository's build directories, and no
@@ -554,6 +563,35 @@ class ClientTest(unittest.TestCase):
             self.assertLess(max(frame.position_error), 10.0 / (2 ** 20 - 1))
         # The fluid falls: mean vertical velocity below zero after the first frames.
         self.assertLess(float(frames[-1].velocities[:, 1].mean()), 0.0)
+
+    def test_frames_budget(self) -> None:
+        # A particle budget: a stable subset by rank, the same ids in every frame, each frame
+        # naming them; GetStatus reports the stream. (No fps_target: the detail then follows
+        # the particle count alone, whatever the machine's load does to the link.)
+        stream = self.client.frames(fields=("positions",), max_fps=30,
+                                    particle_budget=_PARTICLES // 4)
+        self.client.resume()
+        try:
+            frames = _read_frames(stream, 3, keep_open=True)
+            status = self.client.status()
+        finally:
+            self.client.pause()
+            stream.close()
+        for frame in frames:
+            self.assertLess(frame.detail_fraction, 0.26)
+            self.assertLessEqual(frame.count, _PARTICLES // 4 * 1.2)
+            self.assertEqual(frame.ids.shape, (frame.count,))
+            self.assertTrue(np.array_equal(frame.ids, frames[0].ids))
+            self.assertTrue(np.all(detail.detail_rank(frame.ids) < frame.detail_threshold))
+            self._check_positions(frame)
+        self.assertFalse(frames[1].keyframe)  # delta coding goes on within the subset
+        [s] = [s for s in status.streams if s.particle_budget == _PARTICLES // 4]
+        self.assertEqual(s.fps_target, 0)
+        self.assertAlmostEqual(s.detail, frames[-1].detail_fraction, places=6)
+        # Without budgets, ids are 0 .. count - 1 and the detail is whole.
+        [whole] = _read_frames(self.client.frames(fields=("positions",)), 1)
+        self.assertEqual(whole.detail_fraction, 1.0)
+        self.assertTrue(np.array_equal(whole.ids, np.arange(_PARTICLES)))
 
     def test_frames_octahedral_velocity(self) -> None:
         with self.assertRaisesRegex(ValueError, "velocity_encoding must be one of components, "

@@ -26,7 +26,7 @@ _CLIENT = str(Path(__file__).resolve().parents[2] / "clients" / "python")
 if _CLIENT not in sys.path:
     sys.path.append(_CLIENT)
 
-from dysa import codec  # noqa: E402
+from dysa import codec, detail  # noqa: E402
 from dysa.codec import DecodeError, FrameDecoder  # noqa: E402
 
 _vectors = None  # the written vectors, set by setUpModule
@@ -130,8 +130,11 @@ class _Case(unittest.TestCase):
         """frame is what the C++ decoder made of the same chunks (manifest entry `expected`)."""
         self.assertIsNotNone(frame)
         self.assertIsInstance(frame, codec.Frame)
-        for key in ("frame_seq", "step", "keyframe", "count", "stride", "fields"):
+        for key in ("frame_seq", "step", "keyframe", "count", "stride", "fields",
+                    "detail_threshold"):
             self.assertEqual(getattr(frame, key), expected[key], key)
+        self.assertEqual(frame.ids.dtype, np.uint32)
+        self.assertEqual(frame.ids.tolist(), expected["ids"])
         self.assertEqual(frame.time, float.fromhex(expected["time"]))
         n = expected["count"]
         self.assertBitIdentical(frame.positions, expected["positions"], (n, 3))
@@ -170,7 +173,7 @@ class VectorTest(_Case):
     def test_scenarios_cover_what_they_claim(self):
         self.assertEqual(set(_vectors.scenarios),
                          {"a_all_fields", "b_stride_low_bits", "c_empty", "d_extreme_bits",
-                          "e_octahedral_velocity"})
+                          "e_octahedral_velocity", "f_detail_subset"})
         a = _vectors.frames("a_all_fields")
         self.assertEqual([f["keyframe"] for f in a], [True, False, False, False, True, False])
         self.assertTrue(all(len(f["chunks"]) == 3 for f in a))
@@ -185,6 +188,34 @@ class VectorTest(_Case):
         self.assertEqual([f["keyframe"] for f in e], [True, False, False, False, False, True])
         self.assertTrue(all(_HEADER_VERSION(f["chunk_bytes"][0]) == 2 for f in e))
         self.assertTrue(all(_HEADER_VERSION(f["chunk_bytes"][0]) == 1 for f in a))
+        f = _vectors.frames("f_detail_subset")
+        self.assertTrue(all(_HEADER_VERSION(x["chunk_bytes"][0]) == 3 for x in f))
+        self.assertEqual([x["keyframe"] for x in f], [True, False, False, False])
+        # About 30% of the 3000 particles, the same ones in every frame.
+        self.assertTrue(800 < f[0]["count"] < 1000)
+        self.assertTrue(all(x["ids"] == f[0]["ids"] for x in f))
+
+    def test_detail_subset_frames_name_their_particles(self):
+        decoder = FrameDecoder()
+        for f in _vectors.frames("f_detail_subset"):
+            frame = decoder.add_chunks(f["chunk_bytes"])
+            self.assertAlmostEqual(frame.detail_fraction, 0.3, places=6)
+            ranks = detail.detail_rank(frame.ids)
+            self.assertTrue(np.all(ranks < frame.detail_threshold))
+            self.assertTrue(np.all(np.diff(frame.ids.astype(np.int64)) > 0))
+        # Every id of the scene not in the frame has a rank at or above the threshold.
+        rest = np.setdiff1d(np.arange(3000, dtype=np.uint32), frame.ids)
+        self.assertTrue(np.all(detail.detail_rank(rest) >= frame.detail_threshold))
+        # splitmix64 seeded with 0: its first two outputs (the reference sequence).
+        self.assertEqual(detail.splitmix64(np.array([0, 0x9E3779B97F4A7C15], np.uint64)).tolist(),
+                         [0xE220A8397B1DCDAF, 0x6E789E6AA1B965F4])
+        # A threshold that cannot select `count` particles is a corrupt header.
+        chunks = [_with_header(c, 148, "I", 1)
+                  for c in _vectors.frames("f_detail_subset")[0]["chunk_bytes"]]
+        with self.assertRaises(DecodeError) as caught:
+            FrameDecoder().add_chunks(chunks)
+        self.assertEqual(str(caught.exception), "corrupt frame header: count %d is more "
+                         "particles than detail threshold 1 selects" % frame.count)
 
     def test_octahedral_frames_say_so(self):
         decoder = FrameDecoder()
@@ -268,13 +299,13 @@ class StreamTest(_Case):
 
     def test_newer_and_older_versions(self):
         newer = bytearray(self.chunk(0))
-        newer[4] = 3
+        newer[4] = 4
         self.assertRefused(FrameDecoder(), bytes(newer),
-                           "frame format version 3 is newer than this decoder (version 2); "
+                           "frame format version 4 is newer than this decoder (version 3); "
                            "update the client")
         self.assertRefused(FrameDecoder(), _with_header(self.chunk(0), 4, "H", 0),
                            "frame format version 0 is not supported by this decoder "
-                           "(version 2); update the client")
+                           "(version 3); update the client")
         # A version 1 frame labelled version 2 decodes the same: version 2 only adds a flag.
         relabelled = [_with_header(c, 4, "H", 2) for c in self.a[0]["chunk_bytes"]]
         self.assertFrame(FrameDecoder().add_chunks(relabelled), self.a[0])

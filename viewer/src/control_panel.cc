@@ -213,6 +213,9 @@ void ControlPanel::DrawOverlay(const ServerView& view, const remote::ReceiverSta
     ImGui::Text("t = %.3f s   frame %llu   %u particles (%u drawn)", view.status.time,
                 static_cast<unsigned long long>(view.status.frame), view.status.particles,
                 render.particles_drawn);
+    if (render.detail < 1) {
+      ImGui::Text("detail %.3f (budget)   radius x %.2f", render.detail, render.detail_scale);
+    }
     ImGui::Text("stream %.0f frames/s   %s/frame   latency %.1f ms", receiver.frames_per_second,
                 FormatBytes(receiver.bytes_per_frame).c_str(), receiver.latency_ms);
     if (!receiver.streaming && !receiver.error.empty()) {

@@ -29,6 +29,8 @@ struct ViewerSettings {
 struct RenderStats {
   double render_fps = 0;
   uint32_t particles_drawn = 0;
+  double detail = 1;       // fraction of the particles the latest frame holds
+  float detail_scale = 1;  // their drawn radius over the full set's
   std::string address;
 };
 

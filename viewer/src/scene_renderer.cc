@@ -4,6 +4,8 @@
 #include <cstddef>
 #include <string>
 
+#include "detail_scale.h"
+#include "dysa/codec/detail_subset.h"
 #include "obstacle_placement.h"
 #include "speed_colors.h"
 #include "sphere_impostor.h"
@@ -268,11 +270,14 @@ void SceneRenderer::UploadParticles(const codec::Frame& frame) {
                GL_STREAM_DRAW);
   glBindBuffer(GL_ARRAY_BUFFER, 0);
   particle_count_ = GLsizei(n);
+  detail_ = codec::DetailFraction(frame.detail_threshold);
+  detail_scale_ = DetailRadiusScale(detail_);
   if (obstacles_move_ && frame.time != obstacle_time_) PlaceObstacles(frame.time);
 }
 
 ParticleBuffer SceneRenderer::Particles(const SceneStyle& style) const {
-  return {particle_vao_.get(), particle_count_, particle_radius_ * style.particle_scale};
+  return {particle_vao_.get(), particle_count_,
+          particle_radius_ * style.particle_scale * detail_scale_};
 }
 
 void SceneRenderer::DrawEnvironment(const ViewParams& view, const SceneStyle& style) {
@@ -319,7 +324,8 @@ void SceneRenderer::DrawParticles(const ViewParams& view, const SceneStyle& styl
   glUseProgram(sphere_program_.get());
   SetMatrix(Uniform(sphere_program_, "view"), view.view);
   SetMatrix(Uniform(sphere_program_, "projection"), view.projection);
-  glUniform1f(Uniform(sphere_program_, "radius"), particle_radius_ * style.particle_scale);
+  glUniform1f(Uniform(sphere_program_, "radius"),
+              particle_radius_ * style.particle_scale * detail_scale_);
   glUniform1i(Uniform(sphere_program_, "use_gradient"), 1);
   glUniform2f(Uniform(sphere_program_, "speed_range"), style.speed_lo, style.speed_hi);
   glActiveTexture(GL_TEXTURE0);

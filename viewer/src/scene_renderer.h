@@ -36,6 +36,10 @@ class SceneRenderer {
   // One buffer upload: each particle's position and speed (0 when the frame has no speed). The
   // moving obstacles go where they are at the frame's time.
   void UploadParticles(const codec::Frame& frame);
+  // The latest frame's detail (the fraction of the particles it holds) and the factor its
+  // particles are drawn larger by (detail_scale.h).
+  double detail() const { return detail_; }
+  float detail_scale() const { return detail_scale_; }
 
   // The particles on the GPU with the drawn radius for `style`.
   ParticleBuffer Particles(const SceneStyle& style) const;
@@ -80,6 +84,8 @@ class SceneRenderer {
   void PlaceObstacles(double time);
 
   float particle_radius_ = 0.05f;  // m
+  double detail_ = 1;
+  float detail_scale_ = 1;
 };
 
 }  // namespace dysa::viewer

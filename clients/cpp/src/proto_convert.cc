@@ -62,6 +62,11 @@ ServerStatus FromProto(const pb::Status& s) {
   out.scene_version = s.scene_version();
   out.device = s.device();
   out.device_memory_bytes = s.device_memory_bytes();
+  for (const pb::StreamStatus& t : s.streams()) {
+    out.streams.push_back({t.detail(), t.particles(), t.bytes_per_second(), t.frames_per_second(),
+                           t.age_s(), t.link_bytes_per_second(), t.fps_target(), t.byte_budget(),
+                           t.particle_budget()});
+  }
   return out;
 }
 
@@ -139,6 +144,9 @@ pb::StreamFramesRequest ToProto(const StreamOptions& options) {
   request.set_velocity_bits(options.velocity_bits);
   request.set_density_bits(options.density_bits);
   request.set_keyframe_interval(options.keyframe_interval);
+  request.set_fps_target(options.fps_target);
+  request.set_byte_budget(options.byte_budget);
+  request.set_particle_budget(options.particle_budget);
   request.set_velocity_encoding(options.velocity_encoding == codec::VelocityEncoding::kOctahedral
                                     ? pb::VELOCITY_ENCODING_OCTAHEDRAL
                                     : pb::VELOCITY_ENCODING_COMPONENTS);

@@ -117,6 +117,21 @@ class PassTiming:
 
 
 @dataclass(frozen=True)
+class StreamStatus:
+    """One open frame stream as the server measures it (docs/server.md, "Budgets and detail")."""
+
+    detail: float  # fraction of the particles (after the stride) it is sent, (0, 1]
+    particles: int  # particles in its latest delivered frame
+    bytes_per_second: float  # delivered per wall second (~1 s average)
+    frames_per_second: float  # delivered per wall second (~1 s average)
+    age_s: float  # s, age of the data of its latest delivered frame; 0: none yet
+    link_bytes_per_second: float  # what the link took while sending; 0: not measured yet
+    fps_target: float  # its budget as requested; 0: none
+    byte_budget: int  # bytes per second; 0: none
+    particle_budget: int  # particles per frame; 0: none
+
+
+@dataclass(frozen=True)
 class Status:
     """State of the server and its simulation (Client.status())."""
 
@@ -145,6 +160,7 @@ class Status:
     # While paused: a hash of every particle's id, position and velocity (the state is then a
     # frame, and stepping N frames and back N gives the same hash); 0 while running.
     state_hash: int = 0
+    streams: Tuple[StreamStatus, ...] = ()  # each open frame stream
 
     @property
     def paused(self) -> bool:
@@ -298,7 +314,11 @@ def _status(m: Any) -> Status:
         subscribers=m.subscribers, alarm=m.alarm, warning=m.warning, history_frames=m.history_frames,
         history_bytes=m.history_bytes, frames_encoded=m.frames_encoded,
         scene_version=m.scene_version, solver_threads=m.solver_threads, device=m.device,
-        device_memory_bytes=m.device_memory_bytes, state_hash=m.state_hash)
+        device_memory_bytes=m.device_memory_bytes, state_hash=m.state_hash,
+        streams=tuple(StreamStatus(s.detail, s.particles, s.bytes_per_second,
+                                   s.frames_per_second, s.age_s, s.link_bytes_per_second,
+                                   s.fps_target, s.byte_budget, s.particle_budget)
+                      for s in m.streams))
 
 
 def _control(m: Any) -> ControlResult:
@@ -545,7 +565,8 @@ class Client:
                stride: int = 1, position_bits: int = 16, limit: Optional[int] = None, *,
                speed_bits: int = 0, velocity_bits: int = 0, density_bits: int = 0,
                keyframe_interval: int = 0,
-               velocity_encoding: str = "components") -> "FrameStream":
+               velocity_encoding: str = "components", fps_target: float = 0.0,
+               byte_budget: int = 0, particle_budget: int = 0) -> "FrameStream":
         """Streams particle frames, decoded into numpy arrays (dysa.codec.Frame).
 
         Args:
@@ -563,6 +584,12 @@ class Client:
             velocity_encoding: with "velocity": "components" (vx, vy, vz, the tightest bound
                 per component) or "octahedral" (|v| and an octahedral direction: the error is
                 relative to the speed); Frame.velocity_error is the bound either way.
+            fps_target, byte_budget, particle_budget: budgets (docs/server.md, "Budgets and
+                detail"): frames per second to hold on this link, (0, 1000]; bytes per second
+                at most, >= 1000 (needs fps_target); particles per frame at most,
+                1..20,000,000; 0: none. With any of them the server sends the largest stable,
+                nested, spatially even subset of the particles that fits; each Frame then has
+                detail_fraction < 1 and `ids` naming its particles (always set).
 
         Returns a FrameStream: iterate it for Frames. The stream starts with the current
         frame (a keyframe), even when paused, then brings each frame as it is simulated,
@@ -588,16 +615,34 @@ class Client:
         if velocity_encoding not in encodings:
             raise ValueError("frames: velocity_encoding must be one of %s, not %r"
                              % (", ".join(encodings), velocity_encoding))
+        _check_budgets(fps_target, byte_budget, particle_budget)
         request = _pb.StreamFramesRequest(
             fields=codes, max_fps=max_fps, position_bits=position_bits, speed_bits=speed_bits,
             velocity_bits=velocity_bits, density_bits=density_bits, stride=stride,
             keyframe_interval=keyframe_interval,
-            velocity_encoding=encodings[velocity_encoding])
+            velocity_encoding=encodings[velocity_encoding], fps_target=fps_target,
+            byte_budget=byte_budget, particle_budget=particle_budget)
         if self._closed:
             raise DysaError("StreamFrames: the client is closed", grpc.StatusCode.CANCELLED)
         # No deadline: a stream lasts as long as the reader wants it.
         call = self._stub.StreamFrames(request, metadata=self._metadata)
         return FrameStream(self, call, limit)
+
+
+def _check_budgets(fps_target: float, byte_budget: int, particle_budget: int) -> None:
+    """Raises ValueError naming the argument and its range (the server checks them too)."""
+    if not (isinstance(fps_target, (int, float)) and 0 <= fps_target <= 1000):
+        raise ValueError("frames: fps_target must be in (0, 1000] frames per second, or 0 for "
+                         "none, not %r" % (fps_target,))
+    if not (isinstance(byte_budget, int) and (byte_budget == 0 or 1000 <= byte_budget < 2**63)):
+        raise ValueError("frames: byte_budget must be >= 1000 bytes per second, or 0 for none, "
+                         "not %r" % (byte_budget,))
+    if byte_budget and not fps_target:
+        raise ValueError("frames: byte_budget needs fps_target (bytes per second are spread over "
+                         "the target frame rate)")
+    if not (isinstance(particle_budget, int) and 0 <= particle_budget <= 20_000_000):
+        raise ValueError("frames: particle_budget must be in [1, 20000000] particles per frame, "
+                         "or 0 for none, not %r" % (particle_budget,))
 
 
 class FrameStream:

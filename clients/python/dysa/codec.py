@@ -1,4 +1,4 @@
-"""Decoder of DySAQUASIMs particle frames, format versions 1 and 2.
+"""Decoder of DySAQUASIMs particle frames, format versions 1 to 3.
 
 The wire format is server/codec/FORMAT.md. This decoder gives the same floats, bit for bit, as
 the C++ one (dysa::codec::FrameDecoder in server/codec/src/frame_decoder.cc) and follows the same
@@ -25,6 +25,8 @@ from typing import Iterable, List, Optional, Sequence, Tuple
 import numpy as np
 import zstandard
 
+from . import detail as _detail
+
 __all__ = [
     "DecodeError",
     "FIELD_DENSITY",
@@ -39,7 +41,7 @@ __all__ = [
 ]
 
 MAGIC = 0x46535944  # "DYSF"
-FORMAT_VERSION = 2  # the newest version this decoder reads; it reads every older one too
+FORMAT_VERSION = 3  # the newest version this decoder reads; it reads every older one too
 HEADER_SIZE = 152
 
 _KEYFRAME_FLAG = 1
@@ -82,7 +84,8 @@ class DecodeError(Exception):
 
 @dataclass(eq=False)
 class Frame:
-    """The decoded content of a frame, in id order of the kept particles (id = k * stride).
+    """The decoded content of a frame, in id order of the kept particles: `ids` (k * stride, or
+    the particles a detail threshold keeps, dysa.detail).
 
     Arrays are numpy float32. Fields absent from the stream are None. The errors are the
     largest possible |decoded - original| of each field, from the header's ranges and bits
@@ -105,6 +108,13 @@ class Frame:
     speed_error: float = 0.0
     velocity_error: float = 0.0
     density_error: float = 0.0
+    detail_threshold: int = 0  # 0: every stride-th particle; else a subset by rank (dysa.detail)
+    ids: Optional[np.ndarray] = None  # uint32, each particle's id
+
+    @property
+    def detail_fraction(self) -> float:
+        """The fraction of the (stride's) particles the frame holds: 1 without a threshold."""
+        return _detail.detail_fraction(self.detail_threshold)
 
 
 def _str(value: float) -> str:
@@ -153,7 +163,7 @@ class _Header:
         "version", "flags", "frame_seq", "count", "step", "time", "chunk_index", "chunk_count",
         "first", "chunk_particles", "fields", "position_bits", "speed_bits", "velocity_bits",
         "density_bits", "stride", "position_min", "position_max", "speed_max", "velocity_max",
-        "density_min", "density_max", "raw_size", "payload_size", "bits_size", "reserved",
+        "density_min", "density_max", "raw_size", "payload_size", "bits_size", "detail_threshold",
     )
 
     def __init__(self, values: tuple) -> None:
@@ -164,7 +174,7 @@ class _Header:
         self.position_min = values[17:20]
         self.position_max = values[20:23]
         (self.speed_max, self.velocity_max, self.density_min, self.density_max,
-         self.raw_size, self.payload_size, self.bits_size, self.reserved) = values[23:31]
+         self.raw_size, self.payload_size, self.bits_size, self.detail_threshold) = values[23:31]
 
     @property
     def keyframe(self) -> bool:
@@ -230,6 +240,7 @@ class _Header:
         Floats compare with ==, so a NaN never matches (as in C++).
         """
         return (self.count == o.count and self.stride == o.stride and self.fields == o.fields
+                and self.detail_threshold == o.detail_threshold
                 and self.octahedral == o.octahedral
                 and self.position_bits == o.position_bits and self.speed_bits == o.speed_bits
                 and self.velocity_bits == o.velocity_bits
@@ -253,7 +264,7 @@ def _read_header(chunk: bytes) -> _Header:
         relation = "is newer than" if h.version > FORMAT_VERSION else "is not supported by"
         raise DecodeError("frame format version %d %s this decoder (version %d); update the "
                           "client" % (h.version, relation, FORMAT_VERSION))
-    if h.reserved != 0:
+    if h.version < 3 and h.detail_threshold != 0:
         raise DecodeError("corrupt frame header: reserved bytes set")
 
     def fail(what: str) -> None:
@@ -618,6 +629,15 @@ class FrameDecoder:
         """Finishes the pending frame: it becomes the reference of the next delta frame."""
         first = self._pending_header
         frame = self._pending
+        frame.detail_threshold = first.detail_threshold
+        try:
+            frame.ids = _detail.kept_ids(first.count, first.stride, first.detail_threshold,
+                                         _MAX_COUNT)
+        except ValueError as e:
+            self._have_previous = False
+            self._pending_seq = None
+            self._pending = None
+            raise DecodeError("corrupt frame header: " + str(e)) from None
         frame.position_error = tuple(
             _error_bound(first.position_min[a], first.position_max[a], first.position_bits)
             for a in range(3))

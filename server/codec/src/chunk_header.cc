@@ -29,6 +29,9 @@ ChunkHeader StreamHeader(const StreamConfig& config) {
     h.version = 2;
     h.flags = kOctahedralFlag;
   }
+  h.stride = config.stride;
+  h.detail_threshold = config.detail_threshold;
+  if (h.detail_threshold != 0) h.version = 3;
   return h;
 }
 
@@ -84,6 +87,7 @@ void WriteHeader(const ChunkHeader& h, uint8_t* out) {
   Put<uint32_t>(out + 136, h.raw_size);
   Put<uint32_t>(out + 140, h.payload_size);
   Put<uint32_t>(out + 144, h.bits_size);
+  Put<uint32_t>(out + 148, h.detail_threshold);
 }
 
 ChunkHeader ReadHeader(std::span<const uint8_t> chunk) {
@@ -127,7 +131,10 @@ ChunkHeader ReadHeader(std::span<const uint8_t> chunk) {
   h.raw_size = Get<uint32_t>(in + 136);
   h.payload_size = Get<uint32_t>(in + 140);
   h.bits_size = Get<uint32_t>(in + 144);
-  if (Get<uint32_t>(in + 148) != 0) throw DecodeError("corrupt frame header: reserved bytes set");
+  h.detail_threshold = Get<uint32_t>(in + 148);
+  if (h.version < 3 && h.detail_threshold != 0) {
+    throw DecodeError("corrupt frame header: reserved bytes set");
+  }
 
   auto fail = [](const std::string& what) { throw DecodeError("corrupt frame header: " + what); };
   const uint16_t known_flags = h.version >= 2 ? (kKeyframeFlag | kOctahedralFlag) : kKeyframeFlag;

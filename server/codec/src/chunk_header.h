@@ -39,6 +39,7 @@ struct ChunkHeader {
   uint32_t raw_size = 0;
   uint32_t payload_size = 0;
   uint32_t bits_size = 0;
+  uint32_t detail_threshold = 0;  // version 3; the reserved 0 before
 
   bool keyframe() const { return (flags & kKeyframeFlag) != 0; }
   bool octahedral() const { return (flags & kOctahedralFlag) != 0; }
@@ -78,10 +79,10 @@ struct ChunkHeader {
   }
   // Same stream layout: what a delta frame must share with its reference frame.
   bool SameLayout(const ChunkHeader& o) const {
-    return count == o.count && stride == o.stride && fields == o.fields &&
-           octahedral() == o.octahedral() && position_bits == o.position_bits &&
-           speed_bits == o.speed_bits && velocity_bits == o.velocity_bits &&
-           density_bits == o.density_bits &&
+    return count == o.count && stride == o.stride && detail_threshold == o.detail_threshold &&
+           fields == o.fields && octahedral() == o.octahedral() &&
+           position_bits == o.position_bits && speed_bits == o.speed_bits &&
+           velocity_bits == o.velocity_bits && density_bits == o.density_bits &&
            std::equal(position_min, position_min + 3, o.position_min) &&
            std::equal(position_max, position_max + 3, o.position_max) && speed_max == o.speed_max &&
            velocity_max == o.velocity_max && density_min == o.density_min &&

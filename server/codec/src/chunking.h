@@ -17,9 +17,10 @@ struct ChunkLayout {
   uint32_t chunk_count = 1;  // >= 1, also for an empty frame
 };
 
-// The layout of a frame of `ids` particles. Throws std::invalid_argument when ids is over the
-// decoder's limit or when the chunks would be more than a header can number.
-ChunkLayout LayOutChunks(size_t ids, const StreamConfig& config);
+// The layout of a frame of `ids` particles, of which `kept` are sent (with a detail threshold;
+// without one, every stride-th). Throws std::invalid_argument when ids is over the decoder's limit
+// or when the chunks would be more than a header can number.
+ChunkLayout LayOutChunks(size_t ids, const StreamConfig& config, size_t kept);
 
 // The header of chunk `index`: the frame's header with the chunk's particle range.
 ChunkHeader ChunkHeaderOf(const ChunkHeader& frame, const ChunkLayout& layout, uint32_t index);

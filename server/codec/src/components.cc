@@ -13,7 +13,10 @@ namespace {
 
 // One component: see GatherComponents.
 std::pair<float, float> GatherComponent(const FrameInput& f, Component c, uint32_t stride,
-                                        uint32_t count, bool octahedral, float* out) {
+                                        const uint32_t* kept, uint32_t count, bool octahedral,
+                                        float* out) {
+  // The id of the k-th particle sent.
+  const auto id = [&](int64_t k) { return kept ? size_t(kept[k]) : size_t(k) * stride; };
   float mn = std::numeric_limits<float>::infinity();
   float mx = -std::numeric_limits<float>::infinity();
   const int64_t n = count;
@@ -22,7 +25,7 @@ std::pair<float, float> GatherComponent(const FrameInput& f, Component c, uint32
     const float* v = f.velocities.data();
 #pragma omp parallel for reduction(min : mn) reduction(max : mx) schedule(static)
     for (int64_t k = 0; k < n; ++k) {
-      const size_t i = 3 * size_t(k) * stride;
+      const size_t i = 3 * id(k);
       const double x = v[i], y = v[i + 1], z = v[i + 2];
       out[k] = float(std::sqrt(x * x + y * y + z * z));
       mn = std::min(mn, out[k]);
@@ -35,7 +38,7 @@ std::pair<float, float> GatherComponent(const FrameInput& f, Component c, uint32
     const int slot = c - kVelX;
 #pragma omp parallel for reduction(min : mn) reduction(max : mx) schedule(static)
     for (int64_t k = 0; k < n; ++k) {
-      const size_t i = 3 * size_t(k) * stride;
+      const size_t i = 3 * id(k);
       out[k] = float(ToOctahedral(v[i], v[i + 1], v[i + 2])[slot]);
       mn = std::min(mn, out[k]);
       mx = std::max(mx, out[k]);
@@ -45,10 +48,10 @@ std::pair<float, float> GatherComponent(const FrameInput& f, Component c, uint32
   const float* src = c <= kPosZ       ? f.positions.data() + c
                      : c == kDensityC ? f.densities.data()
                                       : f.velocities.data() + (c - kVelX);
-  const size_t step = (c == kDensityC ? 1 : 3) * size_t(stride);
+  const size_t step = c == kDensityC ? 1 : 3;
 #pragma omp parallel for reduction(min : mn) reduction(max : mx) schedule(static)
   for (int64_t k = 0; k < n; ++k) {
-    out[k] = src[size_t(k) * step];
+    out[k] = src[id(k) * step];
     mn = std::min(mn, out[k]);
     mx = std::max(mx, out[k]);
   }
@@ -70,13 +73,14 @@ size_t CheckInput(const FrameInput& f, uint32_t fields) {
 }
 
 Extremes GatherComponents(const FrameInput& f, std::span<const Component> comps, uint32_t stride,
-                          uint32_t count, bool octahedral,
+                          std::span<const uint32_t> kept, uint32_t count, bool octahedral,
                           std::vector<std::vector<float>>& values) {
   Extremes e;
   values.resize(kComponents);
   for (Component c : comps) {
     values[c].resize(count);
-    const auto [mn, mx] = GatherComponent(f, c, stride, count, octahedral, values[c].data());
+    const auto [mn, mx] = GatherComponent(f, c, stride, kept.empty() ? nullptr : kept.data(), count,
+                                          octahedral, values[c].data());
     e.lo[c] = mn;
     e.hi[c] = mx;
   }

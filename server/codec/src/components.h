@@ -26,12 +26,14 @@ struct Extremes {
 // (ids). Throws std::invalid_argument naming the array.
 size_t CheckInput(const FrameInput& f, uint32_t fields);
 
-// Copies each component in `comps` of the kept particles (ids 0, stride, 2 stride, ...) into
+// Copies each component in `comps` of the kept particles (ids `kept` when it is not empty, else
+// 0, stride, 2 stride, ...) into
 // values[c] (count values) and returns their extremes. Speed is |v| computed in double and
 // rounded to float; with the octahedral encoding the velocity components are |v|, u and v,
 // rounded to float (FORMAT.md, "Velocity"). Min and max are exact, so the result does not depend
 // on the thread count.
 Extremes GatherComponents(const FrameInput& f, std::span<const Component> comps, uint32_t stride,
-                          uint32_t count, bool octahedral, std::vector<std::vector<float>>& values);
+                          std::span<const uint32_t> kept, uint32_t count, bool octahedral,
+                          std::vector<std::vector<float>>& values);
 
 }  // namespace dysa::codec

@@ -14,6 +14,7 @@
 #include "chunk_header.h"
 #include "chunking.h"
 #include "components.h"
+#include "dysa/codec/detail_subset.h"
 #include "dysa/codec/frame_codec.h"
 #include "octahedral_velocity.h"
 #include "prediction.h"
@@ -40,6 +41,7 @@ void StartFrameOutput(const ChunkHeader& h, Frame& frame) {
   frame.keyframe = h.keyframe();
   frame.count = h.count;
   frame.stride = h.stride;
+  frame.detail_threshold = h.detail_threshold;
   frame.fields = h.fields;
   frame.velocity_encoding =
       h.octahedral() ? VelocityEncoding::kOctahedral : VelocityEncoding::kComponents;
@@ -225,6 +227,23 @@ void FrameDecoder::DecodeGroup(const ChunkHeader& first, std::span<const Chunk> 
 // Complete: the frame becomes the reference of the next delta frame.
 void FrameDecoder::FinishFrame(const ChunkHeader& first, Frame& out) {
   SetErrorBounds(first, pending_);
+  if (first.detail_threshold != 0) {
+    const uint64_t key[3] = {first.count, first.stride, first.detail_threshold};
+    if (!std::equal(key, key + 3, ids_key_)) {
+      std::fill(ids_key_, ids_key_ + 3, 0);
+      if (!FirstKeptIds(first.count, first.stride, first.detail_threshold, kMaxCount, ids_)) {
+        have_previous_ = false;
+        pending_seq_.reset();
+        throw DecodeError("corrupt frame header: count " + std::to_string(first.count) +
+                          " is more particles than detail threshold " +
+                          std::to_string(first.detail_threshold) + " selects");
+      }
+      std::copy(key, key + 3, ids_key_);
+    }
+    pending_.ids = ids_;
+  } else {
+    pending_.ids.clear();
+  }
   PushHistory(history_, std::move(current_), first.keyframe(), spare_);
   current_.clear();
   previous_header_ = pending_header_;
@@ -232,6 +251,13 @@ void FrameDecoder::FinishFrame(const ChunkHeader& first, Frame& out) {
   pending_seq_.reset();
   // Hand the frame over and keep the caller's old buffers for the next one.
   std::swap(pending_, out);
+}
+
+std::vector<uint32_t> ParticleIds(const Frame& frame) {
+  if (frame.detail_threshold != 0) return frame.ids;
+  std::vector<uint32_t> ids(frame.count);
+  for (uint32_t k = 0; k < frame.count; ++k) ids[k] = k * frame.stride;
+  return ids;
 }
 
 }  // namespace dysa::codec

@@ -9,6 +9,7 @@
 #include "chunk_header.h"
 #include "chunking.h"
 #include "components.h"
+#include "dysa/codec/detail_subset.h"
 #include "dysa/codec/frame_codec.h"
 #include "prediction.h"
 #include "quantisation.h"
@@ -25,7 +26,7 @@ void SetFrame(uint32_t frame_seq, bool keyframe, const FrameInput& f, uint32_t s
   h.count = layout.count;
   h.step = f.step;
   h.time = f.time;
-  h.stride = stride;
+  h.stride = stride;  // detail_threshold comes with StreamHeader
   h.chunk_count = uint16_t(layout.chunk_count);
 }
 
@@ -115,16 +116,24 @@ size_t FrameEncoder::buffer_bytes() const {
     }
   }
   for (const auto& component : values_) bytes += component.capacity() * sizeof(float);
+  bytes += kept_.capacity() * sizeof(uint32_t);
   return bytes;
 }
 
 std::vector<Chunk> FrameEncoder::Encode(const FrameInput& f) {
   const size_t ids = CheckInput(f, config_.fields);
-  const ChunkLayout layout = LayOutChunks(ids, config_);
+  if (config_.detail_threshold != 0 && kept_total_ != ids) {
+    kept_ = KeptIds(ids, config_.stride, config_.detail_threshold);
+    kept_total_ = ids;
+  }
+  const ChunkLayout layout = LayOutChunks(ids, config_, kept_.size());
   ChunkHeader h = StreamHeader(config_);
   const std::vector<Component> comps = PresentComponents(h);
+  const std::span<const uint32_t> kept = config_.detail_threshold != 0
+                                             ? std::span<const uint32_t>(kept_)
+                                             : std::span<const uint32_t>();
   const Extremes extremes =
-      GatherComponents(f, comps, config_.stride, layout.count, h.octahedral(), values_);
+      GatherComponents(f, comps, config_.stride, kept, layout.count, h.octahedral(), values_);
   const bool keyframe = keyframe_requested_ || frame_seq_ == 0 || layout.count != count_ ||
                         frames_since_keyframe_ >= uint32_t(config_.keyframe_interval) ||
                         LeavesRanges(extremes, comps, layout.count, lo_, hi_);

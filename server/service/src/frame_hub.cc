@@ -77,17 +77,25 @@ std::shared_ptr<const EncodedFrame> Subscription::Take(uint32_t* skipped) {
   return nullptr;
 }
 
-std::shared_ptr<Subscription> FrameHub::Subscribe(const SubscriptionOptions& options,
+std::shared_ptr<Subscription> FrameHub::Subscribe(const SubscriptionOptions& requested,
                                                   FrameListener* listener) {
-  options.stream.Validate();
+  requested.stream.Validate();
+  requested.budget.Validate();
+  SubscriptionOptions options = requested;
   if (!std::isfinite(options.max_fps) || options.max_fps < 0 || options.max_fps > 1000) {
     throw std::invalid_argument("max_fps: allowed range [0, 1000] frames per second");
   }
   auto subscription = std::make_shared<Subscription>();
   subscription->hub_ = this;
   subscription->listener_ = listener;
+  subscription->detail_ = std::make_unique<DetailController>(options.budget);
   {
     std::lock_guard lock(mu_);
+    if (options.budget.active()) {
+      // A late joiner starts at the detail its particle budget allows (the link is unknown).
+      if (last_total_ > 0) subscription->detail_->SetTotal(SteadySeconds(), last_total_);
+      options.stream.detail_threshold = subscription->detail_->threshold();
+    }
     if (closed_) throw SubscriberLimitError("the server is shutting down");
     if (subscriptions_.size() >= max_subscribers_) {
       throw SubscriberLimitError("subscriber limit reached: at most " +
@@ -172,6 +180,103 @@ uint64_t FrameHub::frames_encoded() const {
   return frames_encoded_;
 }
 
+void FrameHub::FitBudgetsTo(uint32_t total) {
+  std::vector<std::shared_ptr<Subscription>> subscriptions;
+  {
+    std::lock_guard lock(mu_);
+    last_total_ = total;
+    subscriptions = subscriptions_;
+  }
+  // A subscriber whose controller has not seen this particle count yet (its first frame, a new
+  // scene) gets the detail its particle budget allows before this frame is encoded.
+  for (const auto& s : subscriptions) {
+    uint32_t threshold = 0;
+    {
+      std::lock_guard lock(s->detail_mu_);
+      if (!s->detail_->budget().active() || s->detail_->total() == total) continue;
+      s->detail_->SetTotal(SteadySeconds(), total);
+      threshold = s->detail_->threshold();
+    }
+    ApplyDetail(s, threshold);
+  }
+}
+
+void FrameHub::FrameStarted(const std::shared_ptr<Subscription>& s, double now,
+                            const EncodedFrame& frame, double produced) {
+  uint32_t threshold = 0;
+  {
+    std::lock_guard lock(s->detail_mu_);
+    s->detail_->OnFrameStart(now, frame.bytes, frame.particles, frame.total_particles,
+                             frame.keyframe, produced);
+    if (!s->detail_->budget().active()) return;
+    threshold = s->detail_->threshold();
+  }
+  ApplyDetail(s, threshold);
+}
+
+void FrameHub::BytesDelivered(const std::shared_ptr<Subscription>& s, double now, size_t bytes,
+                              bool frame_done) {
+  uint32_t threshold = 0;
+  {
+    std::lock_guard lock(s->detail_mu_);
+    s->detail_->OnBytesDelivered(now, bytes, frame_done);
+    if (!s->detail_->budget().active()) return;
+    threshold = s->detail_->threshold();
+  }
+  ApplyDetail(s, threshold);
+}
+
+void FrameHub::FrameLate(const std::shared_ptr<Subscription>& s, double now) {
+  uint32_t threshold = 0;
+  {
+    std::lock_guard lock(s->detail_mu_);
+    s->detail_->OnLate(now);
+    if (!s->detail_->budget().active()) return;
+    threshold = s->detail_->threshold();
+  }
+  ApplyDetail(s, threshold);
+}
+
+void FrameHub::ApplyDetail(const std::shared_ptr<Subscription>& s, uint32_t threshold) {
+  std::shared_ptr<FrameGroup> old_group, new_group;
+  {
+    std::lock_guard lock(mu_);
+    std::lock_guard frame_lock(s->frame_mu_);
+    if (!s->group_ || closed_ || s->group_->options.stream.detail_threshold == threshold) return;
+    old_group = s->group_;
+    SubscriptionOptions options = old_group->options;
+    options.stream.detail_threshold = threshold;
+    auto it = std::find_if(groups_.begin(), groups_.end(),
+                           [&](const auto& g) { return g->options == options; });
+    if (it == groups_.end())
+      it = groups_.insert(groups_.end(), std::make_shared<FrameGroup>(options));
+    new_group = *it;
+    std::erase(old_group->members, s);
+    if (old_group->members.empty()) std::erase(groups_, old_group);
+    new_group->members.push_back(s);
+    s->group_ = new_group;
+    // The next frame comes from another encoder: only its keyframe decodes.
+    s->pending_.reset();
+    s->last_seq_.reset();
+  }
+  RequestKeyframe(*new_group);
+  Release(std::move(old_group));
+}
+
+std::vector<StreamReport> FrameHub::StreamReports(double now) const {
+  std::vector<std::shared_ptr<Subscription>> subscriptions;
+  {
+    std::lock_guard lock(mu_);
+    subscriptions = subscriptions_;
+  }
+  std::vector<StreamReport> reports;
+  for (const auto& s : subscriptions) {
+    std::lock_guard lock(s->detail_mu_);
+    reports.push_back({s->detail_->budget(), s->detail_->Status(now)});
+  }
+  return reports;
+}
+
 void FrameHub::RequestKeyframe(FrameGroup& group) {
   group.keyframe_needed = true;
   if (frame_needed_) frame_needed_();
@@ -179,6 +284,7 @@ void FrameHub::RequestKeyframe(FrameGroup& group) {
 
 void FrameHub::Publish(const FrameSnapshot& snapshot, bool force, bool discontinuity) {
   std::lock_guard publishing(publish_mu_);
+  FitBudgetsTo(uint32_t(snapshot.positions.size() / 3));
   std::vector<std::pair<std::shared_ptr<FrameGroup>, std::vector<std::shared_ptr<Subscription>>>>
       work;
   {
@@ -216,6 +322,8 @@ void FrameHub::Publish(const FrameSnapshot& snapshot, bool force, bool discontin
     encoded->keyframe = group->encoder.last_was_keyframe();
     encoded->frame = snapshot.frame;
     encoded->seq = group->next_seq++;
+    encoded->particles = group->encoder.last_count();
+    encoded->total_particles = uint32_t(snapshot.positions.size() / 3);
     encoded->produced_unix_us = snapshot.produced_unix_us;
     for (const codec::Chunk& c : encoded->chunks) encoded->bytes += c.size();
     if (transport_builder_) encoded->transport = transport_builder_(*encoded);
@@ -226,8 +334,8 @@ void FrameHub::Publish(const FrameSnapshot& snapshot, bool force, bool discontin
     for (const auto& s : members) {
       {
         std::lock_guard lock(s->frame_mu_);
-        if (!s->group_) continue;  // unsubscribed meanwhile
-        s->pending_ = encoded;     // replaces an older frame not taken yet: latest wins
+        if (s->group_ != group) continue;  // unsubscribed or moved meanwhile
+        s->pending_ = encoded;             // replaces an older frame not taken yet: latest wins
       }
       std::lock_guard lock(s->listener_mu_);
       if (s->listener_) s->listener_->OnFrameReady();

@@ -2,6 +2,7 @@
 
 #include <grpcpp/support/slice.h>
 
+#include <chrono>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -24,6 +25,14 @@ grpc::Slice SkippedField(uint32_t skipped) {
     skipped >>= 7;
   } while (skipped != 0);
   return grpc::Slice(bytes, n);
+}
+
+// The time `produced_unix_us` was, on the steady clock (SteadySeconds) at `now`.
+double ProducedSteady(double now, int64_t produced_unix_us) {
+  const int64_t unix_now = std::chrono::duration_cast<std::chrono::microseconds>(
+                               std::chrono::system_clock::now().time_since_epoch())
+                               .count();
+  return now - 1e-6 * double(unix_now - produced_unix_us);
 }
 
 }  // namespace
@@ -86,6 +95,10 @@ void FrameStreamReactor::OnHubClosed() {
 void FrameStreamReactor::OnWriteDone(bool ok) {
   std::lock_guard lock(mu_);
   writing_ = false;
+  if (ok && subscription_ && wire_) {
+    hub_.BytesDelivered(subscription_, SteadySeconds(), message_.Length(),
+                        next_message_ == wire_->messages.size());
+  }
   // A write in flight when the call was cancelled can still complete ok: the stream must end
   // here then, not wait for a frame that may never come (a paused server).
   if (!ok || cancelled_) {
@@ -111,6 +124,8 @@ void FrameStreamReactor::OnDone() {
 
 void FrameStreamReactor::StartNextWrite() {
   std::lock_guard lock(mu_);
+  // A new frame is ready while the last one is still being written: the link is behind.
+  if (writing_ && !finished_ && subscription_) hub_.FrameLate(subscription_, SteadySeconds());
   if (!writing_ && !finished_ && subscription_) WriteNextLocked();
 }
 
@@ -132,6 +147,8 @@ void FrameStreamReactor::WriteNextLocked() {
     }
     wire_ = static_cast<const WireFrame*>(frame_->transport.get());
     next_message_ = 0;
+    const double now = SteadySeconds();
+    hub_.FrameStarted(subscription_, now, *frame_, ProducedSteady(now, frame_->produced_unix_us));
     if (skipped > 0) slices[count++] = SkippedField(skipped);
   }
   slices[0] = wire_->messages[next_message_++];

@@ -78,6 +78,13 @@ SubscriptionOptions ToOptions(const v1::StreamFramesRequest& r) {
     throw std::invalid_argument("max_fps: allowed range [0, 1000] frames per second");
   }
   o.max_fps = r.max_fps();
+  o.budget.fps_target = r.fps_target();
+  o.budget.bytes_per_second = double(r.byte_budget());
+  o.budget.particles_per_frame = r.particle_budget();
+  o.budget.Validate();
+  if (r.fps_target() > 0 && (o.max_fps == 0 || o.max_fps > r.fps_target())) {
+    o.max_fps = r.fps_target();
+  }
   c.Validate();
   return o;
 }
@@ -128,6 +135,19 @@ void ToProto(const HostStatus& s, v1::Status& out) {
   out.set_history_frames(s.history_frames);
   out.set_history_bytes(s.history_bytes);
   out.set_frames_encoded(s.frames_encoded);
+  out.clear_streams();
+  for (const StreamReport& r : s.streams) {
+    v1::StreamStatus& t = *out.add_streams();
+    t.set_detail(r.status.fraction);
+    t.set_particles(r.status.particles);
+    t.set_bytes_per_second(r.status.bytes_per_second);
+    t.set_frames_per_second(r.status.frames_per_second);
+    t.set_age_s(r.status.age_s);
+    t.set_link_bytes_per_second(r.status.link_bytes_per_second);
+    t.set_fps_target(r.budget.fps_target);
+    t.set_byte_budget(uint64_t(r.budget.bytes_per_second));
+    t.set_particle_budget(uint32_t(r.budget.particles_per_frame));
+  }
   out.set_state_hash(s.state_hash);
   out.set_scene_version(s.scene_version);
   out.set_solver_threads(s.solver_threads);

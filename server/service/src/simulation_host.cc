@@ -90,6 +90,7 @@ HostStatus SimulationHost::Status() const {
   }
   status.subscribers = uint32_t(hub_.subscribers());
   status.frames_encoded = hub_.frames_encoded();
+  status.streams = hub_.StreamReports(SteadySeconds());
   return status;
 }
 

@@ -21,6 +21,19 @@ struct PassTiming {
 };
 
 // dysa.v1.Status.
+// dysa.v1.StreamStatus: one open frame stream as the server measures it.
+struct StreamStatus {
+  double detail = 1;                 // fraction of the particles sent
+  uint32_t particles = 0;            // in its latest delivered frame
+  double bytes_per_second = 0;       // delivered
+  double frames_per_second = 0;      // delivered
+  double age_s = 0;                  // s, age of its latest delivered frame's data
+  double link_bytes_per_second = 0;  // measured while sending; 0: not yet
+  double fps_target = 0;             // its budget; 0: none
+  uint64_t byte_budget = 0;          // bytes/s; 0: none
+  uint32_t particle_budget = 0;      // particles/frame; 0: none
+};
+
 struct ServerStatus {
   std::string state;  // "running", "paused" or "unspecified"
   uint64_t step = 0;
@@ -43,7 +56,8 @@ struct ServerStatus {
   uint32_t solver_threads = 0;  // OpenMP threads the solver steps with
   // "cpu", or e.g. "cuda:0 NVIDIA H200, 139.8 GiB, sm_90"; empty from a server that predates it.
   std::string device;
-  uint64_t device_memory_bytes = 0;  // bytes of GPU memory the simulation holds; 0 on the CPU
+  uint64_t device_memory_bytes = 0;   // bytes of GPU memory the simulation holds; 0 on the CPU
+  std::vector<StreamStatus> streams;  // each open frame stream
 };
 
 struct ControlResult {
@@ -143,6 +157,11 @@ struct StreamOptions {
   uint32_t density_bits = 0;
   uint32_t keyframe_interval = 0;
   codec::VelocityEncoding velocity_encoding = codec::VelocityEncoding::kComponents;
+  // Budgets (docs/server.md, "Budgets and detail"): the server then sends a subset of the
+  // particles that holds the frame rate on this link. 0: none.
+  double fps_target = 0;         // frames per second, (0, 1000]
+  uint64_t byte_budget = 0;      // bytes per second, >= 1000; needs fps_target
+  uint32_t particle_budget = 0;  // particles per frame
 };
 
 // dysa.v1.FrameMessage.

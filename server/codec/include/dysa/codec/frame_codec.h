@@ -15,9 +15,10 @@
 namespace dysa::codec {
 
 inline constexpr uint32_t kMagic = 0x46535944;  // "DYSF"
-// Version 2 added the octahedral velocity encoding; streams without it are still written as
-// version 1, so older decoders keep reading them.
-inline constexpr uint16_t kVersion = 2;
+// Version 2 added the octahedral velocity encoding, version 3 the detail threshold (a subset of
+// the particles by rank, detail_subset.h); streams without them are still written as version 1,
+// so older decoders keep reading them.
+inline constexpr uint16_t kVersion = 3;
 inline constexpr size_t kHeaderSize = 152;
 
 enum Field : uint32_t {
@@ -46,9 +47,12 @@ struct StreamConfig {
   int speed_bits = 8;      // 1..16
   int velocity_bits = 12;  // per component, 1..16
   VelocityEncoding velocity_encoding = VelocityEncoding::kComponents;
-  int density_bits = 16;                // 1..16
-  int keyframe_interval = 60;           // frames; >= 1 (1: every frame is a keyframe)
-  uint32_t stride = 1;                  // level of detail: send the particles with id % stride == 0
+  int density_bits = 16;       // 1..16
+  int keyframe_interval = 60;  // frames; >= 1 (1: every frame is a keyframe)
+  uint32_t stride = 1;         // level of detail: send the particles with id % stride == 0
+  // Level of detail by rank (detail_subset.h): send the particles whose DetailRank(id) is below
+  // it as well; 0: no selection. Nonzero makes the stream format version 3.
+  uint32_t detail_threshold = 0;
   uint32_t chunk_particles = 1u << 16;  // particles per chunk (bounds a chunk's size)
   int zstd_level = 1;
 
@@ -70,7 +74,8 @@ struct FrameInput {
   std::span<const float> densities;   // count, kg/m^3; needed for density
 };
 
-// The decoded content of a frame, in id order of the kept particles (id = k * stride).
+// The decoded content of a frame, in id order of the kept particles: id = k * stride, or ids[k]
+// when the frame is a subset by rank (detail_threshold != 0).
 struct Frame {
   uint32_t frame_seq = 0;
   uint64_t step = 0;
@@ -78,12 +83,14 @@ struct Frame {
   bool keyframe = false;
   uint32_t count = 0;
   uint32_t stride = 1;
+  uint32_t detail_threshold = 0;  // 0: every stride-th particle; else DetailKeeps (detail_subset.h)
   uint32_t fields = 0;
   VelocityEncoding velocity_encoding = VelocityEncoding::kComponents;
   std::vector<float> positions;   // 3 * count
   std::vector<float> speed;       // count
   std::vector<float> velocities;  // 3 * count
   std::vector<float> densities;   // count
+  std::vector<uint32_t> ids;      // count particle ids when detail_threshold != 0; else empty
   // Largest possible |decoded - original| of each field (of each velocity component), from the
   // header's ranges, bits and velocity encoding.
   std::array<double, 3> position_error{};
@@ -107,6 +114,8 @@ class FrameEncoder {
   void RequestKeyframe() { keyframe_requested_ = true; }
   // Whether the last Encode() wrote a keyframe.
   bool last_was_keyframe() const { return last_was_keyframe_; }
+  // Particles in the last frame encoded (after stride and detail threshold).
+  uint32_t last_count() const { return count_; }
   // Bytes its buffers hold between frames: the decoder's state it predicts from, recycled
   // buffers and the gathered values (a few values per particle and field).
   size_t buffer_bytes() const;
@@ -124,7 +133,13 @@ class FrameEncoder {
   std::vector<std::vector<std::vector<uint32_t>>> history_;
   std::vector<std::vector<std::vector<uint32_t>>> spare_;  // recycled buffers
   std::vector<std::vector<float>> values_;                 // gathered source values
+  // The ids a frame of detail_threshold keeps, for kept_total_ ids (recomputed when it changes).
+  std::vector<uint32_t> kept_;
+  size_t kept_total_ = SIZE_MAX;
 };
+
+// Each particle's id: ids[k], or k * stride.
+std::vector<uint32_t> ParticleIds(const Frame& frame);
 
 class DecodeError : public std::runtime_error {
   using std::runtime_error::runtime_error;
@@ -182,6 +197,9 @@ class FrameDecoder {
   std::vector<std::vector<std::vector<uint32_t>>> history_;
   std::vector<std::vector<std::vector<uint32_t>>> spare_;  // recycled buffers
   bool have_previous_ = false;
+  // The ids of the last subset frame decoded, and what they were computed for.
+  std::vector<uint32_t> ids_;
+  uint64_t ids_key_[3] = {0, 0, 0};  // count, stride, threshold
   // Started with the first frame of more than one chunk; threads that sleep between frames.
   std::unique_ptr<TaskPool> workers_;
 };

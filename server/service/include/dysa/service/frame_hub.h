@@ -22,6 +22,7 @@
 #include <vector>
 
 #include "dysa/codec/frame_codec.h"
+#include "dysa/service/detail_controller.h"
 
 namespace dysa::service {
 
@@ -44,6 +45,8 @@ struct EncodedFrame {
   bool keyframe = false;
   std::vector<codec::Chunk> chunks;
   size_t bytes = 0;
+  uint32_t particles = 0;        // in the frame (after stride and detail)
+  uint32_t total_particles = 0;  // in the snapshot
   int64_t produced_unix_us = 0;
   // The frame in the transport's own form (the gRPC adapter's serialised messages), built once
   // per frame by the hub's transport builder and shared by every subscriber; null without one.
@@ -53,6 +56,9 @@ struct EncodedFrame {
 struct SubscriptionOptions {
   codec::StreamConfig stream;
   double max_fps = 0;  // frames per wall second at most; 0: every frame
+  // The subscriber's own budget: not part of the group's identity (subscribers with different
+  // budgets at the same detail share an encoder). With one, the hub sets stream.detail_threshold.
+  DetailBudget budget;
   bool operator==(const SubscriptionOptions& other) const;
 };
 
@@ -90,6 +96,9 @@ class Subscription {
   std::shared_ptr<FrameGroup> group_;  // null once unsubscribed
   std::shared_ptr<const EncodedFrame> pending_;
   std::optional<uint64_t> last_seq_;  // the last frame taken
+
+  std::mutex detail_mu_;  // after FrameHub::mu_ and frame_mu_ when nested
+  std::unique_ptr<DetailController> detail_;
 };
 
 class FrameHub {
@@ -119,6 +128,17 @@ class FrameHub {
   // subscriber plus one per group, whatever the subscribers do.
   int64_t frames_alive() const { return *frames_alive_; }
 
+  // What a subscriber's transport reports of its stream, `now` in SteadySeconds() (see
+  // DetailController): the detail it then needs may move it to another group (a keyframe
+  // follows). `frame` is the one whose writes start; `produced` its data's time on that clock.
+  void FrameStarted(const std::shared_ptr<Subscription>& s, double now, const EncodedFrame& frame,
+                    double produced);
+  void BytesDelivered(const std::shared_ptr<Subscription>& s, double now, size_t bytes,
+                      bool frame_done);
+  void FrameLate(const std::shared_ptr<Subscription>& s, double now);
+  // Each subscriber's budget and delivery, in subscription order.
+  std::vector<StreamReport> StreamReports(double now) const;
+
   // Encodes `snapshot` for every group that is due and offers it to the group's subscribers.
   // `force`: ignore frame-rate caps (a frame the user asked for: a step, a step back, a reset).
   // `discontinuity`: the frame does not follow the previous one (back, reset, new scene).
@@ -136,6 +156,11 @@ class FrameHub {
  private:
   friend class Subscription;
   void RequestKeyframe(FrameGroup& group);
+  // Moves `s` to the group of its options with this detail threshold (after a detail_mu_ scope).
+  void ApplyDetail(const std::shared_ptr<Subscription>& s, uint32_t threshold);
+  // Sets every budgeted subscriber's particle count (Publish, before encoding).
+  void FitBudgetsTo(uint32_t total);
+  uint32_t last_total_ = 0;  // particles of the latest snapshot published (guarded by mu_)
 
   const size_t max_subscribers_;
   std::function<void()> frame_needed_;

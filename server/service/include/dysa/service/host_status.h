@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "dysa/core/scene.h"
+#include "dysa/service/detail_controller.h"
 
 namespace dysa {
 class Simulation;
@@ -45,6 +46,7 @@ struct HostStatus {
   uint64_t history_frames = 0;
   uint64_t history_bytes = 0;
   uint64_t frames_encoded = 0;
+  std::vector<StreamReport> streams;  // each open stream, in subscription order
   // StateHash while paused and no Step runs (0 otherwise: not worth a frame's time). Paused, the
   // state is always a frame (FrameStepper): this is the hash of the frame described above.
   uint64_t state_hash = 0;

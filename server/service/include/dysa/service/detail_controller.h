@@ -1,0 +1,115 @@
+// The level of detail of one frame stream under a budget: which fraction of the particles to
+// send so that the stream holds its frame-rate target on the link it has, within its byte and
+// particle budgets. Plain logic on a clock of seconds (no transport, no gRPC): the stream reports
+// when each frame's writes start and complete, and when a new frame was ready while the previous
+// one was still being written (the link is behind).
+//
+// How it decides (docs/server.md, "Budgets and detail"):
+// - it measures the link while sending (each frame's bytes over the time its writes took,
+//   smoothed over ~1 s), the bytes each particle costs (delta frames; keyframes apart), and
+//   what the stream delivers (bytes/s and frames/s, exponentially weighted over ~1 s);
+// - the detail is a level on a ladder of fractions 2^(-level/4) (1, 0.84, 0.71, ... 1/4096):
+//   subscribers at the same level share one encoder;
+// - decrease at once (multiplicative) when the current level does not fit the measured link at
+//   the target frame rate, or a delta frame was still being written when the next was ready;
+// - increase one level at a time, only after the next level has fitted with 20% headroom for a
+//   hold time (0.5 s, doubled up to 8 s each time an increase is followed by lateness): a dead
+//   band between the two rules, so a steady link gives a steady level.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <optional>
+
+namespace dysa::service {
+
+// What a subscriber asks of its stream. With none set the detail stays whole (today's stream).
+struct DetailBudget {
+  double fps_target = 0;             // frames per wall second to hold, (0, 1000]; 0: none
+  double bytes_per_second = 0;       // bytes per second at most, >= 1000; 0: no byte budget
+  uint64_t particles_per_frame = 0;  // particles per frame at most, >= 1; 0: no budget
+  bool active() const { return fps_target > 0 || bytes_per_second > 0 || particles_per_frame > 0; }
+  // Throws std::invalid_argument naming the field and its range (a byte budget needs a frame
+  // rate target, to be spread over frames).
+  void Validate() const;
+};
+
+// What a stream delivers, as GetStatus reports it.
+struct DetailStatus {
+  double fraction = 1;               // of the particles sent (the detail chosen)
+  uint32_t particles = 0;            // particles in the latest frame sent
+  double bytes_per_second = 0;       // bytes delivered per second (write completions, EWMA ~1 s)
+  double frames_per_second = 0;      // frames delivered per second (EWMA ~1 s)
+  double age_s = 0;                  // s, how old the latest delivered frame's data is; 0: none yet
+  double link_bytes_per_second = 0;  // measured while sending; 0: not measured yet
+};
+
+// One stream in GetStatus: its budget and what it delivers.
+struct StreamReport {
+  DetailBudget budget;
+  DetailStatus status;
+};
+
+// Seconds of the steady clock, the controller's clock in the server.
+double SteadySeconds();
+
+class DetailController {
+ public:
+  static constexpr int kLevels = 49;  // level 0: every particle, level 48: 1/4096
+  static double LevelFraction(int level);
+
+  explicit DetailController(DetailBudget budget);
+
+  // A frame's first write starts at `now`: its size, its particles and the stream's particles
+  // before selection, whether it is a keyframe, and when its data was produced (same clock).
+  void OnFrameStart(double now, size_t bytes, uint32_t particles, uint32_t total, bool keyframe,
+                    double produced);
+  // A write of `bytes` completed at `now`; `frame_done`: it was the frame's last.
+  void OnBytesDelivered(double now, size_t bytes, bool frame_done);
+  // A new frame was ready at `now` while the current one was still being written.
+  void OnLate(double now);
+
+  // The stream's particle count before selection, known before its first frame (a late joiner).
+  void SetTotal(double now, uint32_t total);
+
+  uint32_t total() const { return total_; }
+  int level() const { return level_; }
+  double fraction() const { return LevelFraction(level_); }
+  // The codec's detail threshold for fraction() (0: every particle).
+  uint32_t threshold() const;
+  DetailStatus Status(double now) const;
+  const DetailBudget& budget() const { return budget_; }
+
+ private:
+  void Decide(double now);
+  // Whether `level` fits the available bytes per second scaled by `share`.
+  bool Fits(int level, double share) const;
+  int BudgetLevel() const;  // the largest fraction the particle budget allows
+
+  DetailBudget budget_;
+  int level_ = 0;
+  uint32_t total_ = 0;
+  // Cost per particle, bytes: delta frames (what a stream mostly sends) and keyframes.
+  double delta_bpp_ = 2.6, key_bpp_ = 5.6;
+  std::optional<double> link_;  // bytes/s while sending
+  double link_sampled_at_ = 0;
+  // The frame being written.
+  double frame_start_ = 0;
+  size_t frame_bytes_ = 0;
+  uint32_t frame_particles_ = 0;
+  bool frame_keyframe_ = false;
+  int frame_level_ = 0;
+  double frame_produced_ = 0;
+  // Delivered rates: exponentially decayed sums (value / tau is the rate) at rates_at_.
+  double bytes_sum_ = 0, frames_sum_ = 0, rates_at_ = 0;
+  std::optional<double> shown_produced_;
+  uint32_t shown_particles_ = 0;
+  // Increase and decrease rules.
+  std::optional<double> headroom_since_;
+  double up_hold_ = 0.5;
+  double last_increase_ = -1e9;
+  double last_late_ = -1e9;
+  bool late_blocked_ = false;  // lateness decreased already; wait for a frame at the new level
+};
+
+}  // namespace dysa::service
