@@ -34,7 +34,6 @@ void ListBoundaryNeighbors(const Model& model, BenderKoschierData& data, State& 
     }
   }
   const PhysicalKernel<Real> kernel = model.Kernel();
-  const Real support = kernel.support;
   const Real gy = Real(physical::GravityAt(model.params, state.time));
   const Real* bx = boundary.grid().xs().data();
   const Real* by = boundary.grid().ys().data();
