@@ -5,7 +5,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <cmath>
 #include <memory>
 #include <thread>
@@ -177,6 +179,31 @@ TEST(FrameHubTest, AFrameRateCapSkipsFramesUnlessForced) {
   EXPECT_EQ(hub.frames_encoded(), 1u);
   hub.Publish(Snapshot(5), /*force=*/true, false);  // a step the user asked for
   EXPECT_EQ(hub.frames_encoded(), 2u);
+  hub.Unsubscribe(sub);
+}
+
+// Frames produced at twice the cap, each a hair early or late (a real producer's jitter), must
+// come at the cap: the next frame is due a period after the previous was due, not after it was
+// sent (sent-based, every early frame was skipped and the rate fell to 2/3 of the cap or less).
+TEST(FrameHubTest, AFrameRateCapHoldsItsRateUnderJitter) {
+  FrameHub hub(8);
+  CountingListener l;
+  SubscriptionOptions capped = Options();
+  capped.max_fps = 20;  // 50 ms
+  auto sub = hub.Subscribe(capped, &l);
+  const auto start = std::chrono::steady_clock::now();
+  constexpr int kFrames = 40;  // 1 s at 40 frames/s, 25 ms apart, every other one 2 ms early
+  for (int f = 0; f < kFrames; ++f) {
+    std::this_thread::sleep_until(start +
+                                  std::chrono::microseconds(25'000 * f - 2'000 * (1 - f % 2)));
+    hub.Publish(Snapshot(uint64_t(f)), false, false);
+  }
+  // 20 at the cap; fewer where a loaded machine made the producer itself slower than the cap.
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const double expected = std::min(double(kFrames), 1 + 20 * seconds);
+  EXPECT_GE(double(hub.frames_encoded()), 0.9 * std::min(expected, 20.0)) << seconds << " s";
+  EXPECT_LE(double(hub.frames_encoded()), expected + 1) << seconds << " s";
   hub.Unsubscribe(sub);
 }
 

@@ -47,7 +47,8 @@ struct FrameGroup {
   // Publishing thread only.
   codec::FrameEncoder encoder;
   uint64_t next_seq = 0;
-  std::optional<Clock::time_point> last_encoded;
+  // When the frame-rate cap lets the next frame through (FrameHub::Publish).
+  std::optional<Clock::time_point> next_due;
   // Guarded by FrameHub::mu_.
   std::vector<std::shared_ptr<Subscription>> members;
 };
@@ -293,12 +294,20 @@ void FrameHub::Publish(const FrameSnapshot& snapshot, bool force, bool discontin
   }
   const auto now = Clock::now();
   for (auto& [group, members] : work) {
+    // The frame-rate cap holds max_fps on average: the next frame is due one period after this
+    // one was due (not after it was sent), and passes up to a quarter period early. Measuring
+    // from the send instead skipped a frame whenever one came a hair early, so frames produced
+    // at a multiple of the cap (50/s under a cap of 25) came at 2/3 of it, jitter deciding.
     const double max_fps = group->options.max_fps;
-    if (!force && max_fps > 0 && group->last_encoded &&
-        now - *group->last_encoded < std::chrono::duration<double>(1.0 / max_fps)) {
-      continue;
+    if (max_fps > 0) {
+      const auto period =
+          std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / max_fps));
+      if (!force && group->next_due && now < *group->next_due - period / 4) continue;
+      // At most one period behind: no burst of frames after a pause or a slow spell.
+      group->next_due = group->next_due && now - *group->next_due < period
+                            ? *group->next_due + period
+                            : now + period;
     }
-    group->last_encoded = now;
     if (group->keyframe_needed.exchange(false) || discontinuity) group->encoder.RequestKeyframe();
 
     const uint32_t fields = group->options.stream.fields;
