@@ -77,6 +77,22 @@ inline Scene PeriodicScene(const std::string& solver) {
                     R"("})");
 }
 
+// Two blocks of water thrown apart at 8 m/s each, each towards a wall, with c0 = 4 m/s: where
+// they touch, the continuity equation drives the density down, and at the walls up, beyond
+// what any weakly compressible flow reaches (wcsph holds its carried density in
+// [0.7, 1.3] rho0: kCarriedDensityMin/Max).
+inline Scene SplittingBlocksScene(const std::string& solver) {
+  return ParseScene(R"({
+    "domain": {"min": [0, 0, 0], "max": [0.4, 0.2, 0.08]},
+    "fluid_blocks": [{"center": [0.14, 0.06, 0.04], "size": [0.08, 0.12, 0.08],
+                      "velocity": [-8, 0, 0]},
+                     {"center": [0.26, 0.06, 0.04], "size": [0.08, 0.12, 0.08],
+                      "velocity": [8, 0, 0]}],
+    "params": {"gravity": -9.81, "particle_spacing": 0.02, "speed_of_sound": 4},
+    "solver": ")" + solver +
+                    R"("})");
+}
+
 struct Summary {
   double kinetic_energy = 0;     // J
   double mean_density = 0;       // kg/m^3

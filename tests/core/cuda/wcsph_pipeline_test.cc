@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <map>
 
 #include "dysa/core/simulation.h"
@@ -20,6 +21,7 @@ using dysa::testing::ExpectAgreement;
 using dysa::testing::kGpu;
 using dysa::testing::MovingDamScene;
 using dysa::testing::PeriodicScene;
+using dysa::testing::SplittingBlocksScene;
 using dysa::testing::WendlandDamScene;
 
 const char* const kSolver = "wcsph";
@@ -141,6 +143,36 @@ TEST(WcsphGpuTest, ParticleShiftingIsBitIdenticalToTheCpu) {
       gpu.Step();
     }
     EXPECT_EQ(StateHash(gpu.state()), StateHash(cpu.state()));
+  }
+}
+
+// The carried density's range (kCarriedDensityMin/Max) on the device: two blocks thrown apart
+// reach both bounds and stay within them, on either integration, the first steps bit for bit
+// with the CPU.
+TEST(WcsphGpuTest, HoldsTheCarriedDensityInItsRangeAsTheCpuDoes) {
+  SKIP_WITHOUT_GPU();
+  for (const int integration : {0, 1}) {
+    SCOPED_TRACE(integration);
+    Scene scene = SplittingBlocksScene(kSolver);
+    SetParam(scene.params, "time_integration", integration);
+    Simulation cpu(scene);
+    Simulation gpu(scene, kGpu);
+    for (int i = 0; i < 5; ++i) {
+      cpu.Step();
+      gpu.Step();
+    }
+    EXPECT_EQ(StateHash(gpu.state()), StateHash(cpu.state()));
+    float lowest = 1000, highest = 1000;
+    for (int i = 0; i < 145; ++i) {
+      gpu.Step();
+      for (const float rho : gpu.state().particles.density) {
+        ASSERT_TRUE(std::isfinite(rho)) << "step " << i + 6;
+        lowest = std::min(lowest, rho);
+        highest = std::max(highest, rho);
+      }
+    }
+    EXPECT_EQ(lowest, 700.0f);
+    EXPECT_EQ(highest, 1300.0f);
   }
 }
 

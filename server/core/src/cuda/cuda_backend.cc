@@ -203,6 +203,8 @@ cuda::SphConstants PhysicalConstants(const Model& model) {
   c.rest_density = rho0;
   c.stiffness = rho0 * prm.speed_of_sound * prm.speed_of_sound / physical::kTaitExponent;
   c.contact_range = Real(physical::kContactRange * prm.particle_spacing);
+  c.density_min = Real(rho0 * wcsph::kCarriedDensityMin);
+  c.density_max = Real(rho0 * wcsph::kCarriedDensityMax);
   for (int a = 0; a < 3; ++a) {
     c.domain_lo[a] = Real(model.domain.min[a]);
     c.domain_hi[a] = Real(model.domain.max[a]);

@@ -59,6 +59,11 @@ struct F3 {
 __device__ float Dot(F3 a, F3 b) { return a.x * b.x + (a.y * b.y + a.z * b.z); }
 __device__ float Norm2(F3 a) { return Dot(a, a); }
 // GradW (sph_loops.h): x_ij dW/dr / r, zero at r = 0; its factor dW/dr / r.
+// wcsph's carried density held within its range (BoundCarriedDensity, becker_teschner_solver.h).
+__device__ float BoundCarriedDensity(const SphConstants& c, float rho) {
+  return rho < c.density_min ? c.density_min : (rho > c.density_max ? c.density_max : rho);
+}
+
 __device__ float GradFactor(float r, const SphConstants& c) {
   return r > 0 ? KernelDW(r, c) / r : 0.0f;
 }

@@ -47,7 +47,7 @@ __global__ void PredictKernel(Fluid f, SphConstants c, Surfaces s, StepStart sta
   float ds[3] = {drift.x, drift.y, drift.z};
   ClampAndStorePosition(c, s, f, i, xs, ds);
   f.vx[i] = v.x + f.ax[i] * half, f.vy[i] = v.y + f.ay[i] * half, f.vz[i] = v.z + f.az[i] * half;
-  carried[i] += rate[i] * half;
+  carried[i] = BoundCarriedDensity(c, carried[i] + rate[i] * half);
   f.density[i] = carried[i];
 }
 
@@ -70,7 +70,7 @@ __global__ void CorrectKernel(Fluid f, SphConstants c, Surfaces s, StepStart sta
   ClampAndStorePosition(c, s, f, i, xs, vs);
   f.vx[i] = vs[0], f.vy[i] = vs[1], f.vz[i] = vs[2];
   const float e = -rate[i] * dt / carried[i];
-  carried[i] = start.density[i] * (2.0f - e) / (2.0f + e);
+  carried[i] = BoundCarriedDensity(c, start.density[i] * (2.0f - e) / (2.0f + e));
   f.density[i] = carried[i];
 }
 

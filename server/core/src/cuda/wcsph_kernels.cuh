@@ -147,7 +147,7 @@ __global__ void IntegrateKernel(Fluid f, SphConstants c, Surfaces s, float* carr
     ClampAndStorePosition(c, s, f, i, xs, vs);
     f.vx[i] = vs[0], f.vy[i] = vs[1], f.vz[i] = vs[2];
   }
-  carried[i] += rate[i] * dt;
+  carried[i] = BoundCarriedDensity(c, carried[i] + rate[i] * dt);
   f.density[i] = carried[i];
 }
 

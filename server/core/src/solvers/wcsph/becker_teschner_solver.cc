@@ -220,6 +220,8 @@ void Integrate(const Model& model, BeckerTeschnerData& data, State& state) {
   const std::vector<physical::ObstacleFrame> frames =
       physical::ObstacleFramesOverStep(model, state.time, state.dt);
   const Vec3* shift = model.params.particle_shifting > 0 ? data.shift.data() : nullptr;
+  const Real rho_lo = Real(model.params.rest_density * kCarriedDensityMin);
+  const Real rho_hi = Real(model.params.rest_density * kCarriedDensityMax);
 #pragma omp parallel for schedule(static)
   for (int64_t i = 0; i < n; ++i) {
     p.velocity[i] += data.acceleration[i] * dt;
@@ -233,7 +235,8 @@ void Integrate(const Model& model, BeckerTeschnerData& data, State& state) {
       p.position[i] += drift * dt;
     }
     CollideWithDomainWalls(model.domain, model.periodic, Real(0), p.position[i], p.velocity[i]);
-    data.density[i] += data.density_rate[i] * dt;
+    data.density[i] =
+        BoundCarriedDensity(data.density[i] + data.density_rate[i] * dt, rho_lo, rho_hi);
     p.density[i] = data.density[i];
   }
 }

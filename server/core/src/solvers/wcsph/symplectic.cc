@@ -17,6 +17,8 @@ void PredictHalfStep(const Model& model, BeckerTeschnerData& data, State& state)
   start.position.resize(p.size());
   start.velocity.resize(p.size());
   start.density.resize(p.size());
+  const Real rho_lo = Real(model.params.rest_density * kCarriedDensityMin);
+  const Real rho_hi = Real(model.params.rest_density * kCarriedDensityMax);
 #pragma omp parallel for schedule(static)
   for (int64_t i = 0; i < n; ++i) {
     start.position[i] = p.position[i];
@@ -28,7 +30,8 @@ void PredictHalfStep(const Model& model, BeckerTeschnerData& data, State& state)
     p.position[i] += drift * half;
     CollideWithDomainWalls(model.domain, model.periodic, Real(0), p.position[i], drift);
     p.velocity[i] += data.acceleration[i] * half;
-    data.density[i] += data.density_rate[i] * half;
+    data.density[i] =
+        BoundCarriedDensity(data.density[i] + data.density_rate[i] * half, rho_lo, rho_hi);
     p.density[i] = data.density[i];
   }
   start.time = state.time;
@@ -44,6 +47,8 @@ void CorrectStep(const Model& model, BeckerTeschnerData& data, State& state) {
   const std::vector<physical::ObstacleFrame> frames =
       physical::ObstacleFramesOverStep(model, start.time, state.dt);
   const Vec3* shift = model.params.particle_shifting > 0 ? data.shift.data() : nullptr;
+  const Real rho_lo = Real(model.params.rest_density * kCarriedDensityMin);
+  const Real rho_hi = Real(model.params.rest_density * kCarriedDensityMax);
 #pragma omp parallel for schedule(static)
   for (int64_t i = 0; i < n; ++i) {
     const Vec3& x0 = start.position[i];
@@ -58,9 +63,11 @@ void CorrectStep(const Model& model, BeckerTeschnerData& data, State& state) {
     p.position[i] = x0 + drift * dt;
     CollideWithDomainWalls(model.domain, model.periodic, Real(0), p.position[i], v);
     p.velocity[i] = v;
-    // rho^(n+1) = rho^n (2 - e) / (2 + e), e = -(D rho / Dt)^(n+1/2) dt / rho^(n+1/2)
+    // rho^(n+1) = rho^n (2 - e) / (2 + e), e = -(D rho / Dt)^(n+1/2) dt / rho^(n+1/2), held
+    // within the carried density's range (e <= -2 would make it negative or infinite)
     const Real e = -data.density_rate[i] * dt / data.density[i];
-    data.density[i] = start.density[i] * (Real(2) - e) / (Real(2) + e);
+    data.density[i] =
+        BoundCarriedDensity(start.density[i] * (Real(2) - e) / (Real(2) + e), rho_lo, rho_hi);
     p.density[i] = data.density[i];
   }
   start.predicted = false;
