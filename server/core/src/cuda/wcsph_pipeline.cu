@@ -38,6 +38,8 @@ struct WcsphPipeline::Impl {
   // the permutation, and the step's D rho / Dt; carried_ready false until InitialDensityKernel.
   DeviceBuffer<float> carried, carried2, density_rate;
   bool carried_ready = false;
+  // The interaction sweep's packed neighbour state (PackedFluid), written by the pressure pass.
+  DeviceBuffer<float4> packed_position, packed_velocity;
   // The predictor-corrector's x^n, v^n, rho^n (allocated at the first Predict); predicted
   // between Predict and Correct, when the corrector's sort permutes them too.
   DeviceBuffer<float> start_x, start_y, start_z, start_vx, start_vy, start_vz, start_density;
@@ -104,6 +106,8 @@ struct WcsphPipeline::Impl {
     }
     id.Resize(count > 0 ? count : 1);
     id2.Resize(count > 0 ? count : 1);
+    packed_position.Resize(count > 0 ? count : 1);
+    packed_velocity.Resize(count > 0 ? count : 1);
     sorter.Reserve(count);
     size_t bytes = 0;
     CheckCuda(cub::DeviceReduce::Max(nullptr, bytes, speed2.data(), device_maxima.data(),
@@ -331,12 +335,13 @@ void WcsphPipeline::Impl::ForcePasses(float gravity, float hydrostatic,
   const DeviceGrid bgrid = m.boundary_sorter.View();
   const Fluid f = m.View();
   const Boundary b = m.BoundaryView();
+  const PackedFluid packed{m.packed_position.data(), m.packed_velocity.data()};
   begin_pass();  // pressure
   if (n > 0) {
     if (!m.carried_ready) {
       InitialDensityKernel<<<blocks, kBlock, 0, s>>>(grid, bgrid, f, b, c, m.carried.data(), n);
     }
-    PressureKernel<<<blocks, kBlock, 0, s>>>(f, c, m.carried.data(), n);
+    PressureKernel<<<blocks, kBlock, 0, s>>>(f, c, m.carried.data(), packed, n);
   }
   m.carried_ready = true;
   begin_pass();  // boundary_pressure (and the no-slip walls' extrapolated velocity)
@@ -348,9 +353,9 @@ void WcsphPipeline::Impl::ForcePasses(float gravity, float hydrostatic,
   }
   begin_pass();  // interactions
   if (n > 0) {
-    InteractionKernel<<<blocks, kBlock, 0, s>>>(grid, bgrid, f, b, c, m.carried.data(),
-                                                m.density_rate.data(), hydrostatic, gravity,
-                                                cfg.viscosity, cfg.wall_viscosity, n);
+    InteractionKernel<<<blocks, kBlock, 0, s>>>(grid, bgrid, f, b, c, packed, m.density_rate.data(),
+                                                hydrostatic, gravity, cfg.viscosity,
+                                                cfg.wall_viscosity, n);
   }
 }
 
@@ -464,6 +469,7 @@ uint32_t WcsphPipeline::max_cell_count() const { return impl_->sorter.max_count(
 uint64_t WcsphPipeline::DeviceBytes() const {
   const Impl& m = *impl_;
   return uint64_t(m.x.capacity()) * (23 * sizeof(float) + 2 * sizeof(uint32_t)) +
+         uint64_t(m.packed_position.capacity()) * 2 * sizeof(float4) +
          uint64_t(m.bx.capacity()) * (9 * sizeof(float) + 1) + m.sorter.DeviceBytes() +
          m.boundary_sorter.DeviceBytes() + m.moving.DeviceBytes() + m.reduce_temp.capacity();
 }
