@@ -31,6 +31,9 @@ martinmoyce (Martin & Moyce 1952, 2D column a = 0.05715 m):
   column's back row of particle centres at t = 0 (the project's column starts at the wall,
   x_back = d / 2). The error is the RMS of |Z - Z_ref| / Z_ref over the table's rows with T > 0
   that the run reaches, T = t sqrt(2 g / a), with no delay and with the best constant delay.
+  Against the converged SPH front (the issue's reference: DualSPHysics's finest run, a/120): the
+  RMS of |Z - Z_conv| / Z_conv at its samples, and the mean time by which a run reaches each
+  level of Z before it (lead_vs_converged_ms; negative: later).
 """
 
 import argparse
@@ -355,6 +358,32 @@ def mm_measures(t, x_front, x_back, dp, ref_T, ref_Z):
             best[1] * math.sqrt(MM_A / (2 * G)) * 1000, "front_rms_best_delay": best[0]}, T, Z
 
 
+def first_times(levels, T, Z):
+    """The first T at which the front Z reaches each level, linear between samples; the front is
+    made monotonic by its running maximum (a front read off particles can step back)."""
+    z = np.maximum.accumulate(np.asarray(Z, dtype=float))
+    z, first = np.unique(z, return_index=True)  # each value's first sample
+    return np.interp(levels, z, np.asarray(T, dtype=float)[first])
+
+
+def against_converged(T, Z, ref_T, ref_Z):
+    """The front (T, Z) against the converged SPH front (ref_T, ref_Z), DualSPHysics's finest
+    run: the RMS of |Z - Z_ref| / Z_ref at the reference's samples with T > 0 that both reach,
+    and the lead in ms: the mean, over 50 levels of Z from 1.1 to the lower of both fronts'
+    largest, of the time by which the run reaches each level before the reference."""
+    sel = (ref_T > 0) & (ref_T <= T[-1] + 1e-9)
+    if not sel.any():
+        return math.nan, math.nan
+    sim = np.interp(ref_T[sel], T, Z)
+    rms = float(np.sqrt(np.mean(((sim - ref_Z[sel]) / ref_Z[sel]) ** 2)))
+    top = min(np.max(Z), np.max(ref_Z))
+    if top <= 1.1:
+        return rms, math.nan
+    levels = np.linspace(1.1, top, 50)
+    lead = np.mean(first_times(levels, ref_T, ref_Z) - first_times(levels, T, Z))
+    return rms, float(lead) * math.sqrt(MM_A / (2 * G)) * 1000
+
+
 # ---------------------------------------------------------------------------------------------
 # Output
 
@@ -581,7 +610,8 @@ def run_spheric(args, repo):
 def run_mm(args, repo):
     ref_T, ref_Z = read_mm_reference(repo)
     keys = ["code", "dp_m", "front_rms", "front_max", "rows", "best_delay_ms",
-            "front_rms_best_delay"]
+            "front_rms_best_delay", "converged_dp_m", "front_rms_vs_converged",
+            "lead_vs_converged_ms"]
     rows, curves = [], []
     for dp, peer_dir, project_file in args.run:
         t, xf, xb, pdp = read_peer_front(peer_dir)
@@ -595,6 +625,13 @@ def run_mm(args, repo):
         r.update(code="project", dp_m=dp)
         rows.append(r)
         curves.append((f"project dp {dp}", T, Z))
+    # The converged SPH front: DualSPHysics's finest run (the issue's reference at a/120).
+    finest = min(range(0, len(curves), 2), key=lambda k: float(rows[k]["dp_m"]))
+    _, conv_T, conv_Z = curves[finest]
+    for r, (_, T, Z) in zip(rows, curves):
+        r["converged_dp_m"] = rows[finest]["dp_m"]
+        r["front_rms_vs_converged"], r["lead_vs_converged_ms"] = against_converged(
+            T, Z, conv_T, conv_Z)
     out_csv = os.path.join(args.out, f"peer_compare_martinmoyce_{args.tag}.csv")
     with open(out_csv, "w", newline="") as f:
         w = csv.writer(f)
@@ -603,7 +640,9 @@ def run_mm(args, repo):
             w.writerow([fmt(r[k]) if k != "rows" else r[k] for k in keys])
             print(f"{r['code']:13s} dp {r['dp_m']}: front RMS {100 * r['front_rms']:.1f}% "
                   f"(best delay {r['best_delay_ms']:.1f} ms: "
-                  f"{100 * r['front_rms_best_delay']:.1f}%)")
+                  f"{100 * r['front_rms_best_delay']:.1f}%); against DualSPHysics at dp "
+                  f"{r['converged_dp_m']}: {100 * r['front_rms_vs_converged']:.2f}% RMS, lead "
+                  f"{fmt(r['lead_vs_converged_ms'])} ms")
     png = os.path.join(args.out, f"peer_compare_martinmoyce_{args.tag}.png")
     plot_mm(png, curves, ref_T, ref_Z)
     print(f"wrote {out_csv} and {png}")

@@ -310,6 +310,20 @@ class MartinMoyceTest(unittest.TestCase):
             self.assertAlmostEqual(project_row["front_rms"],
                                    math.sqrt((0.05 ** 2 + (0.2 / 3) ** 2) / 2), places=9)
             self.assertAlmostEqual(project_row["best_delay_ms"], 0.0)
+            # Against the converged front (the finest DualSPHysics run, here the only one): the
+            # peer against itself is exact; the project's Z = 1 + 0.9 T against 1 + 1.2 T at the
+            # peer's samples, and it reaches each level Z later by (Z - 1) (1/0.9 - 1/1.2).
+            self.assertEqual(peer_row["converged_dp_m"], repr(dp))
+            self.assertEqual(peer_row["front_rms_vs_converged"], 0.0)
+            self.assertAlmostEqual(peer_row["lead_vs_converged_ms"], 0.0, places=9)
+            Ts = [0.002 * k / unit for k in range(1, 61)]
+            expected = math.sqrt(sum((0.3 * T / (1 + 1.2 * T)) ** 2 for T in Ts) / len(Ts))
+            self.assertAlmostEqual(project_row["front_rms_vs_converged"], expected, places=9)
+            top = 1 + 0.9 * Ts[-1]
+            mean_excess = (1.1 + top) / 2 - 1  # the mean of Z - 1 over evenly spaced levels
+            lead = mean_excess * (1 / 1.2 - 1 / 0.9) * unit * 1000
+            self.assertAlmostEqual(project_row["lead_vs_converged_ms"], lead, places=6)
+            self.assertLess(project_row["lead_vs_converged_ms"], 0)
             # No PartCsv files: a clear error naming the directory.
             for name in os.listdir(os.path.join(peer, "data")):
                 os.remove(os.path.join(peer, "data", name))
