@@ -602,7 +602,7 @@ class ClientTest(unittest.TestCase):
             [first] = _read_frames(stream, 1, keep_open=True)
             self.assertGreater(stream.stream_id, 0)
             with self.assertRaises(DysaError) as caught:
-                self.client.set_stream_view(stream.stream_id, (0, 2, 12), (0, 0, 0), aspect=0)
+                self.client.set_stream_view(stream.stream_id, (0, 2, 12), (0, 0, 0), aspect=100)
             self.assertIn("aspect: allowed range [0.05, 20]", str(caught.exception))
             stream.set_view((0.0, 2.0, 12.0), (0.0, -1.0, 0.0), fov_y_deg=30, aspect=1.5)
             [s] = [s for s in self.client.status().streams if s.stream_id == stream.stream_id]
