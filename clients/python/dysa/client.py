@@ -49,7 +49,8 @@ except ImportError as _error:
         "contains dysa/v1/simulation_pb2.py. Searched: %s"
         % (_error, ", ".join(_dysa.STUB_SEARCH_PATH))) from _error
 
-from dysa.codec import Frame, FrameDecoder, merge_refinement
+from dysa.codec import Frame, FrameDecoder
+from dysa.refinement import merge_refinement
 
 __all__ = [
     "Client",

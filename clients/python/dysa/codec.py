@@ -38,7 +38,6 @@ __all__ = [
     "VELOCITY_COMPONENTS",
     "VELOCITY_OCTAHEDRAL",
     "FrameDecoder",
-    "merge_refinement",
 ]
 
 MAGIC = 0x46535944  # "DYSF"
@@ -711,36 +710,3 @@ class FrameDecoder:
         self._pending = None
         return frame
 
-
-def merge_refinement(shown: Frame, more: Frame) -> Frame:
-    """The frame to show after a refinement (FrameMessage.refines): the union of `shown` and
-    `more`, other particles of the same simulation frame, in increasing id order. The values
-    are the decoded ones, untouched, so once the refinements complete the frame it is
-    bit-exactly the full-detail frame (the C++ dysa::codec::MergeRefinement).
-
-    Raises ValueError when the fields differ or a particle is in both.
-    """
-    if shown.fields != more.fields:
-        raise ValueError("refinement: fields differ from the frame shown")
-    ids = np.concatenate([shown.ids, more.ids])
-    order = np.argsort(ids, kind="stable")
-    ids = ids[order]
-    if ids.size > 1 and not np.all(np.diff(ids.astype(np.int64)) > 0):
-        raise ValueError("refinement: a particle is already in the frame shown")
-
-    def join(a: Optional[np.ndarray], b: Optional[np.ndarray]) -> Optional[np.ndarray]:
-        return None if a is None or b is None else np.concatenate([a, b])[order]
-
-    return Frame(
-        frame_seq=more.frame_seq, step=more.step, time=more.time, keyframe=more.keyframe,
-        count=int(ids.size), stride=more.stride, fields=more.fields,
-        positions=join(shown.positions, more.positions), speed=join(shown.speed, more.speed),
-        velocities=join(shown.velocities, more.velocities),
-        densities=join(shown.densities, more.densities),
-        velocity_encoding=more.velocity_encoding,
-        position_error=tuple(max(a, b) for a, b in zip(shown.position_error,
-                                                      more.position_error)),
-        speed_error=max(shown.speed_error, more.speed_error),
-        velocity_error=max(shown.velocity_error, more.velocity_error),
-        density_error=max(shown.density_error, more.density_error),
-        detail_threshold=more.detail_threshold, ids=ids, explicit_ids=True)
