@@ -32,6 +32,7 @@ FrameProgress FrameAssembler::Add(const FrameMessage& message, codec::Frame& out
   if (!decoded || (message.refines && !refining)) return progress;
   if (refining) {
     codec::MergeRefinement(shown_, increment_);
+    if (!message.partial) shown_.detail_threshold = 0;  // every particle: full detail
     out = shown_;
     progress.refined = true;
   }

@@ -748,6 +748,8 @@ class FrameStream:
                     continue  # refines a frame this stream does not show
                 frame = merge_refinement(self._shown, frame)
                 frame.refined = True
+                if not message.partial:
+                    frame.detail_threshold = 0  # every particle: full detail
             frame.partial = message.partial
             self._shown = frame if message.partial else None
             self._shown_sim_frame = message.frame

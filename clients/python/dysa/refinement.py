@@ -4,6 +4,7 @@ show is the union, in id order."""
 
 from __future__ import annotations
 
+import math
 from typing import Optional
 
 import numpy as np
@@ -44,4 +45,15 @@ def merge_refinement(shown: Frame, more: Frame) -> Frame:
         speed_error=max(shown.speed_error, more.speed_error),
         velocity_error=max(shown.velocity_error, more.velocity_error),
         density_error=max(shown.density_error, more.density_error),
-        detail_threshold=more.detail_threshold, ids=ids, explicit_ids=True)
+        detail_threshold=_grown_threshold(shown, int(ids.size)), ids=ids, explicit_ids=True)
+
+
+def _grown_threshold(shown: Frame, count: int) -> int:
+    """The detail threshold of the shown frame's fraction grown by the particles added (the
+    C++ MergeRefinement's rule; FrameStream sets 0 once the frame is complete)."""
+    if shown.count == 0:
+        return 0
+    fraction = min(1.0, shown.detail_fraction * count / shown.count)
+    if fraction >= 1.0:
+        return 0
+    return min(0xFFFFFFFF, max(1, math.ceil(fraction * 4294967296.0)))

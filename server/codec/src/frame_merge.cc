@@ -6,6 +6,8 @@
 #include <utility>
 #include <vector>
 
+#include "dysa/codec/detail_subset.h"
+
 namespace dysa::codec {
 namespace {
 
@@ -35,7 +37,13 @@ void MergeRefinement(Frame& shown, const Frame& more) {
   out.time = more.time;
   out.keyframe = more.keyframe;
   out.stride = more.stride;
-  out.detail_threshold = more.detail_threshold;
+  // The detail grows with the particles: the shown frame's fraction times the growth (the
+  // viewer sizes particles by it; the last refinement's caller sets 0, the full frame).
+  const double fraction =
+      shown.count == 0 ? 1.0
+                       : std::min(1.0, DetailFraction(shown.detail_threshold) *
+                                           double(a.size() + b.size()) / double(shown.count));
+  out.detail_threshold = DetailThreshold(fraction);
   out.explicit_ids = true;
   out.fields = more.fields;
   out.velocity_encoding = more.velocity_encoding;

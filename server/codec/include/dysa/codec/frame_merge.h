@@ -10,8 +10,9 @@
 namespace dysa::codec {
 
 // `shown` becomes the union of itself and `more` (disjoint particles of one frame, each with
-// ids: ParticleIds), in increasing id order; its metadata becomes `more`'s and its error bounds
-// the larger of the two. Throws std::invalid_argument when the fields differ or an id is in both.
+// ids: ParticleIds), in increasing id order; its metadata becomes `more`'s, its detail threshold
+// that of the shown frame's fraction grown by the particles added, and its error bounds the
+// larger of the two. Throws std::invalid_argument when the fields differ or an id is in both.
 void MergeRefinement(Frame& shown, const Frame& more);
 
 }  // namespace dysa::codec
