@@ -163,6 +163,17 @@ TEST(ViewDetail, AViewStreamKeepsItsSubsetAcrossFramesSoDeltaCodingPays) {
     if (f == 1) first_ids = decoded->ids;
     EXPECT_EQ(decoded->ids, first_ids) << "the same particles while the view holds";
   }
+  // The subscriber misses a frame: it gets a keyframe, of the same particles.
+  hub.Publish(Snapshot(5, p), false, false);
+  hub.Publish(Snapshot(6, p), false, false);
+  EXPECT_FALSE(s->Take(nullptr)) << "a delta frame after a gap waits for a keyframe";
+  hub.Publish(Snapshot(7, p), false, false);
+  auto frame = s->Take(nullptr);
+  ASSERT_TRUE(frame);
+  EXPECT_TRUE(frame->keyframe);
+  auto decoded = codec::FrameDecoder().AddChunks(frame->chunks);
+  ASSERT_TRUE(decoded);
+  EXPECT_EQ(decoded->ids, first_ids);
 }
 
 TEST(ViewDetail, RepublishedFramesCompleteTheShownFrameBitExactly) {

@@ -387,7 +387,7 @@ void FrameHub::Publish(const FrameSnapshot& snapshot, bool force, bool discontin
     std::optional<ViewStream::Plan> plan;
     if (group->view) {
       plan =
-          group->view->Next(snapshot, fresh, group->options.stream.detail_threshold,
+          group->view->Next(snapshot, fresh, discontinuity, group->options.stream.detail_threshold,
                             group->options.stream.stride, group->options.stream.keyframe_interval);
       if (!plan) continue;  // the subscriber has the whole frame
     }

@@ -14,8 +14,8 @@ void ViewStream::SetView(const StreamView& view) {
 }
 
 std::optional<ViewStream::Plan> ViewStream::Next(const FrameSnapshot& snapshot, bool fresh,
-                                                 uint32_t threshold, uint32_t stride,
-                                                 int keyframe_interval) {
+                                                 bool discontinuity, uint32_t threshold,
+                                                 uint32_t stride, int keyframe_interval) {
   StreamView view;
   Key key;
   {
@@ -37,8 +37,9 @@ std::optional<ViewStream::Plan> ViewStream::Next(const FrameSnapshot& snapshot, 
                      key.stride);
   };
 
-  const bool same_frame = have_shown_ && !fresh && snapshot.frame == shown_frame_ &&
-                          snapshot.step == shown_step_ && key == shown_key_;
+  const bool same_frame = have_shown_ && !fresh && !discontinuity &&
+                          snapshot.frame == shown_frame_ && snapshot.step == shown_step_ &&
+                          key == shown_key_;
   if (same_frame) {
     if (!partial_) return std::nullopt;  // the client has all of it
     // The next budget whose selection adds something (the first one does unless the selection
@@ -61,7 +62,9 @@ std::optional<ViewStream::Plan> ViewStream::Next(const FrameSnapshot& snapshot, 
     return Plan{increment_, true, partial_};
   }
 
-  if (fresh || !(key == selected_key_) || frames_since_selection_ >= keyframe_interval) {
+  // A keyframe request alone (a subscriber missed a frame) keeps the subset: selecting is O(n),
+  // and a slow link asks often.
+  if (discontinuity || !(key == selected_key_) || frames_since_selection_ >= keyframe_interval) {
     selected_ = order().Select(budget);
     selected_key_ = key;
     frames_since_selection_ = 0;

@@ -34,11 +34,12 @@ class ViewStream {
     bool refines = false;           // adds `ids` to the frame sent before (the same frame)
     bool partial = false;           // the client's frame still lacks some particles
   };
-  // `fresh`: the frame must be sent afresh (a keyframe was asked for, a discontinuity).
-  // `threshold`: the stream's detail (codec::DetailThreshold; 0: every candidate). Nothing when
-  // the snapshot is the frame already sent in full.
-  std::optional<Plan> Next(const FrameSnapshot& snapshot, bool fresh, uint32_t threshold,
-                           uint32_t stride, int keyframe_interval);
+  // `fresh`: the frame must be sent afresh, not refined (a keyframe was asked for: the client
+  // may lack the frame shown); `discontinuity`: it does not follow the previous one (reset, step
+  // back, new scene: select again). `threshold`: the stream's detail (codec::DetailThreshold;
+  // 0: every candidate). Nothing when the snapshot is the frame already sent in full.
+  std::optional<Plan> Next(const FrameSnapshot& snapshot, bool fresh, bool discontinuity,
+                           uint32_t threshold, uint32_t stride, int keyframe_interval);
 
   // Whether the frame last planned is incomplete: a refinement would add to it.
   bool partial() const { return partial_; }
