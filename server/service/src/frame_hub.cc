@@ -254,7 +254,7 @@ void FrameHub::ApplyDetail(const std::shared_ptr<Subscription>& s, uint32_t thre
     old_group =
         RegroupLocked(s, [&](SubscriptionOptions& o) { o.stream.detail_threshold = threshold; });
   }
-  Release(std::move(old_group));
+  if (old_group) Release(std::move(old_group));  // (a null one would trim the heap for nothing)
 }
 
 std::shared_ptr<FrameGroup> FrameHub::RegroupLocked(
@@ -308,7 +308,7 @@ void FrameHub::SetStreamView(uint64_t stream_id, const StreamView& view) {
     std::lock_guard frame_lock(s->frame_mu_);
     group = s->group_;
   }
-  Release(std::move(old_group));
+  if (old_group) Release(std::move(old_group));  // (a null one would trim the heap for nothing)
   // The new view's subset goes out now, also while paused.
   if (group) RequestKeyframe(*group);
 }

@@ -154,7 +154,10 @@ void FrameStreamReactor::WriteNextLocked() {
     const double now = SteadySeconds();
     hub_.FrameStarted(subscription_, now, *frame_, ProducedSteady(now, frame_->produced_unix_us));
     if (skipped > 0) slices[count++] = VarintField(6, skipped);
-    slices[count++] = VarintField(7, subscription_->id());
+    // The stream's id once, with its first frame: a message of several slices may cost gRPC a
+    // copy, which every frame should not pay.
+    if (!id_sent_) slices[count++] = VarintField(7, subscription_->id());
+    id_sent_ = true;
   }
   slices[0] = wire_->messages[next_message_++];
   message_ = grpc::ByteBuffer(slices, count);
