@@ -174,7 +174,7 @@ struct FrameMessage {
   uint64_t frame_bytes = 0;
   int64_t produced_unix_us = 0;
   uint32_t frames_skipped = 0;
-  uint64_t stream_id = 0;  // the call's id for SetStreamView (first message of a frame); 0: none
+  uint64_t stream_id = 0;  // the call's id for SetStreamView (its first message only); 0: none
   bool refines = false;    // adds its particles to the frame before (progressive completion)
   bool partial = false;    // the frame shown still lacks particles; refinements follow if paused
 };
