@@ -159,8 +159,13 @@ void Record(Client& client, const RecordOptions& options, std::ostream& out, std
   uint64_t decode_errors = 0;
   std::string stop_reason;
   uint32_t first_count = 0, fields = 0;
+  bool camera_sent = false;
   while (got < options.frames && stream->Next(message)) {
     const FrameProgress progress = assembler.Add(message, frame);
+    if (options.camera && !camera_sent && progress.stream_id != 0) {
+      client.SetStreamView(progress.stream_id, *options.camera);  // RpcError: a bad camera
+      camera_sent = true;
+    }
     if (progress.decode_error) ++decode_errors;  // the decoder waits for the next keyframe
     if (!progress.complete) continue;
     if (got == 0) first_count = frame.count, fields = frame.fields;
