@@ -75,6 +75,10 @@ struct NpzFrames {
       return "the frame changed from " + std::to_string(count) + " particles (" +
              FieldNames(fields) + ") to " + std::to_string(f.count) + " (" + FieldNames(f.fields) +
              ") at frame " + std::to_string(frame_number) + " (a reset or a new scene?)";
+    } else if (f.explicit_ids && f.ids != ids) {
+      return "the frame's particles changed at frame " + std::to_string(frame_number) +
+             " (a stream with --view selects its particles again as the fluid and the view "
+             "move; record it to vtk)";
     }
     positions.insert(positions.end(), f.positions.begin(), f.positions.end());
     if (fields & codec::kSpeed) speed.insert(speed.end(), f.speed.begin(), f.speed.end());
