@@ -28,6 +28,7 @@
 #include "src/scene_renderer.h"
 #include "src/server_link.h"
 #include "src/session_watch.h"
+#include "src/stream_camera.h"
 
 namespace {
 
@@ -256,7 +257,8 @@ int Run(const Options& options) {
     dysa::remote::ReceivedFrame frame;
     uint64_t scene_revision = 0;
     std::string fitted_scene;
-    int captures = 0;  // F12 presses saved
+    int captures = 0;                        // F12 presses saved
+    dysa::remote::StreamCamera last_camera;  // the camera last given to the stream
     bool have_particles = false;
     int frames_after_particles = 0;
     RenderStats render_stats;
@@ -308,6 +310,14 @@ int Run(const Options& options) {
         receiver.SetStreamOptions(settings.stream);
       }
       ImGui::Render();
+
+      // A budgeted stream spends its particles on what this camera sees (docs/viewer.md).
+      const bool budgeted = settings.stream.fps_target > 0 || settings.stream.particle_budget > 0;
+      if (budgeted && width > 0 && height > 0) {
+        const dysa::remote::StreamCamera sent = ToStreamCamera(camera, float(width) / height);
+        if (sent != last_camera) receiver.SetCamera(sent);
+        last_camera = sent;
+      }
 
       if (width > 0 && height > 0) {  // 0 while minimised
         ViewParams view_params{camera.View(),

@@ -190,6 +190,7 @@ class RemoteCommands {
                           [this](remote::Client& c) {
                             remote::WatchOptions options;
                             options.stream = Stream();
+                            options.camera = Camera();
                             options.seconds = seconds_;
                             options.live = isatty(STDOUT_FILENO) != 0;
                             options.json = json_;
@@ -204,6 +205,7 @@ class RemoteCommands {
         Add(app, "record", "Record N frames to a ParaView series (vtk) or a NumPy .npz file",
             [this](remote::Client& c) {
               record_.stream = Stream();
+              record_.camera = Camera();
               record_.json = json_;
               record_.progress = isatty(STDERR_FILENO) != 0;
               record_.interrupted = &g_interrupted;
@@ -279,10 +281,31 @@ class RemoteCommands {
     cmd->add_option("--particle-budget", particle_budget_,
                     "At most P particles per frame (a stable, even subset)")
         ->check(CLI::Range(1u, 20000000u));
+    cmd->add_option("--view", view_,
+                    "With a budget: the camera EX,EY,EZ,TX,TY,TZ[,FOV] (eye and target in m, "
+                    "vertical field of view in degrees, default 45): the particles in view first")
+        ->delimiter(',')
+        ->expected(6, 7);
     cmd->add_option("--velocity-encoding", velocity_encoding_,
                     "With velocity: components (the tightest bound per component) or octahedral "
                     "(|v| and direction, an error relative to the speed)")
         ->check(CLI::IsMember({"components", "octahedral"}));
+  }
+
+  // The --view camera, if given. Throws UsageError for a wrong count of numbers (the server
+  // checks the ranges and names the field).
+  std::optional<remote::StreamCamera> Camera() const {
+    if (view_.empty()) return std::nullopt;
+    if (view_.size() != 6 && view_.size() != 7) {
+      throw remote::UsageError(
+          "--view: 6 or 7 numbers: eye x,y,z and target x,y,z (m), then optionally the vertical "
+          "field of view (degrees)");
+    }
+    remote::StreamCamera camera;
+    camera.eye = {view_[0], view_[1], view_[2]};
+    camera.target = {view_[3], view_[4], view_[5]};
+    if (view_.size() == 7) camera.fov_y_deg = view_[6];
+    return camera;
   }
 
   remote::StreamOptions Stream() const {
@@ -320,6 +343,7 @@ class RemoteCommands {
   uint64_t byte_budget_ = 0;
   uint32_t particle_budget_ = 0;
   std::string velocity_encoding_ = "components";
+  std::vector<double> view_;
   remote::RecordOptions record_;
   std::vector<std::pair<CLI::App*, std::function<void(remote::Client&)>>> commands_;
 };

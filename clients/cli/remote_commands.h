@@ -9,6 +9,7 @@
 #include <atomic>
 #include <cstdint>
 #include <iosfwd>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -63,6 +64,8 @@ uint32_t ParseFields(const std::vector<std::string>& names);
 
 struct WatchOptions {
   StreamOptions stream;
+  // Given to the stream once its id is known (SetStreamView): view-dependent detail.
+  std::optional<StreamCamera> camera;
   double seconds = 0;  // stop after this long; 0: until *interrupted
   bool live = false;   // out is a terminal: one line rewritten in place (\r), else a line a second
   bool json = false;   // no status lines; one JSON summary at the end
@@ -77,10 +80,11 @@ void Watch(Client& client, const WatchOptions& options, std::ostream& out);
 
 struct RecordOptions {
   StreamOptions stream;
-  uint64_t frames = 1;  // complete decoded frames to write
-  std::string out;      // npz: the file; vtk: OUT.pvd (or OUT if it ends in .pvd) and OUT/; missing
-                        // directories on the way are made
-  std::string format;   // "vtk" or "npz"; "" picks npz for a .npz file name, vtk otherwise
+  std::optional<StreamCamera> camera;  // as WatchOptions::camera
+  uint64_t frames = 1;                 // complete decoded frames to write
+  std::string out;     // npz: the file; vtk: OUT.pvd (or OUT if it ends in .pvd) and OUT/; missing
+                       // directories on the way are made
+  std::string format;  // "vtk" or "npz"; "" picks npz for a .npz file name, vtk otherwise
   bool json = false;
   bool progress = false;  // a live "k/N frames" line on `err`
   const std::atomic<bool>* interrupted = nullptr;

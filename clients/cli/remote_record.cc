@@ -75,6 +75,10 @@ struct NpzFrames {
       return "the frame changed from " + std::to_string(count) + " particles (" +
              FieldNames(fields) + ") to " + std::to_string(f.count) + " (" + FieldNames(f.fields) +
              ") at frame " + std::to_string(frame_number) + " (a reset or a new scene?)";
+    } else if (f.explicit_ids && f.ids != ids) {
+      return "the frame's particles changed at frame " + std::to_string(frame_number) +
+             " (a stream with --view selects its particles again as the fluid and the view "
+             "move; record it to vtk)";
     }
     positions.insert(positions.end(), f.positions.begin(), f.positions.end());
     if (fields & codec::kSpeed) speed.insert(speed.end(), f.speed.begin(), f.speed.end());
@@ -159,8 +163,13 @@ void Record(Client& client, const RecordOptions& options, std::ostream& out, std
   uint64_t decode_errors = 0;
   std::string stop_reason;
   uint32_t first_count = 0, fields = 0;
+  bool camera_sent = false;
   while (got < options.frames && stream->Next(message)) {
     const FrameProgress progress = assembler.Add(message, frame);
+    if (options.camera && !camera_sent && progress.stream_id != 0) {
+      client.SetStreamView(progress.stream_id, *options.camera);  // RpcError: a bad camera
+      camera_sent = true;
+    }
     if (progress.decode_error) ++decode_errors;  // the decoder waits for the next keyframe
     if (!progress.complete) continue;
     if (got == 0) first_count = frame.count, fields = frame.fields;

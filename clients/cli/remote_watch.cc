@@ -104,9 +104,14 @@ void Watch(Client& client, const WatchOptions& options, std::ostream& out) {
   codec::Frame frame;
   FrameMessage message;
   uint64_t message_skips = 0;
+  bool camera_sent = false;
   while (stream->Next(message)) {
     message_skips += message.frames_skipped;
     const FrameProgress progress = assembler.Add(message, frame);
+    if (options.camera && !camera_sent && progress.stream_id != 0) {
+      client.SetStreamView(progress.stream_id, *options.camera);  // RpcError: a bad camera
+      camera_sent = true;
+    }
     if (progress.decode_error) {
       std::lock_guard lock(stats.mutex);
       ++stats.decode_errors;

@@ -228,7 +228,8 @@ TEST(DysaRemoteBinaryTest, UsageErrorsExitWithTwoBeforeAnyCall) {
                            "watch --fps-target 5000",
                            "watch --byte-budget 10",
                            "watch --byte-budget 100000",
-                           "watch --particle-budget 0"}) {
+                           "watch --particle-budget 0",
+                           "watch --view 1,2,3"}) {
     const Result r = RunDysa(dir.path(), server + args);
     EXPECT_EQ(r.exit_code, 2) << args << "\n" << r.err << r.out;
   }
@@ -795,6 +796,12 @@ print('ok')
   const Json w = DysaJson("watch --seconds 1 --particle-budget 3000");
   EXPECT_LT(w["detail"].get<double>(), 0.12);
   EXPECT_LE(w["particles"].get<int>(), 3000);
+  // With a camera the stream is view-dependent; a bad one is refused naming the field.
+  const Json v = DysaJson("watch --seconds 1 --particle-budget 3000 --view 0,2,12,0,-1,0,40");
+  EXPECT_LE(v["particles"].get<int>(), 3000);
+  const Result bad = Dysa("watch --seconds 1 --particle-budget 3000 --view 0,2,12,0,-1,0,500");
+  EXPECT_NE(bad.exit_code, 0);
+  EXPECT_THAT(bad.err, HasSubstr("fov_y_deg: allowed range [1, 179] degrees"));
 }
 
 TEST_F(RemoteTest, RecordVtkWritesASeries) {

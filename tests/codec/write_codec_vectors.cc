@@ -41,7 +41,17 @@ struct Scenario {
   uint32_t particles = 0;
   int frames = 0;
   std::vector<bool> keyframes;  // the keyframe flag each frame must get (the vectors' coverage)
+  // With config.explicit_ids: the ids of frame f are those with (id * 7 + subset[f]) % 10 < 4.
+  std::vector<uint32_t> subset;
 };
+
+std::vector<uint32_t> SubsetIds(uint32_t particles, uint32_t shift) {
+  std::vector<uint32_t> ids;
+  for (uint32_t i = 0; i < particles; ++i) {
+    if ((i * 7 + shift) % 10 < 4) ids.push_back(i);
+  }
+  return ids;
+}
 
 std::string Hex(double v) {
   char buffer[64];
@@ -73,7 +83,12 @@ json WriteScenario(const fs::path& dir, const Scenario& s) {
   json frames = json::array();
   for (int f = 0; f < s.frames; ++f) {
     source.Make(f, x, v, rho);
-    const std::vector<Chunk> chunks = encoder.Encode(Input(x, v, rho, 1000 + 10 * f, f / 60.0));
+    dysa::codec::FrameInput input = Input(x, v, rho, 1000 + 10 * f, f / 60.0);
+    const std::vector<uint32_t> ids = s.config.explicit_ids
+                                          ? SubsetIds(s.particles, s.subset[size_t(f)])
+                                          : std::vector<uint32_t>();
+    input.ids = ids;
+    const std::vector<Chunk> chunks = encoder.Encode(input);
     const std::string prefix = "frame" + std::to_string(f);
     json chunk_files = json::array();
     std::optional<Frame> frame;
@@ -208,6 +223,20 @@ std::vector<Scenario> Scenarios() {
     s.config.detail_threshold = dysa::codec::DetailThreshold(0.3);
     s.config.chunk_particles = 300;
     s.keyframes = {true, false, false, false};
+    out.push_back(s);
+  }
+  {
+    // Explicit ids (format version 4): in keyframes only; the subset changes at frame 2, which
+    // makes it a keyframe.
+    Scenario s;
+    s.name = "g_explicit_ids";
+    s.particles = 3000;
+    s.frames = 4;
+    s.config.fields = kAllFields;
+    s.config.explicit_ids = true;
+    s.config.chunk_particles = 350;
+    s.subset = {0, 0, 3, 3};
+    s.keyframes = {true, false, true, false};
     out.push_back(s);
   }
   return out;

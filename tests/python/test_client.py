@@ -593,6 +593,36 @@ class ClientTest(unittest.TestCase):
         self.assertEqual(whole.detail_fraction, 1.0)
         self.assertTrue(np.array_equal(whole.ids, np.arange(_PARTICLES)))
 
+    def test_frames_view_completes_on_pause(self) -> None:
+        # A camera: the view's subset, then (paused) refinements until the frame is complete,
+        # bit-exactly the full-detail frame, within log2(27000 / 1000) + 1 refinements.
+        [full] = _read_frames(self.client.frames(fields=("positions",)), 1)
+        stream = self.client.frames(fields=("positions",), particle_budget=1000)
+        try:
+            [first] = _read_frames(stream, 1, keep_open=True)
+            self.assertGreater(stream.stream_id, 0)
+            with self.assertRaises(DysaError) as caught:
+                self.client.set_stream_view(stream.stream_id, (0, 2, 12), (0, 0, 0), aspect=100)
+            self.assertIn("aspect: allowed range [0.05, 20]", str(caught.exception))
+            stream.set_view((0.0, 2.0, 12.0), (0.0, -1.0, 0.0), fov_y_deg=30, aspect=1.5)
+            [s] = [s for s in self.client.status().streams if s.stream_id == stream.stream_id]
+            self.assertTrue(s.view)
+            frames = []
+            while not frames or frames[-1].partial or not frames[-1].explicit_ids:
+                frames += _read_frames(stream, 1, keep_open=True)
+                self.assertLessEqual(len(frames), 1 + 6 + 2)
+        finally:
+            stream.close()
+        view_frames = [f for f in frames if f.explicit_ids]
+        self.assertLessEqual(view_frames[0].count, 1000)
+        self.assertFalse(view_frames[0].refined)
+        self.assertTrue(all(f.refined for f in view_frames[1:]))
+        done = frames[-1]
+        self.assertEqual(done.sim_frame, first.sim_frame)
+        self.assertTrue(np.array_equal(done.ids, np.arange(_PARTICLES)))
+        self.assertTrue(np.array_equal(done.positions.view(np.uint32),
+                                       full.positions.view(np.uint32)))
+
     def test_frames_octahedral_velocity(self) -> None:
         with self.assertRaisesRegex(ValueError, "velocity_encoding must be one of components, "
                                                 "octahedral"):

@@ -173,7 +173,7 @@ class VectorTest(_Case):
     def test_scenarios_cover_what_they_claim(self):
         self.assertEqual(set(_vectors.scenarios),
                          {"a_all_fields", "b_stride_low_bits", "c_empty", "d_extreme_bits",
-                          "e_octahedral_velocity", "f_detail_subset"})
+                          "e_octahedral_velocity", "f_detail_subset", "g_explicit_ids"})
         a = _vectors.frames("a_all_fields")
         self.assertEqual([f["keyframe"] for f in a], [True, False, False, False, True, False])
         self.assertTrue(all(len(f["chunks"]) == 3 for f in a))
@@ -194,6 +194,19 @@ class VectorTest(_Case):
         # About 30% of the 3000 particles, the same ones in every frame.
         self.assertTrue(800 < f[0]["count"] < 1000)
         self.assertTrue(all(x["ids"] == f[0]["ids"] for x in f))
+
+    def test_explicit_id_frames_carry_their_ids_in_keyframes(self):
+        g = _vectors.frames("g_explicit_ids")
+        self.assertTrue(all(_HEADER_VERSION(x["chunk_bytes"][0]) == 4 for x in g))
+        self.assertEqual([x["keyframe"] for x in g], [True, False, True, False])
+        decoder = FrameDecoder()
+        for x in g:
+            frame = decoder.add_chunks(x["chunk_bytes"])
+            self.assertTrue(frame.explicit_ids)
+            self.assertAlmostEqual(frame.count / 3000, 0.4, places=2)
+            self.assertFrame(frame, x)
+        self.assertNotEqual(g[0]["ids"], g[2]["ids"])
+        self.assertEqual(g[2]["ids"], g[3]["ids"])
 
     def test_detail_subset_frames_name_their_particles(self):
         decoder = FrameDecoder()
@@ -299,13 +312,13 @@ class StreamTest(_Case):
 
     def test_newer_and_older_versions(self):
         newer = bytearray(self.chunk(0))
-        newer[4] = 4
+        newer[4] = 5
         self.assertRefused(FrameDecoder(), bytes(newer),
-                           "frame format version 4 is newer than this decoder (version 3); "
+                           "frame format version 5 is newer than this decoder (version 4); "
                            "update the client")
         self.assertRefused(FrameDecoder(), _with_header(self.chunk(0), 4, "H", 0),
                            "frame format version 0 is not supported by this decoder "
-                           "(version 3); update the client")
+                           "(version 4); update the client")
         # A version 1 frame labelled version 2 decodes the same: version 2 only adds a flag.
         relabelled = [_with_header(c, 4, "H", 2) for c in self.a[0]["chunk_bytes"]]
         self.assertFrame(FrameDecoder().add_chunks(relabelled), self.a[0])

@@ -157,6 +157,25 @@ ControlResult Client::Reset() {
   });
 }
 
+void Client::SetStreamView(uint64_t stream_id, const StreamCamera& camera) {
+  pb::SetStreamViewRequest request;
+  request.set_stream_id(stream_id);
+  const auto vec = [](const std::array<double, 3>& v, pb::Vec3* out) {
+    out->set_x(v[0]);
+    out->set_y(v[1]);
+    out->set_z(v[2]);
+  };
+  vec(camera.eye, request.mutable_eye());
+  vec(camera.target, request.mutable_target());
+  vec(camera.up, request.mutable_up());
+  request.set_fov_y_deg(camera.fov_y_deg);
+  request.set_aspect(camera.aspect);
+  pb::SetStreamViewReply reply;
+  impl_->Invoke(impl_->options.query_deadline, [&](grpc::ClientContext* c) {
+    return impl_->stub->SetStreamView(c, request, &reply);
+  });
+}
+
 std::vector<ParamInfo> Client::GetParams() {
   pb::ParamsReply reply;
   impl_->Invoke(impl_->options.query_deadline, [&](grpc::ClientContext* c) {

@@ -21,6 +21,7 @@ void FrameReceiver::Start() {
   if (thread_.joinable()) return;
   stop_ = false;
   thread_ = std::thread([this] { Loop(); });
+  camera_thread_ = std::thread([this] { CameraLoop(); });
 }
 
 void FrameReceiver::Stop() {
@@ -31,6 +32,36 @@ void FrameReceiver::Stop() {
   }
   wake_.notify_all();
   if (thread_.joinable()) thread_.join();
+  if (camera_thread_.joinable()) camera_thread_.join();
+}
+
+void FrameReceiver::SetCamera(const StreamCamera& camera) {
+  {
+    std::lock_guard lock(mu_);
+    camera_ = camera;
+    camera_sent_ = false;
+  }
+  wake_.notify_all();
+}
+
+void FrameReceiver::CameraLoop() {
+  std::unique_lock lock(mu_);
+  for (;;) {
+    wake_.wait(lock, [this] { return stop_ || (!camera_sent_ && server_stream_id_ != 0); });
+    if (stop_) return;
+    const StreamCamera camera = *camera_;
+    const uint64_t id = server_stream_id_;
+    camera_sent_ = true;
+    lock.unlock();
+    try {
+      client_.SetStreamView(id, camera);
+    } catch (const std::exception&) {
+      // The stream ended meanwhile (NOT_FOUND) or the server is away: the next stream gets it.
+    }
+    // At most one camera per period: a drag sends the newest, not every mouse move.
+    std::this_thread::sleep_for(kCameraPeriod);
+    lock.lock();
+  }
 }
 
 void FrameReceiver::SetStreamOptions(const StreamOptions& stream) {
@@ -106,11 +137,19 @@ std::string FrameReceiver::RunStream(const StreamOptions& options) {
   FrameMessage message;
   while (stream->Next(message)) {
     const FrameProgress progress = assembler.Add(message, decoded.frame);
+    bool new_stream = false;
     {
       std::lock_guard lock(mu_);
       if (progress.decode_error) ++stats_.decode_errors;
       stats_.frames_skipped += message.frames_skipped;
+      if (progress.stream_id != server_stream_id_) {
+        // A new call: it gets the camera too.
+        server_stream_id_ = progress.stream_id;
+        new_stream = camera_.has_value();
+        if (new_stream) camera_sent_ = false;
+      }
     }
+    if (new_stream) wake_.notify_all();
     if (!progress.complete) continue;
     decoded.bytes = progress.frame_bytes;
     decoded.sim_frame = message.frame;
@@ -126,6 +165,7 @@ std::string FrameReceiver::RunStream(const StreamOptions& options) {
   }
   std::lock_guard lock(mu_);
   open_stream_ = nullptr;
+  server_stream_id_ = 0;
   if (stop_ || restart_) return "";
   return error;
 }

@@ -65,7 +65,7 @@ ServerStatus FromProto(const pb::Status& s) {
   for (const pb::StreamStatus& t : s.streams()) {
     out.streams.push_back({t.detail(), t.particles(), t.bytes_per_second(), t.frames_per_second(),
                            t.age_s(), t.link_bytes_per_second(), t.fps_target(), t.byte_budget(),
-                           t.particle_budget()});
+                           t.particle_budget(), t.stream_id(), t.view()});
   }
   return out;
 }
@@ -126,6 +126,9 @@ void FromProto(const pb::FrameMessage& m, FrameMessage& out) {
   out.frame_bytes = m.frame_bytes();
   out.produced_unix_us = m.produced_unix_us();
   out.frames_skipped = m.frames_skipped();
+  out.stream_id = m.stream_id();
+  out.refines = m.refines();
+  out.partial = m.partial();
 }
 
 pb::StreamFramesRequest ToProto(const StreamOptions& options) {

@@ -50,6 +50,7 @@ except ImportError as _error:
         % (_error, ", ".join(_dysa.STUB_SEARCH_PATH))) from _error
 
 from dysa.codec import Frame, FrameDecoder
+from dysa.refinement import merge_refinement
 
 __all__ = [
     "Client",
@@ -129,6 +130,8 @@ class StreamStatus:
     fps_target: float  # its budget as requested; 0: none
     byte_budget: int  # bytes per second; 0: none
     particle_budget: int  # particles per frame; 0: none
+    stream_id: int = 0  # FrameStream.stream_id of the call
+    view: bool = False  # it has a camera (set_stream_view): view-dependent detail
 
 
 @dataclass(frozen=True)
@@ -317,7 +320,8 @@ def _status(m: Any) -> Status:
         device_memory_bytes=m.device_memory_bytes, state_hash=m.state_hash,
         streams=tuple(StreamStatus(s.detail, s.particles, s.bytes_per_second,
                                    s.frames_per_second, s.age_s, s.link_bytes_per_second,
-                                   s.fps_target, s.byte_budget, s.particle_budget)
+                                   s.fps_target, s.byte_budget, s.particle_budget,
+                                   s.stream_id, s.view)
                       for s in m.streams))
 
 
@@ -561,6 +565,19 @@ class Client:
         changes."""
         return _scene(self._call("GetScene", _pb.GetSceneRequest()))
 
+    def set_stream_view(self, stream_id: int, eye: Vec3, target: Vec3,
+                        up: Vec3 = (0.0, 1.0, 0.0), fov_y_deg: float = 45.0,
+                        aspect: float = 1.0) -> None:
+        """Gives an open frame stream (FrameStream.stream_id) a camera (docs/server.md,
+        "View-dependent detail"): with a budget, the particles in view go first, densest near
+        the camera; while paused, refinements complete the frame (FrameStream assembles them).
+
+        eye, target: m; up: any length, not parallel to target - eye; fov_y_deg: vertical
+        field of view, [1, 179] degrees; aspect: width / height, [0.05, 20]. A bad value raises
+        DysaError (INVALID_ARGUMENT) naming the field and its range.
+        """
+        self._call("SetStreamView", _view_request(stream_id, eye, target, up, fov_y_deg, aspect))
+
     def frames(self, fields: Iterable[str] = ("positions", "speed"), max_fps: float = 0.0,
                stride: int = 1, position_bits: int = 16, limit: Optional[int] = None, *,
                speed_bits: int = 0, velocity_bits: int = 0, density_bits: int = 0,
@@ -589,7 +606,10 @@ class Client:
                 at most, >= 1000 (needs fps_target); particles per frame at most,
                 1..20,000,000; 0: none. With any of them the server sends the largest stable,
                 nested, spatially even subset of the particles that fits; each Frame then has
-                detail_fraction < 1 and `ids` naming its particles (always set).
+                detail_fraction < 1 and `ids` naming its particles (always set). With a
+                camera (FrameStream.set_view) the subset follows the view, and while paused
+                the stream yields the shown frame again, more complete each time, until
+                `partial` is False (the full frame, bit-exact).
 
         Returns a FrameStream: iterate it for Frames. The stream starts with the current
         frame (a keyframe), even when paused, then brings each frame as it is simulated,
@@ -629,6 +649,22 @@ class Client:
         return FrameStream(self, call, limit)
 
 
+def _view_request(stream_id: int, eye: Vec3, target: Vec3, up: Vec3, fov_y_deg: float,
+                  aspect: float) -> Any:
+    """A SetStreamViewRequest (the server checks the ranges and names a bad field)."""
+    def vec(name: str, v: Any) -> Any:
+        try:
+            x, y, z = (float(c) for c in v)
+        except (TypeError, ValueError):
+            raise ValueError("set_stream_view: %s must be 3 numbers (m), not %r"
+                             % (name, v)) from None
+        return _pb.Vec3(x=x, y=y, z=z)
+
+    return _pb.SetStreamViewRequest(stream_id=int(stream_id), eye=vec("eye", eye),
+                                    target=vec("target", target), up=vec("up", up),
+                                    fov_y_deg=float(fov_y_deg), aspect=float(aspect))
+
+
 def _check_budgets(fps_target: float, byte_budget: int, particle_budget: int) -> None:
     """Raises ValueError naming the argument and its range (the server checks them too)."""
     if not (isinstance(fps_target, (int, float)) and 0 <= fps_target <= 1000):
@@ -654,7 +690,11 @@ class FrameStream:
     that shuts down or fails the stream raises DysaError.
 
     Counters: frames_received, frames_skipped (sum of what the server reported),
-    bytes_received (chunk bytes).
+    bytes_received (chunk bytes). stream_id: the call's id on the server (set_view), once the
+    first frame arrived.
+
+    Each Frame carries `partial` (a view stream's frame that still lacks particles) and
+    `refined` (this frame is the one before plus a refinement's particles).
     """
 
     def __init__(self, client: Client, call: Any, limit: Optional[int]) -> None:
@@ -667,6 +707,9 @@ class FrameStream:
         self.frames_received = 0
         self.frames_skipped = 0
         self.bytes_received = 0
+        self.stream_id = 0
+        self._shown: Optional[Frame] = None  # a partial frame that refinements add to
+        self._shown_sim_frame = -1
 
     def __iter__(self) -> "FrameStream":
         return self
@@ -688,6 +731,8 @@ class FrameStream:
                 raise self._client._error(error, "StreamFrames") from None
             self.frames_skipped += message.frames_skipped
             self.bytes_received += sum(len(c) for c in message.chunks)
+            if message.stream_id:
+                self.stream_id = message.stream_id
             try:
                 frame = self._decoder.add_chunks(message.chunks)
             except Exception:
@@ -697,6 +742,17 @@ class FrameStream:
                 # More messages of this frame to come, or a delta frame the decoder cannot use
                 # (it waits for the next keyframe).
                 continue
+            frame.refined = False
+            if message.refines:
+                if self._shown is None or self._shown_sim_frame != message.frame:
+                    continue  # refines a frame this stream does not show
+                frame = merge_refinement(self._shown, frame)
+                frame.refined = True
+                if not message.partial:
+                    frame.detail_threshold = 0  # every particle: full detail
+            frame.partial = message.partial
+            self._shown = frame if message.partial else None
+            self._shown_sim_frame = message.frame
             frame.sim_frame = message.frame
             frame.frames_skipped = message.frames_skipped
             frame.produced_unix_us = message.produced_unix_us
@@ -704,6 +760,14 @@ class FrameStream:
             if self._limit is not None and self.frames_received >= self._limit:
                 self.close()
             return frame
+
+    def set_view(self, eye: Vec3, target: Vec3, up: Vec3 = (0.0, 1.0, 0.0),
+                 fov_y_deg: float = 45.0, aspect: float = 1.0) -> None:
+        """This stream's camera (Client.set_stream_view); call after the first frame."""
+        if not self.stream_id:
+            raise DysaError("set_view: no frame received yet (the stream's id comes with it)",
+                            grpc.StatusCode.FAILED_PRECONDITION)
+        self._client.set_stream_view(self.stream_id, eye, target, up, fov_y_deg, aspect)
 
     def close(self) -> None:
         """Ends the stream (cancels the call; idempotent, thread-safe)."""

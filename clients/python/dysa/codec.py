@@ -41,11 +41,12 @@ __all__ = [
 ]
 
 MAGIC = 0x46535944  # "DYSF"
-FORMAT_VERSION = 3  # the newest version this decoder reads; it reads every older one too
+FORMAT_VERSION = 4  # the newest version this decoder reads; it reads every older one too
 HEADER_SIZE = 152
 
 _KEYFRAME_FLAG = 1
 _OCTAHEDRAL_FLAG = 2  # version 2 and later
+_IDS_FLAG = 4  # version 4: explicit ids (FORMAT.md, "Ids")
 
 # Frame.velocity_encoding values.
 VELOCITY_COMPONENTS = "components"
@@ -110,6 +111,7 @@ class Frame:
     density_error: float = 0.0
     detail_threshold: int = 0  # 0: every stride-th particle; else a subset by rank (dysa.detail)
     ids: Optional[np.ndarray] = None  # uint32, each particle's id
+    explicit_ids: bool = False  # the ids came with the frame (version 4): any subset
 
     @property
     def detail_fraction(self) -> float:
@@ -186,6 +188,17 @@ class _Header:
         """Whether velocity is sent as |v| and two octahedral coordinates."""
         return (self.flags & _OCTAHEDRAL_FLAG) != 0
 
+    @property
+    def explicit_ids(self) -> bool:
+        """Whether the frame's particles are named by ids the stream sends (version 4)."""
+        return (self.flags & _IDS_FLAG) != 0
+
+    @property
+    def ids_in_payload(self) -> bool:
+        """Whether the payload carries the chunk's ids after the components: keyframes with
+        explicit ids."""
+        return self.explicit_ids and self.keyframe
+
     def has(self, c: int) -> bool:
         """Whether component c is in the payload."""
         if c <= _POS_Z:
@@ -241,6 +254,7 @@ class _Header:
         """
         return (self.count == o.count and self.stride == o.stride and self.fields == o.fields
                 and self.detail_threshold == o.detail_threshold
+                and self.explicit_ids == o.explicit_ids
                 and self.octahedral == o.octahedral
                 and self.position_bits == o.position_bits and self.speed_bits == o.speed_bits
                 and self.velocity_bits == o.velocity_bits
@@ -270,7 +284,12 @@ def _read_header(chunk: bytes) -> _Header:
     def fail(what: str) -> None:
         raise DecodeError("corrupt frame header: " + what)
 
-    known_flags = _KEYFRAME_FLAG | _OCTAHEDRAL_FLAG if h.version >= 2 else _KEYFRAME_FLAG
+    if h.version >= 4:
+        known_flags = _KEYFRAME_FLAG | _OCTAHEDRAL_FLAG | _IDS_FLAG
+    elif h.version >= 2:
+        known_flags = _KEYFRAME_FLAG | _OCTAHEDRAL_FLAG
+    else:
+        known_flags = _KEYFRAME_FLAG
     if (h.flags & ~known_flags) != 0:
         fail("unknown flags %d for version %d" % (h.flags, h.version))
     if h.octahedral and not (h.fields & FIELD_VELOCITY):
@@ -385,6 +404,7 @@ class FrameDecoder:
         self._previous_header: Optional[_Header] = None
         self._history: List[List[Optional[np.ndarray]]] = []
         self._have_previous = False
+        self._ids: Optional[np.ndarray] = None  # the last explicit-id keyframe's ids
 
     @property
     def waiting_for_keyframe(self) -> bool:
@@ -449,6 +469,8 @@ class FrameDecoder:
             velocity_encoding=VELOCITY_OCTAHEDRAL if h.octahedral else VELOCITY_COMPONENTS)
         self._current = [np.zeros(n, np.uint32) if h.has(c) else None
                          for c in range(_COMPONENTS)]
+        if h.ids_in_payload:
+            self._pending.ids = np.zeros(n, np.uint32)
 
     def _check_chunk_range(self, h: _Header) -> None:
         """The encoder's layout: chunk i covers particles [i P, min((i + 1) P, count)) for one
@@ -515,7 +537,7 @@ class FrameDecoder:
     def _decode_body(self, h: _Header, payload: bytes, bits: bytes) -> Optional[str]:
         """Decodes one chunk into the pending frame; returns an error message, or None on
         success."""
-        n = h.component_count()
+        n = h.component_count() + (1 if h.ids_in_payload else 0)
         m = h.chunk_particles
         try:
             content = zstandard.frame_content_size(payload)
@@ -595,6 +617,17 @@ class FrameDecoder:
             frame.velocities[first:last] = _from_octahedral(
                 0.0 + q[0] * (h.velocity_max / levels), -1.0 + q[1] * (2.0 / levels),
                 -1.0 + q[2] * (2.0 / levels))
+        if h.ids_in_payload:
+            # The first id, then each gap minus one (FORMAT.md, "Ids").
+            split, count = splits[slot], planes[slot]
+            if split + 8 * count > 32:
+                return "residual wider than 32 bits"
+            z = self._residuals(raw[at:at + count * m], count,
+                                packed[bit_at:bit_at + (m * split + 7) // 8], split, m)
+            ids = np.cumsum(z + 1) - 1
+            if m > 0 and ids[-1] >= _MAX_COUNT:
+                return "particle id over the limit"
+            frame.ids[first:last] = ids
         return None
 
     @staticmethod
@@ -630,14 +663,27 @@ class FrameDecoder:
         first = self._pending_header
         frame = self._pending
         frame.detail_threshold = first.detail_threshold
-        try:
-            frame.ids = _detail.kept_ids(first.count, first.stride, first.detail_threshold,
-                                         _MAX_COUNT)
-        except ValueError as e:
-            self._have_previous = False
-            self._pending_seq = None
-            self._pending = None
-            raise DecodeError("corrupt frame header: " + str(e)) from None
+        frame.explicit_ids = first.explicit_ids
+        if first.explicit_ids:
+            if first.keyframe:
+                if frame.count > 1 and not np.all(np.diff(frame.ids.astype(np.int64)) > 0):
+                    self._have_previous = False
+                    self._pending_seq = None
+                    self._pending = None
+                    raise DecodeError("corrupt frame %d: particle ids do not increase"
+                                      % first.frame_seq)
+                self._ids = frame.ids.copy()
+            else:
+                frame.ids = self._ids.copy()  # a delta frame has its reference's particles
+        else:
+            try:
+                frame.ids = _detail.kept_ids(first.count, first.stride, first.detail_threshold,
+                                             _MAX_COUNT)
+            except ValueError as e:
+                self._have_previous = False
+                self._pending_seq = None
+                self._pending = None
+                raise DecodeError("corrupt frame header: " + str(e)) from None
         frame.position_error = tuple(
             _error_bound(first.position_min[a], first.position_max[a], first.position_bits)
             for a in range(3))
@@ -663,3 +709,4 @@ class FrameDecoder:
         self._pending_seq = None
         self._pending = None
         return frame
+

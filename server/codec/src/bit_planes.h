@@ -25,11 +25,13 @@ void WritePlanes(const uint32_t* z, size_t n, uint32_t m, std::vector<uint8_t>& 
 uint64_t MaxRawSize(int n, uint32_t m);
 
 // Where each component's residuals lie in a decompressed payload and its packed low bits.
+// Slots: the components, plus the ids of a keyframe with explicit ids (FORMAT.md, "Ids").
+inline constexpr int kMaxSlots = kComponents + 1;
 struct PlaneLayout {
-  int split[kComponents] = {};
-  int planes[kComponents] = {};
-  size_t plane_at[kComponents] = {};  // offset of the component's first plane in raw
-  size_t bits_at[kComponents] = {};   // offset of the component's packed bits
+  int split[kMaxSlots] = {};
+  int planes[kMaxSlots] = {};
+  size_t plane_at[kMaxSlots] = {};  // offset of the component's first plane in raw
+  size_t bits_at[kMaxSlots] = {};   // offset of the component's packed bits
 };
 
 // Reads the split and plane count of each of n components from `raw` and checks that the planes

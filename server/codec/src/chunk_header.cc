@@ -32,6 +32,10 @@ ChunkHeader StreamHeader(const StreamConfig& config) {
   h.stride = config.stride;
   h.detail_threshold = config.detail_threshold;
   if (h.detail_threshold != 0) h.version = 3;
+  if (config.explicit_ids) {
+    h.version = 4;
+    h.flags |= kIdsFlag;
+  }
   return h;
 }
 
@@ -137,7 +141,9 @@ ChunkHeader ReadHeader(std::span<const uint8_t> chunk) {
   }
 
   auto fail = [](const std::string& what) { throw DecodeError("corrupt frame header: " + what); };
-  const uint16_t known_flags = h.version >= 2 ? (kKeyframeFlag | kOctahedralFlag) : kKeyframeFlag;
+  const uint16_t known_flags = h.version >= 4   ? (kKeyframeFlag | kOctahedralFlag | kIdsFlag)
+                               : h.version >= 2 ? (kKeyframeFlag | kOctahedralFlag)
+                                                : kKeyframeFlag;
   if ((h.flags & ~known_flags) != 0) {
     fail("unknown flags " + std::to_string(h.flags) + " for version " + std::to_string(h.version));
   }

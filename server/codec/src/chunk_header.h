@@ -19,6 +19,7 @@ inline constexpr uint32_t kMaxCount = 20'000'000;
 
 inline constexpr uint16_t kKeyframeFlag = 1u << 0;
 inline constexpr uint16_t kOctahedralFlag = 1u << 1;  // version 2 and later
+inline constexpr uint16_t kIdsFlag = 1u << 2;         // version 4: explicit ids (FORMAT.md, "Ids")
 
 struct ChunkHeader {
   uint16_t version = 1;
@@ -43,6 +44,9 @@ struct ChunkHeader {
 
   bool keyframe() const { return (flags & kKeyframeFlag) != 0; }
   bool octahedral() const { return (flags & kOctahedralFlag) != 0; }
+  bool explicit_ids() const { return (flags & kIdsFlag) != 0; }
+  // Whether the payload carries the chunk's ids after the components: keyframes with explicit ids.
+  bool ids_in_payload() const { return explicit_ids() && keyframe(); }
   bool Has(Component c) const {
     switch (c) {
       case kPosX:
@@ -81,8 +85,9 @@ struct ChunkHeader {
   bool SameLayout(const ChunkHeader& o) const {
     return count == o.count && stride == o.stride && detail_threshold == o.detail_threshold &&
            fields == o.fields && octahedral() == o.octahedral() &&
-           position_bits == o.position_bits && speed_bits == o.speed_bits &&
-           velocity_bits == o.velocity_bits && density_bits == o.density_bits &&
+           explicit_ids() == o.explicit_ids() && position_bits == o.position_bits &&
+           speed_bits == o.speed_bits && velocity_bits == o.velocity_bits &&
+           density_bits == o.density_bits &&
            std::equal(position_min, position_min + 3, o.position_min) &&
            std::equal(position_max, position_max + 3, o.position_max) && speed_max == o.speed_max &&
            velocity_max == o.velocity_max && density_min == o.density_min &&

@@ -10,8 +10,9 @@ ChunkLayout LayOutChunks(size_t ids, const StreamConfig& config, size_t kept) {
   if (ids > kMaxCount) throw std::invalid_argument("count over the limit of 20,000,000 particles");
   ChunkLayout layout;
   const uint32_t stride = config.stride;
-  layout.count =
-      config.detail_threshold != 0 ? uint32_t(kept) : uint32_t((ids + stride - 1) / stride);
+  layout.count = config.detail_threshold != 0 || config.explicit_ids
+                     ? uint32_t(kept)
+                     : uint32_t((ids + stride - 1) / stride);
   layout.per_chunk = config.chunk_particles;
   layout.chunk_count =
       std::max<uint32_t>(1, (layout.count + layout.per_chunk - 1) / layout.per_chunk);

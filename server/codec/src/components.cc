@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <stdexcept>
+#include <string>
 #include <utility>
 
 #include "octahedral_velocity.h"
@@ -70,6 +71,30 @@ size_t CheckInput(const FrameInput& f, uint32_t fields) {
     throw std::invalid_argument("densities: count values needed for density");
   }
   return ids;
+}
+
+void CheckIds(std::span<const uint32_t> ids, size_t count) {
+  for (size_t k = 0; k < ids.size(); ++k) {
+    if (ids[k] >= count || (k > 0 && ids[k] <= ids[k - 1])) {
+      throw std::invalid_argument("ids: strictly increasing, each in [0, " + std::to_string(count) +
+                                  ")");
+    }
+  }
+}
+
+void WidenPositionsToAll(const FrameInput& f, Extremes& e) {
+  const int64_t n = int64_t(f.positions.size() / 3);
+  const float* p = f.positions.data();
+  for (int a = 0; a < 3; ++a) {
+    float mn = std::numeric_limits<float>::infinity();
+    float mx = -std::numeric_limits<float>::infinity();
+#pragma omp parallel for reduction(min : mn) reduction(max : mx) schedule(static)
+    for (int64_t i = 0; i < n; ++i) {
+      mn = std::min(mn, p[3 * i + a]);
+      mx = std::max(mx, p[3 * i + a]);
+    }
+    if (n > 0) e.lo[a] = mn, e.hi[a] = mx;
+  }
 }
 
 Extremes GatherComponents(const FrameInput& f, std::span<const Component> comps, uint32_t stride,

@@ -26,6 +26,13 @@ struct Extremes {
 // (ids). Throws std::invalid_argument naming the array.
 size_t CheckInput(const FrameInput& f, uint32_t fields);
 
+// Checks explicit ids (FrameInput::ids) against a frame of `count` particles: strictly
+// increasing, each below count. Throws std::invalid_argument naming the field.
+void CheckIds(std::span<const uint32_t> ids, size_t count);
+
+// Widens the position extremes to those of every particle of the frame, not just the sent ones.
+void WidenPositionsToAll(const FrameInput& f, Extremes& e);
+
 // Copies each component in `comps` of the kept particles (ids `kept` when it is not empty, else
 // 0, stride, 2 stride, ...) into
 // values[c] (count values) and returns their extremes. Speed is |v| computed in double and

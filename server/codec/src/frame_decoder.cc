@@ -42,6 +42,7 @@ void StartFrameOutput(const ChunkHeader& h, Frame& frame) {
   frame.count = h.count;
   frame.stride = h.stride;
   frame.detail_threshold = h.detail_threshold;
+  frame.explicit_ids = h.explicit_ids();
   frame.fields = h.fields;
   frame.velocity_encoding =
       h.octahedral() ? VelocityEncoding::kOctahedral : VelocityEncoding::kComponents;
@@ -49,6 +50,18 @@ void StartFrameOutput(const ChunkHeader& h, Frame& frame) {
   frame.speed.resize((h.fields & kSpeed) ? h.count : 0);
   frame.velocities.resize((h.fields & kVelocity) ? 3 * size_t(h.count) : 0);
   frame.densities.resize((h.fields & kDensity) ? h.count : 0);
+  if (h.ids_in_payload()) frame.ids.resize(h.count);
+}
+
+// The chunk's ids from their gaps (FORMAT.md, "Ids"). False when one reaches the decoder's limit.
+bool UndoIdGaps(const ChunkHeader& h, const uint32_t* z, Frame& frame) {
+  uint64_t id = 0;
+  for (uint32_t k = 0; k < h.chunk_particles; ++k) {
+    id = k == 0 ? z[0] : id + uint64_t{z[k]} + 1;
+    if (id >= kMaxCount) return false;
+    frame.ids[h.first + k] = uint32_t(id);
+  }
+  return true;
 }
 
 // Decodes one chunk into q (quantised values, per component, frame-sized) and the frame's float
@@ -58,7 +71,7 @@ std::string DecodeChunk(const ChunkHeader& h, const Chunk& chunk, Values& q, con
                         Frame& frame) {
   const std::span<const uint8_t> payload(chunk.data() + kHeaderSize, h.payload_size);
   const std::span<const uint8_t> bits(payload.data() + payload.size(), h.bits_size);
-  const int n = ComponentCount(h);
+  const int n = ComponentCount(h) + (h.ids_in_payload() ? 1 : 0);
   const uint32_t m = h.chunk_particles;
   // Per-thread scratch, kept between calls.
   thread_local std::vector<uint8_t> raw;
@@ -83,6 +96,12 @@ std::string DecodeChunk(const ChunkHeader& h, const Chunk& chunk, Values& q, con
     if (!(h.octahedral() && IsVelocity(c))) DequantizeComponent(h, c, q, frame);
   }
   if (h.octahedral()) DequantizeOctahedral(h, q, frame);
+  if (h.ids_in_payload()) {
+    if (std::string error = ReadResiduals(raw, bits, layout, slot, m, z.data()); !error.empty()) {
+      return error;
+    }
+    if (!UndoIdGaps(h, z.data(), frame)) return "particle id over the limit";
+  }
   return {};
 }
 
@@ -108,7 +127,10 @@ FrameDecoder::FrameDecoder(const FrameDecoder& other)
       previous_header_(other.previous_header_),
       history_(other.history_),
       spare_(other.spare_),
-      have_previous_(other.have_previous_) {}
+      have_previous_(other.have_previous_),
+      ids_(other.ids_) {
+  std::copy(other.ids_key_, other.ids_key_ + 3, ids_key_);
+}
 FrameDecoder& FrameDecoder::operator=(const FrameDecoder& other) {
   if (this != &other) {
     FrameDecoder copy(other);
@@ -227,7 +249,23 @@ void FrameDecoder::DecodeGroup(const ChunkHeader& first, std::span<const Chunk> 
 // Complete: the frame becomes the reference of the next delta frame.
 void FrameDecoder::FinishFrame(const ChunkHeader& first, Frame& out) {
   SetErrorBounds(first, pending_);
-  if (first.detail_threshold != 0) {
+  if (first.explicit_ids()) {
+    if (first.keyframe()) {
+      // Each chunk checked its own ids; the order across chunk boundaries is checked here.
+      for (size_t k = 1; k < pending_.ids.size(); ++k) {
+        if (pending_.ids[k] <= pending_.ids[k - 1]) {
+          have_previous_ = false;
+          pending_seq_.reset();
+          throw DecodeError("corrupt frame " + std::to_string(first.frame_seq) +
+                            ": particle ids do not increase");
+        }
+      }
+      ids_ = pending_.ids;
+      std::fill(ids_key_, ids_key_ + 3, 0);  // not the ids of a threshold
+    } else {
+      pending_.ids = ids_;  // a delta frame has its reference's particles
+    }
+  } else if (first.detail_threshold != 0) {
     const uint64_t key[3] = {first.count, first.stride, first.detail_threshold};
     if (!std::equal(key, key + 3, ids_key_)) {
       std::fill(ids_key_, ids_key_ + 3, 0);
@@ -254,7 +292,7 @@ void FrameDecoder::FinishFrame(const ChunkHeader& first, Frame& out) {
 }
 
 std::vector<uint32_t> ParticleIds(const Frame& frame) {
-  if (frame.detail_threshold != 0) return frame.ids;
+  if (frame.detail_threshold != 0 || frame.explicit_ids) return frame.ids;
   std::vector<uint32_t> ids(frame.count);
   for (uint32_t k = 0; k < frame.count; ++k) ids[k] = k * frame.stride;
   return ids;

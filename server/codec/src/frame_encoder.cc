@@ -1,5 +1,6 @@
 // FrameEncoder: a frame goes through the stages of FORMAT.md in order, each in a file of its own
 // (gather, quantisation, chunking; then per chunk prediction, bit planes, zstd and the header).
+#include <algorithm>
 #include <span>
 #include <stdexcept>
 #include <string>
@@ -45,21 +46,32 @@ Chunk AssembleChunk(ChunkHeader h, size_t raw_size, std::span<const uint8_t> pay
   return chunk;
 }
 
-// Chunk `index` of the frame, from its quantised values q. Returns an error message, empty on
-// success (no exceptions inside the parallel loop over chunks).
+// The chunk's ids as FORMAT.md ("Ids") stores them: the first id, then each gap minus one
+// (the ids strictly increase), so a dense run of ids costs zero bytes before zstd.
+void IdGaps(std::span<const uint32_t> ids, uint32_t first, uint32_t m, uint32_t* z) {
+  for (uint32_t k = 0; k < m; ++k) {
+    z[k] = k == 0 ? ids[first] : ids[first + k] - ids[first + k - 1] - 1;
+  }
+}
+
+// Chunk `index` of the frame, from its quantised values q (and the frame's ids, when its payload
+// carries them). Returns an error message, empty on success (no exceptions inside the parallel
+// loop over chunks).
 std::string EncodeChunk(const ChunkHeader& frame, const ChunkLayout& layout, uint32_t index,
                         std::span<const Component> comps, const Values& q, const History& history,
-                        int zstd_level, Chunk& chunk) {
+                        std::span<const uint32_t> ids, int zstd_level, Chunk& chunk) {
   const ChunkHeader h = ChunkHeaderOf(frame, layout, index);
   const uint32_t m = h.chunk_particles;
+  const size_t slots = comps.size() + (h.ids_in_payload() ? 1 : 0);
   // Per-thread scratch, kept between calls.
   thread_local std::vector<uint32_t> z;
   thread_local std::vector<uint8_t> raw, low_bits, compressed;
-  z.resize(size_t(m) * comps.size());
+  z.resize(size_t(m) * slots);
   for (size_t slot = 0; slot < comps.size(); ++slot) {
     Residuals(h, comps[slot], q, history, z.data() + slot * m);
   }
-  WritePlanes(z.data(), comps.size(), m, raw, low_bits);
+  if (h.ids_in_payload()) IdGaps(ids, h.first, m, z.data() + comps.size() * m);
+  WritePlanes(z.data(), slots, m, raw, low_bits);
   size_t payload = 0;
   if (std::string error = Compress(raw, zstd_level, compressed, payload); !error.empty()) {
     return error;
@@ -71,12 +83,14 @@ std::string EncodeChunk(const ChunkHeader& frame, const ChunkLayout& layout, uin
 // Every chunk of the frame, in parallel.
 std::vector<Chunk> EncodeChunks(const ChunkHeader& frame, const ChunkLayout& layout,
                                 std::span<const Component> comps, const Values& q,
-                                const History& history, int zstd_level) {
+                                const History& history, std::span<const uint32_t> ids,
+                                int zstd_level) {
   std::vector<Chunk> chunks(layout.chunk_count);
   std::vector<std::string> errors(layout.chunk_count);
 #pragma omp parallel for schedule(dynamic, 1)
   for (int64_t i = 0; i < int64_t(layout.chunk_count); ++i) {
-    errors[i] = EncodeChunk(frame, layout, uint32_t(i), comps, q, history, zstd_level, chunks[i]);
+    errors[i] =
+        EncodeChunk(frame, layout, uint32_t(i), comps, q, history, ids, zstd_level, chunks[i]);
   }
   for (const std::string& error : errors) {
     if (!error.empty()) throw std::runtime_error(error);
@@ -122,28 +136,38 @@ size_t FrameEncoder::buffer_bytes() const {
 
 std::vector<Chunk> FrameEncoder::Encode(const FrameInput& f) {
   const size_t ids = CheckInput(f, config_.fields);
-  if (config_.detail_threshold != 0 && kept_total_ != ids) {
+  bool subset_changed = false;
+  if (config_.explicit_ids) {
+    CheckIds(f.ids, ids);
+    subset_changed = !std::ranges::equal(f.ids, kept_);
+    if (subset_changed) kept_.assign(f.ids.begin(), f.ids.end());
+  } else if (config_.detail_threshold != 0 && kept_total_ != ids) {
     kept_ = KeptIds(ids, config_.stride, config_.detail_threshold);
     kept_total_ = ids;
   }
+  const bool subset = config_.explicit_ids || config_.detail_threshold != 0;
   const ChunkLayout layout = LayOutChunks(ids, config_, kept_.size());
   ChunkHeader h = StreamHeader(config_);
   const std::vector<Component> comps = PresentComponents(h);
-  const std::span<const uint32_t> kept = config_.detail_threshold != 0
-                                             ? std::span<const uint32_t>(kept_)
-                                             : std::span<const uint32_t>();
-  const Extremes extremes =
+  const std::span<const uint32_t> kept =
+      subset ? std::span<const uint32_t>(kept_) : std::span<const uint32_t>();
+  Extremes extremes =
       GatherComponents(f, comps, config_.stride, kept, layout.count, h.octahedral(), values_);
   const bool keyframe = keyframe_requested_ || frame_seq_ == 0 || layout.count != count_ ||
+                        subset_changed ||
                         frames_since_keyframe_ >= uint32_t(config_.keyframe_interval) ||
                         LeavesRanges(extremes, comps, layout.count, lo_, hi_);
+  // A chosen subset's positions are quantised over the range the whole frame would get, so the
+  // particles of subsets of one frame decode bit-exactly as the full frame's (the server's
+  // progressive completion relies on it).
+  if (keyframe && config_.explicit_ids) WidenPositionsToAll(f, extremes);
   if (keyframe) ChooseRanges(f, comps, h.octahedral(), layout.count, extremes, lo_, hi_);
   SetRanges(lo_, hi_, h);
   // The decoder will hold these same values, so prediction from them never drifts.
   Values q = TakeValues(spare_, layout.count, h);
   QuantizeComponents(h, comps, values_, layout.count, q);
   SetFrame(frame_seq_, keyframe, f, config_.stride, layout, h);
-  std::vector<Chunk> chunks = EncodeChunks(h, layout, comps, q, history_, config_.zstd_level);
+  std::vector<Chunk> chunks = EncodeChunks(h, layout, comps, q, history_, kept, config_.zstd_level);
   PushHistory(history_, std::move(q), keyframe, spare_);
   frames_since_keyframe_ = keyframe ? 1 : frames_since_keyframe_ + 1;
   keyframe_requested_ = false;

@@ -7,6 +7,8 @@
 #include <malloc.h>
 #endif
 
+#include "view_stream.h"
+
 namespace dysa::service {
 
 using Clock = std::chrono::steady_clock;
@@ -49,12 +51,16 @@ struct FrameGroup {
   uint64_t next_seq = 0;
   // When the frame-rate cap lets the next frame through (FrameHub::Publish).
   std::optional<Clock::time_point> next_due;
+  // The snapshot last encoded (frame, step, particles): a republish of it changes nothing.
+  std::optional<std::array<uint64_t, 3>> last_snapshot;
+  // Its subscriber's view, when options.view_owner is set (set at creation).
+  std::shared_ptr<ViewStream> view;
   // Guarded by FrameHub::mu_.
   std::vector<std::shared_ptr<Subscription>> members;
 };
 
 bool SubscriptionOptions::operator==(const SubscriptionOptions& o) const {
-  return stream == o.stream && max_fps == o.max_fps;
+  return stream == o.stream && max_fps == o.max_fps && view_owner == o.view_owner;
 }
 
 std::shared_ptr<const EncodedFrame> Subscription::Take(uint32_t* skipped) {
@@ -108,6 +114,7 @@ std::shared_ptr<Subscription> FrameHub::Subscribe(const SubscriptionOptions& req
     if (it == groups_.end())
       it = groups_.insert(groups_.end(), std::make_shared<FrameGroup>(options));
     subscription->group_ = *it;
+    subscription->id_ = next_id_++;
     (*it)->members.push_back(subscription);
     subscriptions_.push_back(subscription);
   }
@@ -218,13 +225,15 @@ void FrameHub::FrameStarted(const std::shared_ptr<Subscription>& s, double now,
 void FrameHub::BytesDelivered(const std::shared_ptr<Subscription>& s, double now, size_t bytes,
                               bool frame_done) {
   uint32_t threshold = 0;
+  bool budgeted = false;
   {
     std::lock_guard lock(s->detail_mu_);
     s->detail_->OnBytesDelivered(now, bytes, frame_done);
-    if (!s->detail_->budget().active()) return;
     threshold = s->detail_->threshold();
+    budgeted = s->detail_->budget().active();
   }
-  ApplyDetail(s, threshold);
+  if (frame_done) MaybeRefine(s);
+  if (budgeted) ApplyDetail(s, threshold);
 }
 
 void FrameHub::FrameLate(const std::shared_ptr<Subscription>& s, double now) {
@@ -239,18 +248,32 @@ void FrameHub::FrameLate(const std::shared_ptr<Subscription>& s, double now) {
 }
 
 void FrameHub::ApplyDetail(const std::shared_ptr<Subscription>& s, uint32_t threshold) {
-  std::shared_ptr<FrameGroup> old_group, new_group;
+  std::shared_ptr<FrameGroup> old_group;
   {
     std::lock_guard lock(mu_);
+    old_group =
+        RegroupLocked(s, [&](SubscriptionOptions& o) { o.stream.detail_threshold = threshold; });
+  }
+  if (old_group) Release(std::move(old_group));  // (a null one would trim the heap for nothing)
+}
+
+std::shared_ptr<FrameGroup> FrameHub::RegroupLocked(
+    const std::shared_ptr<Subscription>& s,
+    const std::function<void(SubscriptionOptions&)>& change) {
+  std::shared_ptr<FrameGroup> old_group, new_group;
+  {
     std::lock_guard frame_lock(s->frame_mu_);
-    if (!s->group_ || closed_ || s->group_->options.stream.detail_threshold == threshold) return;
+    if (!s->group_ || closed_) return nullptr;
+    SubscriptionOptions options = s->group_->options;
+    change(options);
+    if (options == s->group_->options) return nullptr;
     old_group = s->group_;
-    SubscriptionOptions options = old_group->options;
-    options.stream.detail_threshold = threshold;
     auto it = std::find_if(groups_.begin(), groups_.end(),
                            [&](const auto& g) { return g->options == options; });
-    if (it == groups_.end())
+    if (it == groups_.end()) {
       it = groups_.insert(groups_.end(), std::make_shared<FrameGroup>(options));
+      if (options.view_owner != 0) (*it)->view = s->view_;
+    }
     new_group = *it;
     std::erase(old_group->members, s);
     if (old_group->members.empty()) std::erase(groups_, old_group);
@@ -261,7 +284,44 @@ void FrameHub::ApplyDetail(const std::shared_ptr<Subscription>& s, uint32_t thre
     s->last_seq_.reset();
   }
   RequestKeyframe(*new_group);
-  Release(std::move(old_group));
+  return old_group;
+}
+
+void FrameHub::SetStreamView(uint64_t stream_id, const StreamView& view) {
+  view.Validate();
+  std::shared_ptr<FrameGroup> old_group, group;
+  {
+    std::lock_guard lock(mu_);
+    auto it = std::find_if(subscriptions_.begin(), subscriptions_.end(),
+                           [&](const auto& s) { return s->id_ == stream_id; });
+    if (it == subscriptions_.end()) {
+      throw std::out_of_range("stream_id: no open stream " + std::to_string(stream_id) +
+                              " (FrameMessage.stream_id of a StreamFrames call)");
+    }
+    const std::shared_ptr<Subscription>& s = *it;
+    if (!s->view_) s->view_ = std::make_shared<ViewStream>();
+    s->view_->SetView(view);
+    old_group = RegroupLocked(s, [&](SubscriptionOptions& o) {
+      o.view_owner = stream_id;
+      o.stream.explicit_ids = true;  // the view picks the particles: their ids travel
+    });
+    std::lock_guard frame_lock(s->frame_mu_);
+    group = s->group_;
+  }
+  if (old_group) Release(std::move(old_group));  // (a null one would trim the heap for nothing)
+  // The new view's subset goes out now, also while paused.
+  if (group) RequestKeyframe(*group);
+}
+
+void FrameHub::MaybeRefine(const std::shared_ptr<Subscription>& s) {
+  std::shared_ptr<FrameGroup> group;
+  {
+    std::lock_guard lock(s->frame_mu_);
+    // A frame still waiting is newer: it comes first (and a refinement then would replace it).
+    if (!s->group_ || !s->group_->view || s->pending_) return;
+    group = s->group_;
+  }
+  if (group->view->partial() && frame_needed_) frame_needed_();
 }
 
 std::vector<StreamReport> FrameHub::StreamReports(double now) const {
@@ -273,7 +333,7 @@ std::vector<StreamReport> FrameHub::StreamReports(double now) const {
   std::vector<StreamReport> reports;
   for (const auto& s : subscriptions) {
     std::lock_guard lock(s->detail_mu_);
-    reports.push_back({s->detail_->budget(), s->detail_->Status(now)});
+    reports.push_back({s->detail_->budget(), s->detail_->Status(now), s->id_, s->view_ != nullptr});
   }
   return reports;
 }
@@ -293,7 +353,20 @@ void FrameHub::Publish(const FrameSnapshot& snapshot, bool force, bool discontin
     for (const auto& g : groups_) work.emplace_back(g, g->members);
   }
   const auto now = Clock::now();
+  const std::array<uint64_t, 3> this_snapshot = {snapshot.frame, snapshot.step,
+                                                 snapshot.positions.size() / 3};
   for (auto& [group, members] : work) {
+    // A republish of the snapshot a group has (the server paused and a frame was asked for)
+    // changes nothing for it unless it needs a keyframe; a view stream may refine it.
+    const bool keyframe_needed = group->keyframe_needed.exchange(false);
+    const bool fresh = keyframe_needed || discontinuity;
+    const bool same = group->last_snapshot == this_snapshot;
+    if (same && !fresh) {
+      if (!group->view || members.empty()) continue;
+      // A refinement must not replace a frame the subscriber has not taken yet.
+      std::lock_guard lock(members.front()->frame_mu_);
+      if (members.front()->pending_) continue;
+    }
     // The frame-rate cap holds max_fps on average: the next frame is due one period after this
     // one was due (not after it was sent), and passes up to a quarter period early. Measuring
     // from the send instead skipped a frame whenever one came a hair early, so frames produced
@@ -302,13 +375,24 @@ void FrameHub::Publish(const FrameSnapshot& snapshot, bool force, bool discontin
     if (max_fps > 0) {
       const auto period =
           std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / max_fps));
-      if (!force && group->next_due && now < *group->next_due - period / 4) continue;
+      if (!force && group->next_due && now < *group->next_due - period / 4) {
+        if (keyframe_needed) group->keyframe_needed = true;  // for the frame that passes
+        continue;
+      }
       // At most one period behind: no burst of frames after a pause or a slow spell.
       group->next_due = group->next_due && now - *group->next_due < period
                             ? *group->next_due + period
                             : now + period;
     }
-    if (group->keyframe_needed.exchange(false) || discontinuity) group->encoder.RequestKeyframe();
+    std::optional<ViewStream::Plan> plan;
+    if (group->view) {
+      plan =
+          group->view->Next(snapshot, fresh, discontinuity, group->options.stream.detail_threshold,
+                            group->options.stream.stride, group->options.stream.keyframe_interval);
+      if (!plan) continue;  // the subscriber has the whole frame
+    }
+    if (fresh) group->encoder.RequestKeyframe();
+    group->last_snapshot = this_snapshot;
 
     const uint32_t fields = group->options.stream.fields;
     codec::FrameInput input;
@@ -319,6 +403,7 @@ void FrameHub::Publish(const FrameSnapshot& snapshot, bool force, bool discontin
     input.positions = snapshot.positions;
     if (fields & (codec::kSpeed | codec::kVelocity)) input.velocities = snapshot.velocities;
     if (fields & codec::kDensity) input.densities = snapshot.densities;
+    if (plan) input.ids = plan->ids;
 
     ++*frames_alive_;
     std::shared_ptr<EncodedFrame> encoded(new EncodedFrame,
@@ -334,6 +419,7 @@ void FrameHub::Publish(const FrameSnapshot& snapshot, bool force, bool discontin
     encoded->particles = group->encoder.last_count();
     encoded->total_particles = uint32_t(snapshot.positions.size() / 3);
     encoded->produced_unix_us = snapshot.produced_unix_us;
+    if (plan) encoded->refines = plan->refines, encoded->partial = plan->partial;
     for (const codec::Chunk& c : encoded->chunks) encoded->bytes += c.size();
     if (transport_builder_) encoded->transport = transport_builder_(*encoded);
     {

@@ -16,14 +16,15 @@ namespace {
 // (65,536 particles each), so a frame is cut at chunk boundaries.
 constexpr size_t kMaxMessageBytes = size_t{3} << 20;
 
-// FrameMessage.frames_skipped (field 6, varint) on its own.
-grpc::Slice SkippedField(uint32_t skipped) {
-  uint8_t bytes[6] = {6 << 3};
+// A varint field of FrameMessage on its own: frames_skipped (6) and stream_id (7) differ
+// between subscribers of one shared frame.
+grpc::Slice VarintField(uint8_t field, uint64_t value) {
+  uint8_t bytes[11] = {uint8_t(field << 3)};
   size_t n = 1;
   do {
-    bytes[n++] = uint8_t((skipped & 0x7f) | (skipped >= 0x80 ? 0x80 : 0));
-    skipped >>= 7;
-  } while (skipped != 0);
+    bytes[n++] = uint8_t((value & 0x7f) | (value >= 0x80 ? 0x80 : 0));
+    value >>= 7;
+  } while (value != 0);
   return grpc::Slice(bytes, n);
 }
 
@@ -38,8 +39,9 @@ double ProducedSteady(double now, int64_t produced_unix_us) {
 }  // namespace
 
 // A frame as serialised FrameMessages, each at most kMaxMessageBytes of chunks. Only
-// frames_skipped differs between subscribers: it is appended to a message as its own field
-// (protobuf fields may come in any order), so the shared slices are never copied.
+// frames_skipped and stream_id differ between subscribers: they are appended to a message as
+// fields of their own (protobuf fields may come in any order), so the shared slices are never
+// copied.
 struct WireFrame {
   std::vector<grpc::Slice> messages;
 };
@@ -62,6 +64,8 @@ std::shared_ptr<const void> BuildWireFrame(const EncodedFrame& frame) {
     message.set_last_of_frame(next == frame.chunks.size());
     message.set_frame_bytes(frame.bytes);
     message.set_produced_unix_us(frame.produced_unix_us);
+    message.set_refines(frame.refines);
+    message.set_partial(frame.partial);
     auto* text = new std::string(message.SerializeAsString());
     wire->messages.emplace_back(
         text->data(), text->size(), [](void* p) { delete static_cast<std::string*>(p); }, text);
@@ -136,7 +140,7 @@ void FrameStreamReactor::FinishLocked(const grpc::Status& status) {
 }
 
 void FrameStreamReactor::WriteNextLocked() {
-  grpc::Slice slices[2];
+  grpc::Slice slices[3];
   size_t count = 1;
   if (!wire_ || next_message_ == wire_->messages.size()) {
     uint32_t skipped = 0;
@@ -149,7 +153,11 @@ void FrameStreamReactor::WriteNextLocked() {
     next_message_ = 0;
     const double now = SteadySeconds();
     hub_.FrameStarted(subscription_, now, *frame_, ProducedSteady(now, frame_->produced_unix_us));
-    if (skipped > 0) slices[count++] = SkippedField(skipped);
+    if (skipped > 0) slices[count++] = VarintField(6, skipped);
+    // The stream's id once, with its first frame: a message of several slices may cost gRPC a
+    // copy, which every frame should not pay.
+    if (!id_sent_) slices[count++] = VarintField(7, subscription_->id());
+    id_sent_ = true;
   }
   slices[0] = wire_->messages[next_message_++];
   message_ = grpc::ByteBuffer(slices, count);

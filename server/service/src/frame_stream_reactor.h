@@ -62,6 +62,7 @@ class FrameStreamReactor final : public grpc::ServerWriteReactor<grpc::ByteBuffe
   std::shared_ptr<const EncodedFrame> frame_;  // being sent; owns wire_
   const WireFrame* wire_ = nullptr;
   size_t next_message_ = 0;
+  bool id_sent_ = false;      // FrameMessage.stream_id went out (with the first frame)
   grpc::ByteBuffer message_;  // the write in flight
 };
 

@@ -147,6 +147,8 @@ void ToProto(const HostStatus& s, v1::Status& out) {
     t.set_fps_target(r.budget.fps_target);
     t.set_byte_budget(uint64_t(r.budget.bytes_per_second));
     t.set_particle_budget(uint32_t(r.budget.particles_per_frame));
+    t.set_stream_id(r.stream_id);
+    t.set_view(r.view);
   }
   out.set_state_hash(s.state_hash);
   out.set_scene_version(s.scene_version);
@@ -312,6 +314,17 @@ grpc::Status ToOptions(const grpc::ByteBuffer& request, SubscriptionOptions& opt
     return {grpc::StatusCode::INVALID_ARGUMENT, e.what()};
   }
   return grpc::Status::OK;
+}
+
+StreamView ToView(const v1::SetStreamViewRequest& r) {
+  const auto vec = [](const v1::Vec3& v) { return std::array<double, 3>{v.x(), v.y(), v.z()}; };
+  StreamView view;
+  view.eye = vec(r.eye());
+  view.target = vec(r.target());
+  if (r.has_up()) view.up = vec(r.up());
+  if (r.fov_y_deg() != 0) view.fov_y_deg = r.fov_y_deg();
+  if (r.aspect() != 0) view.aspect = r.aspect();
+  return view;
 }
 
 }  // namespace dysa::service

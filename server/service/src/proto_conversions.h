@@ -36,5 +36,7 @@ grpc::Status ToControl(const v1::LoadSceneRequest& request, LoadSceneControl& co
 // Codec stream settings from a serialised StreamFramesRequest (StreamFrames is a raw method);
 // zero means the default.
 grpc::Status ToOptions(const grpc::ByteBuffer& request, SubscriptionOptions& options);
+// A camera, defaults filled in (the range checks are StreamView::Validate's).
+StreamView ToView(const v1::SetStreamViewRequest& request);
 
 }  // namespace dysa::service

@@ -4,6 +4,7 @@
 #include <cctype>
 #include <chrono>
 #include <optional>
+#include <stdexcept>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -223,6 +224,22 @@ grpc::ServerUnaryReactor* SimulationService::GetScene(grpc::CallbackServerContex
                                                       v1::SceneDescription* reply) {
   return Unary(context, Access::kWatch, [&](grpc::ServerUnaryReactor*) {
     ToProto(host_.CurrentScene(), *reply);
+    return std::optional(grpc::Status::OK);
+  });
+}
+
+grpc::ServerUnaryReactor* SimulationService::SetStreamView(grpc::CallbackServerContext* context,
+                                                           const v1::SetStreamViewRequest* request,
+                                                           v1::SetStreamViewReply*) {
+  // Steering one's own view is watching: the token StreamFrames needs, no more.
+  return Unary(context, Access::kWatch, [&](grpc::ServerUnaryReactor*) {
+    try {
+      host_.hub().SetStreamView(request->stream_id(), ToView(*request));
+    } catch (const std::out_of_range& e) {
+      return std::optional(grpc::Status(grpc::StatusCode::NOT_FOUND, e.what()));
+    } catch (const std::invalid_argument& e) {
+      return std::optional(grpc::Status(grpc::StatusCode::INVALID_ARGUMENT, e.what()));
+    }
     return std::optional(grpc::Status::OK);
   });
 }

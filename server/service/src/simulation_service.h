@@ -58,6 +58,9 @@ class SimulationService final
   grpc::ServerUnaryReactor* GetScene(grpc::CallbackServerContext* context,
                                      const v1::GetSceneRequest* request,
                                      v1::SceneDescription* reply) override;
+  grpc::ServerUnaryReactor* SetStreamView(grpc::CallbackServerContext* context,
+                                          const v1::SetStreamViewRequest* request,
+                                          v1::SetStreamViewReply* reply) override;
   grpc::ServerWriteReactor<grpc::ByteBuffer>* StreamFrames(
       grpc::CallbackServerContext* context, const grpc::ByteBuffer* request) override;
 

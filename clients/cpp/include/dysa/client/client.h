@@ -94,6 +94,8 @@ class Client {
   SceneList ListScenes();
   SceneDescription GetScene();
   std::unique_ptr<FrameStream> StreamFrames(const StreamOptions& options);
+  // Gives stream `stream_id` (FrameMessage::stream_id) this camera: view-dependent detail.
+  void SetStreamView(uint64_t stream_id, const StreamCamera& camera);
 
  private:
   struct Impl;

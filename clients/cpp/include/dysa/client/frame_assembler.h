@@ -20,6 +20,12 @@ struct FrameProgress {
   uint64_t frame_bytes = 0;
   // From the server producing the frame to now, when complete and the server sent the time.
   double latency_ms = 0;
+  // A view stream's progressive completion: the completed frame in `out` is the frame shown
+  // before plus the particles this one refined it with (codec::MergeRefinement); `partial`: it
+  // still lacks particles of the full frame.
+  bool refined = false;
+  bool partial = false;
+  uint64_t stream_id = 0;  // the call's id, once a message carried it
 };
 
 class FrameAssembler {
@@ -31,6 +37,12 @@ class FrameAssembler {
  private:
   codec::FrameDecoder decoder_;
   uint64_t pending_bytes_ = 0;  // chunk bytes of the frame being assembled
+  uint64_t stream_id_ = 0;
+  // A partial frame as shown, which refinements add to (kept only while frames are partial).
+  codec::Frame shown_;
+  bool have_shown_ = false;
+  uint64_t shown_sim_frame_ = 0;
+  codec::Frame increment_;  // a refinement as decoded
 };
 
 // Microseconds since the Unix epoch, the clock of FrameMessage::produced_unix_us.

@@ -12,6 +12,7 @@
 #include <deque>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <thread>
 
@@ -54,6 +55,11 @@ class FrameReceiver {
   // Restarts the stream with new options (fields, frame-rate cap, stride, bits).
   void SetStreamOptions(const StreamOptions& stream);
 
+  // The camera to give the stream (Client::SetStreamView): sent from a thread of its own at most
+  // every kCameraPeriod, the latest one only, and again after a reconnect. Never blocks.
+  void SetCamera(const StreamCamera& camera);
+  static constexpr std::chrono::milliseconds kCameraPeriod{100};
+
   // When a frame arrived since the previous call, swaps it into `out` (whose buffers are
   // recycled) and returns true.
   bool TakeLatest(ReceivedFrame& out);
@@ -65,6 +71,8 @@ class FrameReceiver {
   // One StreamFrames call until it ends; returns why ("" when stopped or restarted by us).
   std::string RunStream(const StreamOptions& options);
   void Publish(ReceivedFrame& decoded);
+  // Sends the camera whenever it changed or the stream did (camera_thread_).
+  void CameraLoop();
 
   Client client_;
 
@@ -79,8 +87,12 @@ class FrameReceiver {
   ReceiverStats stats_;
   std::deque<std::chrono::steady_clock::time_point> recent_;  // arrival times, last second
   uint64_t stream_id_ = 0;
+  uint64_t server_stream_id_ = 0;  // FrameMessage.stream_id of the open call; 0: none yet
+  std::optional<StreamCamera> camera_;
+  bool camera_sent_ = true;  // the latest camera went to the open call
 
   std::thread thread_;
+  std::thread camera_thread_;
 };
 
 }  // namespace dysa::remote

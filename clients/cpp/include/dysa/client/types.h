@@ -32,6 +32,8 @@ struct StreamStatus {
   double fps_target = 0;             // its budget; 0: none
   uint64_t byte_budget = 0;          // bytes/s; 0: none
   uint32_t particle_budget = 0;      // particles/frame; 0: none
+  uint64_t stream_id = 0;            // FrameMessage.stream_id of the call
+  bool view = false;                 // it has a camera (SetStreamView)
 };
 
 struct ServerStatus {
@@ -172,6 +174,19 @@ struct FrameMessage {
   uint64_t frame_bytes = 0;
   int64_t produced_unix_us = 0;
   uint32_t frames_skipped = 0;
+  uint64_t stream_id = 0;  // the call's id for SetStreamView (its first message only); 0: none
+  bool refines = false;    // adds its particles to the frame before (progressive completion)
+  bool partial = false;    // the frame shown still lacks particles; refinements follow if paused
+};
+
+// A camera for Client::SetStreamView, in the scene's metres (SetStreamViewRequest).
+struct StreamCamera {
+  std::array<double, 3> eye{};
+  std::array<double, 3> target{};
+  std::array<double, 3> up{0, 1, 0};
+  double fov_y_deg = 45;  // [1, 179]
+  double aspect = 1;      // width / height, [0.05, 20]
+  bool operator==(const StreamCamera&) const = default;
 };
 
 }  // namespace dysa::remote

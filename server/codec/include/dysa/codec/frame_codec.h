@@ -16,9 +16,10 @@ namespace dysa::codec {
 
 inline constexpr uint32_t kMagic = 0x46535944;  // "DYSF"
 // Version 2 added the octahedral velocity encoding, version 3 the detail threshold (a subset of
-// the particles by rank, detail_subset.h); streams without them are still written as version 1,
+// the particles by rank, detail_subset.h), version 4 explicit ids (a subset the sender chose, e.g.
+// by view: the ids travel in each keyframe); streams without them are still written as version 1,
 // so older decoders keep reading them.
-inline constexpr uint16_t kVersion = 3;
+inline constexpr uint16_t kVersion = 4;
 inline constexpr size_t kHeaderSize = 152;
 
 enum Field : uint32_t {
@@ -53,6 +54,11 @@ struct StreamConfig {
   // Level of detail by rank (detail_subset.h): send the particles whose DetailRank(id) is below
   // it as well; 0: no selection. Nonzero makes the stream format version 3.
   uint32_t detail_threshold = 0;
+  // Send the particles FrameInput::ids names (a subset the caller chose, e.g. by view), whatever
+  // the stride and threshold (which the header still carries: the threshold as the subset's
+  // nominal detail). The ids travel in each keyframe; a frame whose ids differ from the previous
+  // one's is a keyframe. Makes the stream format version 4.
+  bool explicit_ids = false;
   uint32_t chunk_particles = 1u << 16;  // particles per chunk (bounds a chunk's size)
   int zstd_level = 1;
 
@@ -72,6 +78,8 @@ struct FrameInput {
   std::span<const float> positions;   // 3 * count, m
   std::span<const float> velocities;  // 3 * count, m/s; needed for speed and velocity
   std::span<const float> densities;   // count, kg/m^3; needed for density
+  // With StreamConfig::explicit_ids: the particles to send, strictly increasing, each < count.
+  std::span<const uint32_t> ids;
 };
 
 // The decoded content of a frame, in id order of the kept particles: id = k * stride, or ids[k]
@@ -84,13 +92,14 @@ struct Frame {
   uint32_t count = 0;
   uint32_t stride = 1;
   uint32_t detail_threshold = 0;  // 0: every stride-th particle; else DetailKeeps (detail_subset.h)
+  bool explicit_ids = false;      // the ids came with the frame (version 4): any subset
   uint32_t fields = 0;
   VelocityEncoding velocity_encoding = VelocityEncoding::kComponents;
   std::vector<float> positions;   // 3 * count
   std::vector<float> speed;       // count
   std::vector<float> velocities;  // 3 * count
   std::vector<float> densities;   // count
-  std::vector<uint32_t> ids;      // count particle ids when detail_threshold != 0; else empty
+  std::vector<uint32_t> ids;      // count particle ids when detail_threshold != 0 or explicit_ids
   // Largest possible |decoded - original| of each field (of each velocity component), from the
   // header's ranges, bits and velocity encoding.
   std::array<double, 3> position_error{};
@@ -133,7 +142,8 @@ class FrameEncoder {
   std::vector<std::vector<std::vector<uint32_t>>> history_;
   std::vector<std::vector<std::vector<uint32_t>>> spare_;  // recycled buffers
   std::vector<std::vector<float>> values_;                 // gathered source values
-  // The ids a frame of detail_threshold keeps, for kept_total_ ids (recomputed when it changes).
+  // The ids a frame of detail_threshold keeps, for kept_total_ ids (recomputed when it changes);
+  // with explicit ids, the last frame's.
   std::vector<uint32_t> kept_;
   size_t kept_total_ = SIZE_MAX;
 };

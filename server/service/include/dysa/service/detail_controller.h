@@ -48,6 +48,8 @@ struct DetailStatus {
 struct StreamReport {
   DetailBudget budget;
   DetailStatus status;
+  uint64_t stream_id = 0;  // Subscription::id()
+  bool view = false;       // it has a camera (FrameHub::SetStreamView)
 };
 
 // Seconds of the steady clock, the controller's clock in the server.

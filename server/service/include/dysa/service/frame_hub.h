@@ -23,6 +23,7 @@
 
 #include "dysa/codec/frame_codec.h"
 #include "dysa/service/detail_controller.h"
+#include "dysa/service/view_detail.h"
 
 namespace dysa::service {
 
@@ -48,6 +49,11 @@ struct EncodedFrame {
   uint32_t particles = 0;        // in the frame (after stride and detail)
   uint32_t total_particles = 0;  // in the snapshot
   int64_t produced_unix_us = 0;
+  // A view stream's progressive completion (FrameHub::SetStreamView): the frame adds its
+  // particles to the one sent before (the same simulation frame); the frame shown, with what it
+  // refines, still lacks particles (more follow while the simulation stays paused).
+  bool refines = false;
+  bool partial = false;
   // The frame in the transport's own form (the gRPC adapter's serialised messages), built once
   // per frame by the hub's transport builder and shared by every subscriber; null without one.
   std::shared_ptr<const void> transport;
@@ -59,6 +65,8 @@ struct SubscriptionOptions {
   // The subscriber's own budget: not part of the group's identity (subscribers with different
   // budgets at the same detail share an encoder). With one, the hub sets stream.detail_threshold.
   DetailBudget budget;
+  // Nonzero: the id of the subscriber whose camera picks the particles (a group of its own).
+  uint64_t view_owner = 0;
   bool operator==(const SubscriptionOptions& other) const;
 };
 
@@ -78,16 +86,21 @@ class SubscriberLimitError : public std::runtime_error {
 
 class FrameHub;
 struct FrameGroup;
+class ViewStream;
 
 class Subscription {
  public:
   // The newest frame this subscriber can decode, or nullptr when there is none yet (OnFrameReady
   // follows when one arrives). `skipped`: frames of its stream it never received.
   std::shared_ptr<const EncodedFrame> Take(uint32_t* skipped);
+  // The stream's id (FrameMessage.stream_id, SetStreamView), unique within the hub, from 1.
+  uint64_t id() const { return id_; }
 
  private:
   friend class FrameHub;
   FrameHub* hub_ = nullptr;
+  uint64_t id_ = 0;
+  std::shared_ptr<ViewStream> view_;  // set by SetStreamView (under FrameHub::mu_)
 
   std::mutex listener_mu_;  // held while the listener is called; Unsubscribe waits on it
   FrameListener* listener_ = nullptr;
@@ -139,6 +152,14 @@ class FrameHub {
   // Each subscriber's budget and delivery, in subscription order.
   std::vector<StreamReport> StreamReports(double now) const;
 
+  // Gives stream `stream_id` a camera: from its next frame on, its budget is spent on the
+  // particles in view first, densest near the camera (view_detail.h), and while the simulation
+  // is paused the rest of the shown frame follows in refining frames until it is complete
+  // (EncodedFrame::refines). Without a budget the stream keeps sending every particle. Throws
+  // std::invalid_argument (a bad view, naming the field and its range) or std::out_of_range (no
+  // open stream has that id).
+  void SetStreamView(uint64_t stream_id, const StreamView& view);
+
   // Encodes `snapshot` for every group that is due and offers it to the group's subscribers.
   // `force`: ignore frame-rate caps (a frame the user asked for: a step, a step back, a reset).
   // `discontinuity`: the frame does not follow the previous one (back, reset, new scene).
@@ -158,6 +179,14 @@ class FrameHub {
   void RequestKeyframe(FrameGroup& group);
   // Moves `s` to the group of its options with this detail threshold (after a detail_mu_ scope).
   void ApplyDetail(const std::shared_ptr<Subscription>& s, uint32_t threshold);
+  // Moves `s` to the group of its options changed by `change` (creating it); mu_ held. Returns
+  // the group it left (to Release after the lock), or null when the options did not change.
+  std::shared_ptr<FrameGroup> RegroupLocked(
+      const std::shared_ptr<Subscription>& s,
+      const std::function<void(SubscriptionOptions&)>& change);
+  // A view stream finished sending a frame: asks for the next refinement when it lacks some.
+  void MaybeRefine(const std::shared_ptr<Subscription>& s);
+  uint64_t next_id_ = 1;  // guarded by mu_
   // Sets every budgeted subscriber's particle count (Publish, before encoding).
   void FitBudgetsTo(uint32_t total);
   uint32_t last_total_ = 0;  // particles of the latest snapshot published (guarded by mu_)

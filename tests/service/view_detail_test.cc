@@ -1,0 +1,246 @@
+// View-dependent detail (view_detail.h): the particles in view first and denser near the camera,
+// exactly the budget, nested and stable subsets, range errors for bad cameras; and through the
+// FrameHub, the progressive completion of a republished frame, which assembles bit-exactly into
+// the full-detail frame within a bounded number of frames.
+#include "dysa/service/view_detail.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstring>
+#include <random>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "dysa/codec/frame_merge.h"
+#include "dysa/service/frame_hub.h"
+
+namespace dysa::service {
+namespace {
+
+// n particles uniformly at random in [-1, 1]^3, in id order.
+std::vector<float> Cloud(size_t n, uint32_t seed = 7) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u(-1, 1);
+  std::vector<float> p(3 * n);
+  for (float& x : p) x = u(rng);
+  return p;
+}
+
+// Looks along +x at the box from x = -3 with a narrow field: the middle of the box is in view.
+StreamView NarrowView() {
+  StreamView v;
+  v.eye = {-3, 0, 0};
+  v.target = {0, 0, 0};
+  v.fov_y_deg = 20;
+  v.aspect = 1;
+  return v;
+}
+
+const std::array<double, 3> kLo = {-1, -1, -1}, kHi = {1, 1, 1};
+
+TEST(ViewDetail, InViewParticlesComeFirstDenserNearTheCameraWithinTheBudget) {
+  const size_t n = 40000;
+  const std::vector<float> p = Cloud(n);
+  const ViewOrder order(NarrowView(), p, kLo, kHi, 1);
+  ASSERT_EQ(order.candidates(), n);
+  const std::vector<uint32_t> kept = order.Select(4000);
+  EXPECT_EQ(kept.size(), 4000u);  // exactly the budget
+  EXPECT_TRUE(std::is_sorted(kept.begin(), kept.end()));
+
+  size_t in_view_all = 0;
+  for (uint32_t id = 0; id < n; ++id) in_view_all += order.InView(id);
+  size_t in_view = 0, near = 0, far = 0, near_all = 0, far_all = 0;
+  for (uint32_t id : kept) in_view += order.InView(id);
+  for (uint32_t id = 0; id < n; ++id) {
+    if (!order.InView(id)) continue;
+    (p[3 * id] < 0 ? near_all : far_all) += 1;
+  }
+  for (uint32_t id : kept) {
+    if (order.InView(id)) (p[3 * id] < 0 ? near : far) += 1;
+  }
+  const double share_all = double(in_view_all) / n, share = double(in_view) / kept.size();
+  EXPECT_GT(share_all, 0.1);
+  EXPECT_LT(share_all, 0.6);
+  EXPECT_GT(share, 0.75) << "in view: " << share_all << " of all, " << share << " of the kept";
+  EXPECT_GT(share, 2 * share_all);
+  EXPECT_GT(kept.size() - in_view, 0u) << "particles out of view keep a coarse share";
+  // The near half (x < 0, 2-3 m away) keeps a larger fraction than the far half (3-4 m).
+  const double near_fraction = double(near) / near_all, far_fraction = double(far) / far_all;
+  EXPECT_GT(near_fraction, 1.3 * far_fraction) << near_fraction << " vs " << far_fraction;
+}
+
+TEST(ViewDetail, SubsetsNestAcrossBudgetsAndStayStableAcrossFrames) {
+  const size_t n = 20000;
+  std::vector<float> p = Cloud(n, 3);
+  const ViewOrder order(NarrowView(), p, kLo, kHi, 2);
+  EXPECT_EQ(order.candidates(), n / 2);
+  const std::vector<uint32_t> small = order.Select(500), mid = order.Select(2500);
+  const std::vector<uint32_t> all = order.Select(1u << 30);
+  EXPECT_TRUE(std::includes(mid.begin(), mid.end(), small.begin(), small.end()));
+  ASSERT_EQ(all.size(), n / 2);
+  for (uint32_t id : all) EXPECT_EQ(id % 2, 0u);
+  EXPECT_EQ(ViewOrder(NarrowView(), p, kLo, kHi, 2).Select(2500), mid) << "deterministic";
+
+  // The fluid moves a little: few particles change cell, so the subset barely changes.
+  for (size_t i = 0; i < p.size(); ++i) p[i] += 1e-3f * std::sin(float(i));
+  const std::vector<uint32_t> moved = ViewOrder(NarrowView(), p, kLo, kHi, 2).Select(2500);
+  std::vector<uint32_t> common;
+  std::set_intersection(mid.begin(), mid.end(), moved.begin(), moved.end(),
+                        std::back_inserter(common));
+  EXPECT_GT(common.size(), 0.95 * mid.size());
+}
+
+TEST(ViewDetail, BadCamerasAreRefusedNamingTheFieldAndItsRange) {
+  const auto message = [](StreamView v) -> std::string {
+    try {
+      v.Validate();
+    } catch (const std::invalid_argument& e) {
+      return e.what();
+    }
+    return "accepted";
+  };
+  StreamView v = NarrowView();
+  EXPECT_EQ(message(v), "accepted");
+  v.fov_y_deg = 0.5;
+  EXPECT_EQ(message(v), "fov_y_deg: allowed range [1, 179] degrees");
+  v = NarrowView();
+  v.aspect = 100;
+  EXPECT_EQ(message(v), "aspect: allowed range [0.05, 20] (width / height)");
+  v = NarrowView();
+  v.target = v.eye;
+  EXPECT_EQ(message(v), "target: at least 1e-6 m from eye (the view direction)");
+  v = NarrowView();
+  v.up = {1, 0, 0};  // along the view direction
+  EXPECT_EQ(message(v), "up: nonzero and not parallel to target - eye");
+  v = NarrowView();
+  v.eye[1] = NAN;
+  EXPECT_EQ(message(v), "eye: each component finite, in [-1e6, 1e6] m");
+}
+
+class Listener : public FrameListener {
+ public:
+  void OnFrameReady() override {}
+  void OnHubClosed() override {}
+};
+
+FrameSnapshot Snapshot(uint64_t frame, const std::vector<float>& positions) {
+  FrameSnapshot s;
+  s.frame = frame;
+  s.step = 10 * frame;
+  s.domain_min = kLo;
+  s.domain_max = kHi;
+  s.positions = positions;
+  s.velocities.assign(positions.size(), 0.25f);
+  return s;
+}
+
+TEST(ViewDetail, AViewStreamKeepsItsSubsetAcrossFramesSoDeltaCodingPays) {
+  FrameHub hub(4);
+  Listener l;
+  SubscriptionOptions o;
+  o.budget = {.particles_per_frame = 800};
+  auto s = hub.Subscribe(o, &l);
+  hub.SetStreamView(s->id(), NarrowView());
+  std::vector<float> p = Cloud(8000);
+  codec::FrameDecoder decoder;
+  std::vector<uint32_t> first_ids;
+  for (uint64_t f = 1; f <= 4; ++f) {
+    for (float& x : p) x *= 0.9999f;  // the fluid moves a little
+    hub.Publish(Snapshot(f, p), false, false);
+    auto frame = s->Take(nullptr);
+    ASSERT_TRUE(frame) << f;
+    EXPECT_EQ(frame->keyframe, f == 1) << f;
+    EXPECT_FALSE(frame->refines);
+    EXPECT_TRUE(frame->partial);
+    EXPECT_LE(frame->particles, 800u);
+    auto decoded = decoder.AddChunks(frame->chunks);
+    ASSERT_TRUE(decoded) << f;
+    EXPECT_TRUE(decoded->explicit_ids);
+    if (f == 1) first_ids = decoded->ids;
+    EXPECT_EQ(decoded->ids, first_ids) << "the same particles while the view holds";
+  }
+  // The subscriber misses a frame: it gets a keyframe, of the same particles.
+  hub.Publish(Snapshot(5, p), false, false);
+  hub.Publish(Snapshot(6, p), false, false);
+  EXPECT_FALSE(s->Take(nullptr)) << "a delta frame after a gap waits for a keyframe";
+  hub.Publish(Snapshot(7, p), false, false);
+  auto frame = s->Take(nullptr);
+  ASSERT_TRUE(frame);
+  EXPECT_TRUE(frame->keyframe);
+  auto decoded = codec::FrameDecoder().AddChunks(frame->chunks);
+  ASSERT_TRUE(decoded);
+  EXPECT_EQ(decoded->ids, first_ids);
+}
+
+TEST(ViewDetail, RepublishedFramesCompleteTheShownFrameBitExactly) {
+  FrameHub hub(4);
+  std::atomic<int> needed{0};
+  hub.set_frame_needed([&] { ++needed; });
+  Listener l, plain_listener;
+  SubscriptionOptions o;
+  o.budget = {.particles_per_frame = 500};
+  auto s = hub.Subscribe(o, &l);
+  auto plain = hub.Subscribe({}, &plain_listener);
+  hub.SetStreamView(s->id(), NarrowView());
+  EXPECT_THROW(hub.SetStreamView(s->id() + 100, NarrowView()), std::out_of_range);
+  StreamView bad = NarrowView();
+  bad.aspect = 0;
+  EXPECT_THROW(hub.SetStreamView(s->id(), bad), std::invalid_argument);
+
+  const size_t n = 8000;
+  const FrameSnapshot snapshot = Snapshot(3, Cloud(n));
+  hub.Publish(snapshot, true, false);
+  ASSERT_TRUE(plain->Take(nullptr));
+  codec::FrameDecoder decoder;
+  auto frame = s->Take(nullptr);
+  ASSERT_TRUE(frame);
+  EXPECT_FALSE(frame->refines);
+  ASSERT_TRUE(frame->partial);
+  auto shown = decoder.AddChunks(frame->chunks);
+  ASSERT_TRUE(shown);
+  const uint32_t budget = shown->count;
+  EXPECT_LE(budget, 500u);
+
+  // The frame is delivered: the hub asks for another publish, which refines it. Each refinement
+  // doubles the particles selected, so log2(n / budget) of them complete the frame.
+  int refinements = 0;
+  while (frame->partial) {
+    const int before = needed;
+    hub.BytesDelivered(s, SteadySeconds(), frame->bytes, true);
+    ASSERT_EQ(needed, before + 1) << "a partial frame asks for its refinement";
+    hub.Publish(snapshot, true, false);
+    EXPECT_FALSE(plain->Take(nullptr)) << "the same frame again is nothing new to a plain stream";
+    frame = s->Take(nullptr);
+    ASSERT_TRUE(frame);
+    EXPECT_TRUE(frame->refines);
+    auto more = decoder.AddChunks(frame->chunks);
+    ASSERT_TRUE(more);
+    codec::MergeRefinement(*shown, *more);
+    ++refinements;
+    ASSERT_LE(refinements, int(std::ceil(std::log2(double(n) / budget))) + 1);
+  }
+  const int before = needed;
+  hub.BytesDelivered(s, SteadySeconds(), frame->bytes, true);
+  EXPECT_EQ(needed, before) << "a complete frame asks for nothing";
+  hub.Publish(snapshot, true, false);
+  EXPECT_FALSE(s->Take(nullptr)) << "nothing more to send of a complete frame";
+
+  // The full-detail frame as a stream without a budget gets it.
+  codec::FrameInput in;
+  in.domain_min = snapshot.domain_min;
+  in.domain_max = snapshot.domain_max;
+  in.positions = snapshot.positions;
+  in.velocities = snapshot.velocities;
+  auto full = codec::FrameDecoder().AddChunks(codec::FrameEncoder({}).Encode(in));
+  ASSERT_TRUE(full);
+  ASSERT_EQ(shown->count, n);
+  for (uint32_t k = 0; k < n; ++k) ASSERT_EQ(shown->ids[k], k);
+  EXPECT_EQ(std::memcmp(shown->positions.data(), full->positions.data(), 12 * n), 0);
+}
+
+}  // namespace
+}  // namespace dysa::service
