@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
@@ -166,6 +167,12 @@ void RunOffline(const RunOptions& options, std::ostream& out, std::ostream& prog
     out << ", ParaView series: " << (dir / "frames.pvd").string() << " (" << vtk->frames()
         << " frames)";
   out << "\n";
+  if (options.print_hash) {
+    char hash[19];
+    std::snprintf(hash, sizeof hash, "0x%016llx",
+                  static_cast<unsigned long long>(StateHash(sim.state())));
+    out << "state hash: " << hash << "\n";
+  }
 }
 
 }  // namespace dysa

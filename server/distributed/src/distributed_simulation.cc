@@ -1,0 +1,247 @@
+#include "dysa/distributed/distributed_simulation.h"
+
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <stdexcept>
+#include <utility>
+
+namespace dysa::distributed {
+namespace {
+
+// Ghost layers each side of a slab. An owned particle reads, within one cell, the fluid's
+// positions, velocities and carried densities (exchanged) and what the pressure pass derives
+// from them per particle; and the boundary particles' extrapolated pressure and wall velocity,
+// which each sums over the fluid within one cell of that boundary particle: two cells from the
+// owned one. With two layers every such value is computed here from exact inputs, as on one
+// process; the values of the ghosts themselves may be wrong (their neighbourhoods are cut) but
+// nothing owned reads them, and they are dropped after the step.
+constexpr int kGhostDepth = 2;
+
+using Clock = std::chrono::steady_clock;
+
+double MsSince(Clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+}  // namespace
+
+DistributedSimulation::DistributedSimulation(Scene scene, const Communicator& comm)
+    : scene_(std::move(scene)), comm_(comm) {
+  const SolverInfo& info = FindSolver(scene_.solver);
+  if (scene_.solver != "wcsph") {
+    throw ConfigError("solver", "'" + scene_.solver +
+                                    "' does not run across processes yet; allowed: wcsph (run "
+                                    "other solvers without mpirun)");
+  }
+  if (scene_.params.time_integration != 0) {
+    throw ConfigError("time_integration",
+                      "must be 0 (symplectic Euler) across processes, not " +
+                          std::to_string(scene_.params.time_integration) +
+                          ": the predictor-corrector's second neighbour sort is not exchanged yet");
+  }
+  BlockParticleCounts(scene_, scene_.params);
+  model_ = MakeModel(scene_, scene_.params, info);
+  solver_ = info.create();
+  passes_ = solver_->BuildPasses(model_);
+  sort_pass_ = passes_.size();
+  profile_.push_back({"exchange"});
+  for (size_t k = 0; k < passes_.size(); ++k) {
+    if (passes_[k].name == kNeighbourSortPass) sort_pass_ = k;
+    profile_.push_back({passes_[k].name});
+  }
+  profile_.push_back({"drop_ghosts"});
+  if (sort_pass_ == passes_.size()) throw std::logic_error("wcsph has no neighbour sort pass");
+
+  // The layout every wcsph step sorts into (physical::SortIntoGrid).
+  layout_.Configure(model_.domain, Real(model_.kernel_support), model_.periodic);
+  const Eigen::Vector3i dims = layout_.dims();
+  for (int a = 1; a < 3; ++a) {
+    if (dims[a] > dims[axis_]) axis_ = a;
+  }
+  slabs_ = std::make_unique<Slabs>(dims[axis_], comm_.size(), model_.periodic[axis_], kGhostDepth);
+
+  // Every process spawns the whole scene (deterministic) and keeps its slab's particles; the
+  // spawn index is their first order key, the order one process starts in.
+  ParticleArrays all;
+  SpawnParticles(scene_, model_.params, all);
+  std::vector<int> layer(all.size());
+  std::vector<int64_t> counts(size_t(slabs_->layers()), 0);
+  for (size_t i = 0; i < all.size(); ++i) {
+    layer[i] = layout_.CellOf(all.position[i])[axis_];
+    ++counts[layer[i]];
+  }
+  slabs_->Balance(counts);
+  std::vector<uint8_t> keep(all.size());
+  for (size_t i = 0; i < all.size(); ++i) {
+    keep[i] = slabs_->OwnerOf(layer[i]) == comm_.rank();
+    if (keep[i]) keys_.push_back(i);
+  }
+  std::vector<SolverArray> none;
+  KeepParticles(keep, all, none);
+  state_.particles = std::move(all);
+  solver_->Reset(state_.particles.size());
+  state_.share.max_over_processes = [this](std::span<double> v) { comm_.MaxInPlace(v); };
+}
+
+DistributedSimulation::~DistributedSimulation() = default;
+
+void DistributedSimulation::Record(size_t pass, double ms) {
+  PassProfile& prof = profile_[pass];
+  prof.last_ms = ms;
+  prof.total_ms += ms;
+  ++prof.calls;
+}
+
+void DistributedSimulation::Step(double until) {
+  if (!alarm_.empty()) return;
+  const double start_time = state_.time;
+  const double rest = until - start_time;
+  state_.max_dt = rest > 0 ? rest : std::numeric_limits<double>::infinity();
+  auto start = Clock::now();
+  Exchange();
+  Record(0, MsSince(start));
+  for (size_t k = 0; k < passes_.size(); ++k) {
+    start = Clock::now();
+    passes_[k].run(model_, state_);
+    Record(k + 1, MsSince(start));
+    if (k == sort_pass_ && !AfterSort(start_time)) return;
+  }
+  start = Clock::now();
+  DropGhosts();
+  Record(profile_.size() - 1, MsSince(start));
+  double diverged = StateIsFinite(state_.particles) ? 0 : 1;
+  comm_.MaxInPlace({&diverged, 1});
+  // As Simulation::Step: a step clamped to the cap lands on `until` itself.
+  state_.time = state_.dt >= state_.max_dt ? until : start_time + state_.dt;
+  ++state_.step;
+  if (diverged > 0) {
+    alarm_ = "non-finite particle state after step " + std::to_string(state_.step) +
+             " (t = " + std::to_string(start_time) + " s, dt = " + std::to_string(state_.dt) +
+             " s): the step diverged; reduce the time step or stiffness, or reset";
+  } else if (!(state_.dt > 0) || !std::isfinite(state_.dt)) {
+    alarm_ = "the time step collapsed to " + std::to_string(state_.dt) + " s at step " +
+             std::to_string(state_.step) + " (t = " + std::to_string(start_time) + " s)";
+  }
+}
+
+void DistributedSimulation::Exchange() {
+  const ParticleArrays& p = state_.particles;
+  const size_t n = p.size();
+  std::vector<int> layer(n);
+  std::vector<int64_t> counts(size_t(slabs_->layers()), 0);
+  for (size_t i = 0; i < n; ++i) {
+    layer[i] = layout_.CellOf(p.position[i])[axis_];
+    ++counts[layer[i]];
+  }
+  // Re-balanced every step: the cuts follow the particles, and since the order keys do not
+  // depend on where a particle lives, a re-cut changes no bit of the result.
+  comm_.SumInPlace(counts);
+  slabs_->Balance(counts);
+
+  LocalParticles owned;
+  owned.particles = std::move(state_.particles);
+  owned.key = std::move(keys_);
+  // The solver's per-particle arrays travel with the particles; one a process does not hold
+  // for every particle (wcsph's carried density before the first step) is a cold start on all.
+  std::vector<SolverArray> arrays = solver_->SaveArrays();
+  std::vector<double> missing(arrays.size());
+  for (size_t k = 0; k < arrays.size(); ++k) missing[k] = arrays[k].values.size() != n ? 1 : 0;
+  comm_.MaxInPlace(missing);
+  for (size_t k = 0; k < arrays.size(); ++k) {
+    if (missing[k] == 0) owned.arrays.push_back(std::move(arrays[k]));
+  }
+  ExchangeCounts moved;
+  LocalParticles mine = ExchangeParticles(comm_, *slabs_, layer, owned, moved);
+  totals_.migrated += moved.migrated;
+  totals_.ghosts += moved.ghosts;
+  totals_.bytes_sent += moved.bytes_sent;
+  state_.particles = std::move(mine.particles);
+  state_.share.ghost = std::move(mine.ghost);
+  solver_->RestoreArrays(mine.arrays, state_.particles.size());
+}
+
+bool DistributedSimulation::AfterSort(double start_time) {
+  const NeighborGrid& grid = state_.grid;
+  const size_t n = state_.particles.size();
+  // The sort reordered the particles: flag the ghosts again, from their cells. They must be
+  // exactly those that arrived as ghosts (the same CellOf decided both).
+  size_t arrived = 0;
+  for (uint8_t g : state_.share.ghost) arrived += g;
+  std::vector<uint8_t>& ghost = state_.share.ghost;
+  ghost.assign(n, 0);
+  size_t flagged = 0;
+  for (size_t k = 0; k < n; ++k) {
+    ghost[k] = slabs_->OwnerOf(grid.SortedCell(uint32_t(k))[axis_]) != comm_.rank();
+    flagged += ghost[k];
+  }
+  if (flagged != arrived) {
+    throw std::logic_error("DistributedSimulation: " + std::to_string(arrived) +
+                           " ghosts arrived but " + std::to_string(flagged) +
+                           " lie outside this slab");
+  }
+  double crowded = grid.max_cell_count();
+  comm_.MaxInPlace({&crowded, 1});
+  if (crowded <= NeighborGrid::kMaxParticlesPerCell) return true;
+  alarm_ = std::to_string(uint64_t(crowded)) + " particles crowd one neighbour-grid cell at step " +
+           std::to_string(state_.step + 1) + " (t = " + std::to_string(start_time) +
+           " s; at most " + std::to_string(NeighborGrid::kMaxParticlesPerCell) +
+           " can, or each step costs O(n^2)): the fluid collapsed";
+  DropGhosts();
+  return false;
+}
+
+void DistributedSimulation::DropGhosts() {
+  const size_t n = state_.particles.size();
+  const std::vector<uint64_t> keys = OrderKeys(state_.grid, n);
+  std::vector<uint8_t> keep(n);
+  keys_.clear();
+  for (size_t k = 0; k < n; ++k) {
+    keep[k] = !state_.share.IsGhost(k);
+    if (keep[k]) keys_.push_back(keys[k]);
+  }
+  std::vector<SolverArray> arrays = solver_->SaveArrays();
+  KeepParticles(keep, state_.particles, arrays);
+  solver_->RestoreArrays(arrays, state_.particles.size());
+  state_.share.ghost.clear();
+}
+
+uint64_t DistributedSimulation::TotalParticles() const {
+  int64_t n = int64_t(state_.particles.size());
+  comm_.SumInPlace({&n, 1});
+  return uint64_t(n);
+}
+
+uint64_t DistributedSimulation::GlobalStateHash() const {
+  // id, position, velocity per particle; process 0 hashes them as one process would.
+  constexpr size_t kStride = sizeof(uint32_t) + 6 * sizeof(Real);
+  const ParticleArrays& p = state_.particles;
+  Bytes mine(p.size() * kStride);
+  for (size_t i = 0; i < p.size(); ++i) {
+    std::byte* at = mine.data() + i * kStride;
+    std::memcpy(at, &p.id[i], sizeof(uint32_t));
+    std::memcpy(at + 4, p.position[i].data(), 3 * sizeof(Real));
+    std::memcpy(at + 4 + 3 * sizeof(Real), p.velocity[i].data(), 3 * sizeof(Real));
+  }
+  const std::vector<Bytes> all = comm_.GatherToRoot(mine);
+  if (comm_.rank() != 0) return 0;
+  State whole;
+  ParticleArrays& w = whole.particles;
+  for (const Bytes& part : all) {
+    for (size_t at = 0; at + kStride <= part.size(); at += kStride) {
+      uint32_t id;
+      Vec3 x, v;
+      std::memcpy(&id, part.data() + at, sizeof(uint32_t));
+      std::memcpy(x.data(), part.data() + at + 4, 3 * sizeof(Real));
+      std::memcpy(v.data(), part.data() + at + 4 + 3 * sizeof(Real), 3 * sizeof(Real));
+      w.id.push_back(id);
+      w.position.push_back(x);
+      w.velocity.push_back(v);
+    }
+  }
+  w.density.resize(w.id.size());
+  w.pressure.resize(w.id.size());
+  return StateHash(whole);
+}
+
+}  // namespace dysa::distributed

@@ -1,0 +1,86 @@
+// Tests of server/distributed/src/distributed_simulation.cc on one process (SingleProcess):
+// its steps, driven by the order keys of particle_exchange.h rather than by the storage order,
+// give the bits of dysa::Simulation; what does not run across processes yet is refused by
+// name. The same on 2 and 3 MPI ranks: mpi_ranks_test.sh (ctest -L mpi).
+#include "dysa/distributed/distributed_simulation.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <string>
+
+#include "dysa/core/scene.h"
+#include "dysa/core/simulation.h"
+#include "dysa/core/types.h"
+
+#ifndef DYSA_RANKS_SCENE
+#error "tests/CMakeLists.txt defines DYSA_RANKS_SCENE (tests/distributed/ranks_dam_break.json)"
+#endif
+
+namespace dysa::distributed {
+namespace {
+
+using ::testing::HasSubstr;
+
+// Both step to the same caps (the end of each frame), as `dysa run` does.
+void ExpectSameBits(const Scene& scene, int frames) {
+  const SingleProcess one;
+  DistributedSimulation spread(scene, one);
+  Simulation plain(scene);
+  ASSERT_EQ(spread.TotalParticles(), plain.particle_count());
+  for (int f = 0; f < frames; ++f) {
+    const double end = plain.time() + plain.model().FrameTime();
+    while (plain.time() < end) plain.Step(end);
+    while (spread.time() < end) spread.Step(end);
+    ASSERT_EQ(spread.step(), plain.step()) << "frame " << f;
+    ASSERT_EQ(spread.GlobalStateHash(), StateHash(plain.state())) << "frame " << f;
+  }
+  EXPECT_TRUE(spread.alarm().empty()) << spread.alarm();
+  EXPECT_GT(plain.step(), 20u);
+}
+
+TEST(DistributedSimulationTest, OneProcessGivesTheBitsOfSimulation) {
+  ExpectSameBits(LoadScene(DYSA_RANKS_SCENE), 3);
+}
+
+TEST(DistributedSimulationTest, TheMartinMoyceDamBreakWithShiftingToo) {
+  Scene scene = LoadScene("dam_break_martin_moyce");
+  scene.params.particle_spacing = 0.0038;  // a coarse column: 15 x 30 x 2 particles
+  scene.params.particle_shifting = 2;
+  ExpectSameBits(scene, 2);
+}
+
+TEST(DistributedSimulationTest, SolversNotSpreadYetAreRefusedByName) {
+  const SingleProcess one;
+  Scene scene = LoadScene(DYSA_RANKS_SCENE);
+  scene.solver = "dfsph";
+  try {
+    DistributedSimulation sim(scene, one);
+    FAIL() << "dfsph accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.field(), "solver");
+    EXPECT_THAT(e.message(), HasSubstr("allowed: wcsph"));
+  }
+  scene.solver = "wcsph";
+  scene.params.time_integration = 1;
+  try {
+    DistributedSimulation sim(scene, one);
+    FAIL() << "the predictor-corrector accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.field(), "time_integration");
+  }
+}
+
+TEST(DistributedSimulationTest, ExchangeOnOneProcessMovesNothing) {
+  const SingleProcess one;
+  DistributedSimulation sim(LoadScene(DYSA_RANKS_SCENE), one);
+  for (int k = 0; k < 5; ++k) sim.Step();
+  EXPECT_EQ(sim.totals().migrated, 0u);
+  EXPECT_EQ(sim.totals().ghosts, 0u);
+  EXPECT_EQ(sim.particles().size(), sim.TotalParticles());
+  EXPECT_EQ(sim.slabs().processes(), 1);
+  EXPECT_EQ(sim.axis(), 0);  // x: 40 layers against 20 and 4
+}
+
+}  // namespace
+}  // namespace dysa::distributed

@@ -1,0 +1,48 @@
+#!/bin/bash
+# ctest -L mpi: the same run of tests/distributed/ranks_dam_break.json (wcsph, 150 steps) with
+# plain `dysa run` and under mpirun on 1, 2 and 3 ranks must end in the same state hash, and on
+# 2 and 3 ranks particles must have migrated between ranks and every rank hold some.
+# Usage: mpi_ranks_test.sh DYSA MPIEXEC SCENE. Exits 77 (skipped, with the reason printed) when
+# mpirun cannot be found.
+set -u
+dysa=$1
+mpiexec=$2
+scene=$3
+steps=150
+if ! command -v "$mpiexec" > /dev/null 2>&1; then
+  echo "SKIP: no mpirun ('$mpiexec' not found): install openmpi-bin (scripts/setup.sh)"
+  exit 77
+fi
+export OMP_WAIT_POLICY=PASSIVE
+out=$(mktemp -d)
+trap 'rm -rf "$out"' EXIT
+fail() {
+  echo "FAIL: $*"
+  exit 1
+}
+field() { sed -n "s/^$1: \([^ ;]*\).*/\1/p" <<< "$2"; }
+
+plain=$("$dysa" run "$scene" --steps $steps --threads 1 --hash --out "$out/plain") ||
+  fail "plain dysa run failed: $plain"
+reference=$(field "state hash" "$plain")
+[ -n "$reference" ] || fail "no state hash in: $plain"
+echo "plain dysa run: state hash $reference"
+
+for ranks in 1 2 3; do
+  log=$("$mpiexec" --oversubscribe --allow-run-as-root -np $ranks \
+    "$dysa" run "$scene" --steps $steps --threads 1 --hash 2>&1) ||
+    fail "mpirun -np $ranks failed: $log"
+  hash=$(field "state hash" "$log")
+  migrated=$(field "migrated" "$log")
+  counts=$(sed -n 's/^particles per rank: //p' <<< "$log")
+  echo "$ranks ranks: state hash $hash, migrated $migrated, particles per rank $counts"
+  grep -q "^$steps steps of " <<< "$log" || fail "$ranks ranks did not run $steps steps: $log"
+  [ "$hash" = "$reference" ] || fail "$ranks ranks: hash $hash differs from $reference: $log"
+  if [ $ranks -gt 1 ]; then
+    [ "${migrated:-0}" -gt 0 ] || fail "$ranks ranks: no particle migrated: $log"
+    for n in $counts; do
+      [ "$n" -gt 0 ] || fail "$ranks ranks: a rank holds no particles ($counts)"
+    done
+  fi
+done
+echo "PASS: the same state hash on 1, 2 and 3 ranks as without mpirun"
