@@ -47,20 +47,29 @@ void RunDistributed(const RunOptions& options, const distributed::Communicator& 
   const Scene& sc = sim.scene();
   const double end_time = options.end_time.value_or(sc.end_time);
   const bool root = comm.rank() == 0;
-  // RunOffline caps each step at the next probe row: the same caps give the same steps.
-  const double interval = sc.probe_interval.value_or(model.FrameTime());
+  // RunOffline caps each adaptive step at the next probe row: the same caps give the same steps.
+  const bool adaptive = model.physical;
+  const double interval = sc.probe_interval.value_or(
+      adaptive ? model.FrameTime() : model.dt * model.params.iterations_per_frame);
   if (root) {
-    out << "scene " << sc.name << ": " << particles << " particles, solver wcsph on " << comm.size()
-        << " ranks x " << threads << " threads, slabs along " << kAxes[sim.axis()] << " ("
-        << sim.slabs().layers() << " cell layers), "
+    out << "scene " << sc.name << ": " << particles << " particles, solver " << sc.solver << " on "
+        << comm.size() << " ranks x " << threads << " threads, slabs along " << kAxes[sim.axis()]
+        << " (" << sim.slabs().layers() << " cell layers), "
         << (options.steps ? std::to_string(*options.steps) + " steps"
                           : "until t = " + std::to_string(end_time) + " s")
         << "; no probes or frames across ranks\n";
   }
   double next_output = interval;
   const auto start = Clock::now();
-  auto done = [&] { return options.steps ? sim.step() >= *options.steps : sim.time() >= end_time; };
+  auto done = [&] {
+    if (options.steps) return sim.step() >= *options.steps;
+    return adaptive ? sim.time() >= end_time : sim.time() + 0.5 * model.dt >= end_time;
+  };
   while (!done() && sim.alarm().empty()) {
+    if (!adaptive) {
+      sim.Step();
+      continue;
+    }
     sim.Step(std::min(next_output, options.steps ? next_output : end_time));
     const double time = sim.time();
     if (time + 1e-9 * interval >= next_output) {

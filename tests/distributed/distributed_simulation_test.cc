@@ -13,8 +13,8 @@
 #include "dysa/core/simulation.h"
 #include "dysa/core/types.h"
 
-#ifndef DYSA_RANKS_SCENE
-#error "tests/CMakeLists.txt defines DYSA_RANKS_SCENE (tests/distributed/ranks_dam_break.json)"
+#if !defined(DYSA_RANKS_SCENE) || !defined(DYSA_RANKS_SEED_SCENE)
+#error "tests/CMakeLists.txt defines DYSA_RANKS_SCENE and DYSA_RANKS_SEED_SCENE (tests/distributed)"
 #endif
 
 namespace dysa::distributed {
@@ -50,6 +50,11 @@ TEST(DistributedSimulationTest, TheMartinMoyceDamBreakWithShiftingToo) {
   ExpectSameBits(scene, 2);
 }
 
+TEST(DistributedSimulationTest, TheSeedModelToo) {
+  Scene scene = LoadScene(DYSA_RANKS_SEED_SCENE);
+  ExpectSameBits(scene, 8);
+}
+
 TEST(DistributedSimulationTest, SolversNotSpreadYetAreRefusedByName) {
   const SingleProcess one;
   Scene scene = LoadScene(DYSA_RANKS_SCENE);
@@ -59,7 +64,7 @@ TEST(DistributedSimulationTest, SolversNotSpreadYetAreRefusedByName) {
     FAIL() << "dfsph accepted";
   } catch (const ConfigError& e) {
     EXPECT_EQ(e.field(), "solver");
-    EXPECT_THAT(e.message(), HasSubstr("allowed: wcsph"));
+    EXPECT_THAT(e.message(), HasSubstr("allowed: wcsph, seed"));
   }
   scene.solver = "wcsph";
   scene.params.time_integration = 1;

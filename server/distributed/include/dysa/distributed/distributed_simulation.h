@@ -5,13 +5,14 @@
 // the processes), send each owned particle to the owner of its layer (migration) and a copy to
 // the processes that hold its layer as ghosts, sort by order key (particle_exchange.h), then
 // run the solver's own passes unchanged over owned particles and ghosts alike; the CFL step's
-// maxima skip the ghosts and combine over the processes (State::share). Ghosts reach two layers
-// deep, so every value an owned particle reads is computed locally from exact inputs and one
-// exchange per step suffices. After the passes the ghosts are dropped.
+// maxima skip the ghosts and combine over the processes (State::share). Ghosts reach deep
+// enough (2 layers for wcsph, 5 for the seed) that every value an owned particle reads is
+// computed locally from exact inputs and one exchange per step suffices. After the passes the
+// ghosts are dropped.
 //
 // Supported so far: wcsph with symplectic Euler (time_integration 0), with walls, static and
-// moving obstacles, periodic axes, viscosity, density diffusion and particle shifting. Not yet:
-// seed, dfsph, the predictor-corrector, probes, frames, checkpoints (docs/distributed.md).
+// moving obstacles, periodic axes, viscosity, density diffusion and particle shifting; seed.
+// Not yet: dfsph, the predictor-corrector, probes, frames, checkpoints (docs/distributed.md).
 #pragma once
 
 #include <cstdint>
@@ -41,8 +42,8 @@ struct ExchangeTotals {
 class DistributedSimulation {
  public:
   // Collective. Validates the scene (ConfigError) and what runs across processes so far
-  // (ConfigError naming "solver" or "time_integration"), spawns its particles and keeps those
-  // of this process's slab. `comm` must outlive this.
+  // (wcsph, seed: ConfigError naming "solver" or "time_integration"), spawns its particles and
+  // keeps those of this process's slab. `comm` must outlive this.
   DistributedSimulation(Scene scene, const Communicator& comm);
   ~DistributedSimulation();
 
@@ -86,6 +87,7 @@ class DistributedSimulation {
   std::vector<Pass> passes_;
   size_t sort_pass_ = 0;
   State state_;
+  uint64_t total_ = 0;          // particles over all processes
   std::vector<uint64_t> keys_;  // order keys of the owned particles, storage order
   NeighborGrid layout_;         // the solver's grid layout, for the particles' layers
   int axis_ = 0;
