@@ -117,10 +117,10 @@ int ReportError(const std::string& command, const std::exception& error, const s
 #ifdef DYSA_WITH_MPI
 constexpr const char* kMpiRunHelp =
     "\n\nUnder mpirun (mpirun -np N dysa run SCENE) the run is spread over the N ranks "
-    "(docs/distributed.md): wcsph and seed, no probes or frames yet.";
+    "(docs/distributed.md): wcsph and seed, on the CPU.";
 
 // `dysa run` under mpirun. Every rank parsed the same arguments, so a ConfigError is the same on
-// every rank: rank 0 reports it and all exit 2 together. Any other error may be one rank's alone
+// every rank: rank 0 reports it and all exit together. Any other error may be one rank's alone
 // while the others wait in a collective: that rank aborts the whole job.
 int RunOnRanks(int argc, char** argv, const dysa::RunOptions& run, const std::string& device) {
   dysa::distributed::MpiSession session(&argc, &argv);
@@ -128,8 +128,13 @@ int RunOnRanks(int argc, char** argv, const dysa::RunOptions& run, const std::st
   try {
     dysa::RunDistributed(run, comm, std::cout);
   } catch (const dysa::ConfigError& e) {
-    if (comm.rank() == 0) ReportError("run", e, device, 1);
-    return 2;
+    // As RunOffline's errors: 2 for --device, 1 for a scene or parameter.
+    const int status = e.field() == "device" ? 2 : 1;
+    if (comm.rank() == 0) ReportError("run", e, device, status);
+    return status;
+  } catch (const dysa::CollectiveError& e) {
+    if (comm.rank() == 0) std::cerr << "dysa run: error: " << e.what() << "\n";
+    return 1;
   } catch (const std::invalid_argument& e) {
     if (comm.rank() == 0) std::cerr << "dysa run: error: " << e.what() << "\n";
     return 2;

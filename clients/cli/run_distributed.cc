@@ -5,19 +5,31 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <filesystem>
 #include <iomanip>
+#include <optional>
 #include <ostream>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
+#include "dysa/core/probes.h"
 #include "dysa/distributed/distributed_simulation.h"
+#include "probe_writer.h"
+#include "vtk_writer.h"
 
 namespace dysa {
 namespace {
 
 using Clock = std::chrono::steady_clock;
 const char* const kAxes[] = {"x", "y", "z"};
+
+std::string Number(double v) {
+  std::ostringstream s;
+  s << v;
+  return s.str();
+}
 
 std::string Hex(uint64_t v) {
   char text[19];
@@ -29,10 +41,6 @@ std::string Hex(uint64_t v) {
 
 void RunDistributed(const RunOptions& options, const distributed::Communicator& comm,
                     std::ostream& out) {
-  if (options.vtk_every > 0) {
-    throw std::invalid_argument(
-        "--vtk-every: frames are not written across ranks yet; run without mpirun for them");
-  }
   if (options.device.is_cuda()) {
     throw std::invalid_argument("--device: only cpu runs across ranks yet");
   }
@@ -43,37 +51,91 @@ void RunDistributed(const RunOptions& options, const distributed::Communicator& 
 
   distributed::DistributedSimulation sim(std::move(scene), comm);
   const Model& model = sim.model();
-  const uint64_t particles = sim.TotalParticles();
   const Scene& sc = sim.scene();
+  const uint64_t particles = sim.TotalParticles();
   const double end_time = options.end_time.value_or(sc.end_time);
   const bool root = comm.rank() == 0;
-  // RunOffline caps each adaptive step at the next probe row: the same caps give the same steps.
+  // The same steps, caps and output times as RunOffline: each adaptive step lands on the next
+  // probe row, VTK frame or the end.
   const bool adaptive = model.physical;
-  const double interval = sc.probe_interval.value_or(
-      adaptive ? model.FrameTime() : model.dt * model.params.iterations_per_frame);
+  const double frame_time =
+      adaptive ? model.FrameTime() : model.dt * model.params.iterations_per_frame;
+  const double interval = sc.probe_interval.value_or(frame_time);
+
+  // Rank 0 writes; whether it can is known to all before the first collective write.
+  const std::filesystem::path dir(options.out_dir);
+  std::optional<ProbeWriter> probes;
+  std::optional<VtkSeriesWriter> vtk;
+  std::string failure;
+  if (root) {
+    try {
+      std::filesystem::create_directories(dir);
+      probes.emplace(dir / "probes.csv", sc);
+      if (options.vtk_every > 0) vtk.emplace(dir, "frames");
+    } catch (const std::exception& e) {
+      failure = e.what();
+    }
+  }
+  double failed = failure.empty() ? 0 : 1;
+  comm.MaxInPlace({&failed, 1});
+  if (failed > 0) throw CollectiveError(root ? failure : "rank 0 cannot write its output");
+
+  // Collective: every rank gathers its particles to rank 0, which evaluates or writes them in
+  // the storage order of one process.
+  auto write_probes = [&] {
+    State whole;
+    whole.particles = sim.GatherParticles();
+    whole.time = sim.time();
+    whole.step = sim.step();
+    if (root) probes->Write(sim.time(), sim.step(), EvaluateProbes(sc.probes, model, whole));
+  };
+  auto write_frame = [&] {
+    const ParticleArrays all = sim.GatherParticles();
+    if (root) vtk->WriteFrame(all, sim.time());
+  };
+
   if (root) {
     out << "scene " << sc.name << ": " << particles << " particles, solver " << sc.solver << " on "
         << comm.size() << " ranks x " << threads << " threads, slabs along " << kAxes[sim.axis()]
         << " (" << sim.slabs().layers() << " cell layers), "
         << (options.steps ? std::to_string(*options.steps) + " steps"
-                          : "until t = " + std::to_string(end_time) + " s")
-        << "; no probes or frames across ranks\n";
+                          : "until t = " + Number(end_time) + " s")
+        << ", output in " << dir.string() << "\n";
   }
+  write_probes();
+  if (options.vtk_every > 0) write_frame();
   double next_output = interval;
+  const double vtk_interval = frame_time * std::max(options.vtk_every, 1);
+  double next_vtk = vtk_interval;
   const auto start = Clock::now();
   auto done = [&] {
     if (options.steps) return sim.step() >= *options.steps;
     return adaptive ? sim.time() >= end_time : sim.time() + 0.5 * model.dt >= end_time;
   };
   while (!done() && sim.alarm().empty()) {
-    if (!adaptive) {
+    if (adaptive) {
+      double until = std::min(next_output, options.steps ? next_output : end_time);
+      if (options.vtk_every > 0) until = std::min(until, next_vtk);
+      sim.Step(until);
+    } else {
       sim.Step();
-      continue;
     }
-    sim.Step(std::min(next_output, options.steps ? next_output : end_time));
     const double time = sim.time();
+    const uint64_t step = sim.step();
     if (time + 1e-9 * interval >= next_output) {
+      write_probes();
       while (next_output <= time + 1e-9 * interval) next_output += interval;
+    }
+    if (options.vtk_every > 0) {
+      if (adaptive) {
+        if (time + 1e-9 * vtk_interval >= next_vtk) {
+          write_frame();
+          while (next_vtk <= time + 1e-9 * vtk_interval) next_vtk += vtk_interval;
+        }
+      } else {
+        const uint64_t ipf = uint64_t(model.params.iterations_per_frame);
+        if (step % ipf == 0 && (step / ipf) % uint64_t(options.vtk_every) == 0) write_frame();
+      }
     }
   }
   const double wall_s = std::chrono::duration<double>(Clock::now() - start).count();
@@ -115,6 +177,12 @@ void RunDistributed(const RunOptions& options, const distributed::Communicator& 
       << " particles; ghosts per step: " << (steps ? double(moved[1]) / double(steps) : 0.0)
       << "; bytes sent per step: " << (steps ? double(moved[2]) / double(steps) : 0.0) << "\n";
   if (!sim.alarm().empty()) out << "stopped: " << sim.alarm() << "\n";
+  out << "probes: " << (dir / "probes.csv").string();
+  if (vtk) {
+    out << ", ParaView series: " << (dir / "frames.pvd").string() << " (" << vtk->frames()
+        << " frames)";
+  }
+  out << "\n";
   if (options.print_hash) out << "state hash: " << Hex(hash) << "\n";
 }
 

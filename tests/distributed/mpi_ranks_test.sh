@@ -1,8 +1,8 @@
 #!/bin/bash
 # ctest -L mpi: for each scene (tests/distributed/ranks_dam_break.json: wcsph; ranks_seed.json:
 # the seed model), 150 steps with plain `dysa run` and under mpirun on 1, 2 and 3 ranks must end
-# in the same state hash, and on 2 and 3 ranks particles must have migrated between ranks and
-# every rank hold some.
+# in the same state hash and write the same probes.csv and VTK frames, byte for byte; on 2 and 3
+# ranks particles must have migrated between ranks and every rank hold some.
 # Usage: mpi_ranks_test.sh DYSA MPIEXEC SCENE... Exits 77 (skipped, with the reason printed)
 # when mpirun cannot be found.
 set -u
@@ -28,14 +28,16 @@ field() { sed -n "s/^$1: \([^ ;]*\).*/\1/p" <<< "$2"; }
 
 for scene in "$@"; do
   name=$(basename "$scene" .json)
-  plain=$("$dysa" run "$scene" --steps $steps --threads 1 --hash --out "$out/$name") ||
+  plain=$("$dysa" run "$scene" --steps $steps --threads 1 --hash --vtk-every 3 \
+    --out "$out/$name/plain") ||
     fail "$name: plain dysa run failed: $plain"
   reference=$(field "state hash" "$plain")
   [ -n "$reference" ] || fail "$name: no state hash in: $plain"
   echo "$name, plain dysa run: state hash $reference"
   for ranks in 1 2 3; do
     log=$("$mpiexec" --oversubscribe --allow-run-as-root -np $ranks \
-      "$dysa" run "$scene" --steps $steps --threads 1 --hash 2>&1) ||
+      "$dysa" run "$scene" --steps $steps --threads 1 --hash --vtk-every 3 \
+      --out "$out/$name/$ranks" 2>&1) ||
       fail "$name: mpirun -np $ranks failed: $log"
     hash=$(field "state hash" "$log")
     migrated=$(field "migrated" "$log")
@@ -43,6 +45,8 @@ for scene in "$@"; do
     echo "$name, $ranks ranks: state hash $hash, migrated $migrated, particles per rank $counts"
     grep -q "^$steps steps of " <<< "$log" || fail "$name: $ranks ranks ran short: $log"
     [ "$hash" = "$reference" ] || fail "$name: $ranks ranks: hash $hash, not $reference: $log"
+    diff -r "$out/$name/plain" "$out/$name/$ranks" > /dev/null ||
+      fail "$name: $ranks ranks: probes.csv or frames differ from the plain run's"
     if [ $ranks -gt 1 ]; then
       [ "${migrated:-0}" -gt 0 ] || fail "$name: $ranks ranks: no particle migrated: $log"
       for n in $counts; do
@@ -51,4 +55,4 @@ for scene in "$@"; do
     fi
   done
 done
-echo "PASS: the same state hash on 1, 2 and 3 ranks as without mpirun"
+echo "PASS: the same state hash, probes and frames on 1, 2 and 3 ranks as without mpirun"

@@ -228,36 +228,52 @@ uint64_t DistributedSimulation::TotalParticles() const {
   return uint64_t(n);
 }
 
-uint64_t DistributedSimulation::GlobalStateHash() const {
-  // id, position, velocity per particle; process 0 hashes them as one process would.
-  constexpr size_t kStride = sizeof(uint32_t) + 6 * sizeof(Real);
+ParticleArrays DistributedSimulation::GatherParticles() const {
+  // Per particle: order key, id, position, velocity, density, pressure.
+  constexpr size_t kStride = sizeof(uint64_t) + sizeof(uint32_t) + 8 * sizeof(Real);
   const ParticleArrays& p = state_.particles;
   Bytes mine(p.size() * kStride);
   for (size_t i = 0; i < p.size(); ++i) {
     std::byte* at = mine.data() + i * kStride;
-    std::memcpy(at, &p.id[i], sizeof(uint32_t));
-    std::memcpy(at + 4, p.position[i].data(), 3 * sizeof(Real));
-    std::memcpy(at + 4 + 3 * sizeof(Real), p.velocity[i].data(), 3 * sizeof(Real));
+    std::memcpy(at, &keys_[i], 8);
+    std::memcpy(at + 8, &p.id[i], 4);
+    std::memcpy(at + 12, p.position[i].data(), 3 * sizeof(Real));
+    std::memcpy(at + 24, p.velocity[i].data(), 3 * sizeof(Real));
+    std::memcpy(at + 36, &p.density[i], sizeof(Real));
+    std::memcpy(at + 40, &p.pressure[i], sizeof(Real));
   }
-  const std::vector<Bytes> all = comm_.GatherToRoot(mine);
-  if (comm_.rank() != 0) return 0;
-  State whole;
-  ParticleArrays& w = whole.particles;
-  for (const Bytes& part : all) {
+  const std::vector<Bytes> parts = comm_.GatherToRoot(mine);
+  LocalParticles all;
+  if (comm_.rank() != 0) return {};
+  for (const Bytes& part : parts) {
     for (size_t at = 0; at + kStride <= part.size(); at += kStride) {
+      const std::byte* from = part.data() + at;
+      uint64_t key;
       uint32_t id;
       Vec3 x, v;
-      std::memcpy(&id, part.data() + at, sizeof(uint32_t));
-      std::memcpy(x.data(), part.data() + at + 4, 3 * sizeof(Real));
-      std::memcpy(v.data(), part.data() + at + 4 + 3 * sizeof(Real), 3 * sizeof(Real));
-      w.id.push_back(id);
-      w.position.push_back(x);
-      w.velocity.push_back(v);
+      Real density, pressure;
+      std::memcpy(&key, from, 8);
+      std::memcpy(&id, from + 8, 4);
+      std::memcpy(x.data(), from + 12, 3 * sizeof(Real));
+      std::memcpy(v.data(), from + 24, 3 * sizeof(Real));
+      std::memcpy(&density, from + 36, sizeof(Real));
+      std::memcpy(&pressure, from + 40, sizeof(Real));
+      all.key.push_back(key);
+      all.particles.id.push_back(id);
+      all.particles.position.push_back(x);
+      all.particles.velocity.push_back(v);
+      all.particles.density.push_back(density);
+      all.particles.pressure.push_back(pressure);
     }
   }
-  w.density.resize(w.id.size());
-  w.pressure.resize(w.id.size());
-  return StateHash(whole);
+  SortByKey(all);
+  return std::move(all.particles);
+}
+
+uint64_t DistributedSimulation::GlobalStateHash() const {
+  State whole;
+  whole.particles = GatherParticles();
+  return comm_.rank() == 0 ? StateHash(whole) : 0;
 }
 
 }  // namespace dysa::distributed

@@ -121,26 +121,33 @@ LocalParticles ExchangeParticles(const Communicator& comm, const Slabs& slabs,
   }
   for (uint8_t g : mine.ghost) counts.ghosts += g;
 
-  // Key order (arrival order must not matter); keys are unique, so the order is total.
+  // Key order: arrival order must not matter.
+  mine.particles.density.assign(mine.size(), Real(0));
+  mine.particles.pressure.assign(mine.size(), Real(0));
+  SortByKey(mine);
+  return mine;
+}
+
+void SortByKey(LocalParticles& mine) {
   std::vector<size_t> order(mine.size());
   std::iota(order.begin(), order.end(), size_t{0});
   std::sort(order.begin(), order.end(),
             [&](size_t a, size_t b) { return mine.key[a] < mine.key[b]; });
   for (size_t k = 1; k < order.size(); ++k) {
     if (mine.key[order[k]] == mine.key[order[k - 1]]) {
-      throw std::logic_error("ExchangeParticles: two particles share the order key " +
+      throw std::logic_error("two particles share the order key " +
                              std::to_string(mine.key[order[k]]));
     }
   }
-  Permute<uint32_t>(order, mine.particles.id);
-  Permute<Vec3>(order, mine.particles.position);
-  Permute<Vec3>(order, mine.particles.velocity);
+  ParticleArrays& p = mine.particles;
+  Permute<uint32_t>(order, p.id);
+  Permute<Vec3>(order, p.position);
+  Permute<Vec3>(order, p.velocity);
+  if (p.density.size() == order.size()) Permute<Real>(order, p.density);
+  if (p.pressure.size() == order.size()) Permute<Real>(order, p.pressure);
   Permute<uint64_t>(order, mine.key);
-  Permute<uint8_t>(order, mine.ghost);
+  if (mine.ghost.size() == order.size()) Permute<uint8_t>(order, mine.ghost);
   for (SolverArray& a : mine.arrays) Permute<Real>(order, a.values);
-  mine.particles.density.assign(mine.size(), Real(0));
-  mine.particles.pressure.assign(mine.size(), Real(0));
-  return mine;
 }
 
 void KeepParticles(std::span<const uint8_t> keep, ParticleArrays& particles,

@@ -68,6 +68,10 @@ class DistributedSimulation {
   void Step(double until = std::numeric_limits<double>::infinity());
   // Collective. The particles of all processes.
   uint64_t TotalParticles() const;
+  // Collective. Every process's particles on process 0, in the storage order one process would
+  // have (order key), so that a probe or a frame sums and writes them as one process would;
+  // empty elsewhere.
+  ParticleArrays GatherParticles() const;
   // Collective. StateHash of the whole simulation on process 0 (the value one process's
   // Simulation gives for the same state); 0 elsewhere.
   uint64_t GlobalStateHash() const;
