@@ -39,6 +39,58 @@ void ExpectSameBits(const Scene& scene, int frames) {
   EXPECT_GT(plain.step(), 20u);
 }
 
+// Steps `sim` (Simulation or DistributedSimulation) through `frames` frames, each step capped at
+// the frame's end.
+template <class Sim>
+void StepFrames(Sim& sim, double frame_time, int frames) {
+  for (int f = 0; f < frames; ++f) {
+    const double end = sim.time() + frame_time;
+    while (sim.time() < end) sim.Step(end);
+  }
+}
+
+TEST(DistributedSimulationTest, ACheckpointIsTheOneOfSimulation) {
+  const Scene scene = LoadScene(DYSA_RANKS_SCENE);
+  const SingleProcess one;
+  DistributedSimulation spread(scene, one);
+  Simulation plain(scene);
+  const double frame = plain.model().FrameTime();
+  StepFrames(plain, frame, 2);
+  StepFrames(spread, frame, 2);
+  const Checkpoint a = plain.SaveCheckpoint();
+  const Checkpoint b = spread.SaveCheckpoint();
+  EXPECT_EQ(b.time, a.time);
+  EXPECT_EQ(b.step, a.step);
+  EXPECT_EQ(b.id, a.id);
+  EXPECT_TRUE(b.position == a.position);
+  EXPECT_TRUE(b.velocity == a.velocity);
+  ASSERT_EQ(b.solver_arrays.size(), a.solver_arrays.size());
+  for (size_t k = 0; k < a.solver_arrays.size(); ++k) {
+    EXPECT_EQ(b.solver_arrays[k].name, a.solver_arrays[k].name);
+    EXPECT_EQ(b.solver_arrays[k].values, a.solver_arrays[k].values);
+    EXPECT_EQ(a.solver_arrays[k].values.size(), a.id.size());  // wcsph's carried density
+  }
+}
+
+TEST(DistributedSimulationTest, ACheckpointOfSimulationRestoresAndStepsOnBitForBit) {
+  const Scene scene = LoadScene(DYSA_RANKS_SCENE);
+  Simulation plain(scene);
+  const double frame = plain.model().FrameTime();
+  StepFrames(plain, frame, 2);
+  Checkpoint checkpoint = plain.SaveCheckpoint();
+  StepFrames(plain, frame, 2);
+  const SingleProcess one;
+  DistributedSimulation spread(scene, one);
+  spread.RestoreCheckpoint(checkpoint);
+  EXPECT_EQ(spread.step(), checkpoint.step);
+  StepFrames(spread, frame, 2);
+  EXPECT_EQ(spread.step(), plain.step());
+  EXPECT_EQ(spread.GlobalStateHash(), StateHash(plain.state()));
+  // A checkpoint whose parameters cannot run across processes is refused by name.
+  checkpoint.params.time_integration = 1;
+  EXPECT_THROW(spread.RestoreCheckpoint(checkpoint), ConfigError);
+}
+
 TEST(DistributedSimulationTest, OneProcessGivesTheBitsOfSimulation) {
   ExpectSameBits(LoadScene(DYSA_RANKS_SCENE), 3);
 }

@@ -32,24 +32,34 @@ double MsSince(Clock::time_point start) {
 
 DistributedSimulation::DistributedSimulation(Scene scene, const Communicator& comm)
     : scene_(std::move(scene)), comm_(comm) {
+  solver_ = FindSolver(scene_.solver).create();
+  Configure(scene_.params);
+  // Every process spawns the whole scene (deterministic) and keeps its slab's particles; the
+  // spawn index is their first order key, the order one process starts in.
+  ParticleArrays all;
+  SpawnParticles(scene_, model_.params, all);
+  Adopt(std::move(all), {});
+  state_.share.max_over_processes = [this](std::span<double> v) { comm_.MaxInPlace(v); };
+}
+
+void DistributedSimulation::Configure(const Params& params) {
   const SolverInfo& info = FindSolver(scene_.solver);
   if (scene_.solver != "wcsph" && scene_.solver != "seed") {
     throw ConfigError("solver", "'" + scene_.solver +
                                     "' does not run across processes yet; allowed: wcsph, seed "
                                     "(run other solvers without mpirun)");
   }
-  if (scene_.params.time_integration != 0) {
+  if (params.time_integration != 0) {
     throw ConfigError("time_integration",
                       "must be 0 (symplectic Euler) across processes, not " +
-                          std::to_string(scene_.params.time_integration) +
+                          std::to_string(params.time_integration) +
                           ": the predictor-corrector's second neighbour sort is not exchanged yet");
   }
-  BlockParticleCounts(scene_, scene_.params);
-  model_ = MakeModel(scene_, scene_.params, info);
-  solver_ = info.create();
+  BlockParticleCounts(scene_, params);
+  model_ = MakeModel(scene_, params, info);
   passes_ = solver_->BuildPasses(model_);
   sort_pass_ = passes_.size();
-  profile_.push_back({"exchange"});
+  profile_.assign(1, {"exchange"});
   for (size_t k = 0; k < passes_.size(); ++k) {
     if (passes_[k].name == kNeighbourSortPass) sort_pass_ = k;
     profile_.push_back({passes_[k].name});
@@ -60,16 +70,17 @@ DistributedSimulation::DistributedSimulation(Scene scene, const Communicator& co
   // The layout every step sorts into (cell edge: the kernel support, the seed's smoothing radius).
   layout_.Configure(model_.domain, Real(model_.kernel_support), model_.periodic);
   const Eigen::Vector3i dims = layout_.dims();
+  axis_ = 0;
   for (int a = 1; a < 3; ++a) {
     if (dims[a] > dims[axis_]) axis_ = a;
   }
   slabs_ = std::make_unique<Slabs>(dims[axis_], comm_.size(), model_.periodic[axis_],
                                    GhostDepth(scene_.solver));
+}
 
-  // Every process spawns the whole scene (deterministic) and keeps its slab's particles; the
-  // spawn index is their first order key, the order one process starts in.
-  ParticleArrays all;
-  SpawnParticles(scene_, model_.params, all);
+DistributedSimulation::~DistributedSimulation() = default;
+
+void DistributedSimulation::Adopt(ParticleArrays all, std::vector<SolverArray> arrays) {
   std::vector<int> layer(all.size());
   std::vector<int64_t> counts(size_t(slabs_->layers()), 0);
   for (size_t i = 0; i < all.size(); ++i) {
@@ -78,19 +89,19 @@ DistributedSimulation::DistributedSimulation(Scene scene, const Communicator& co
   }
   slabs_->Balance(counts);
   std::vector<uint8_t> keep(all.size());
+  keys_.clear();
   for (size_t i = 0; i < all.size(); ++i) {
     keep[i] = slabs_->OwnerOf(layer[i]) == comm_.rank();
     if (keep[i]) keys_.push_back(i);
   }
-  std::vector<SolverArray> none;
-  KeepParticles(keep, all, none);
+  total_ = keep.size();  // every process holds them all
+  // Arrays of another size than the particles are cold starts, as in Solver::RestoreArrays.
+  std::erase_if(arrays, [&](const SolverArray& a) { return a.values.size() != keep.size(); });
+  KeepParticles(keep, all, arrays);
   state_.particles = std::move(all);
-  total_ = keep.size();  // every process spawned them all
-  solver_->Reset(state_.particles.size());
-  state_.share.max_over_processes = [this](std::span<double> v) { comm_.MaxInPlace(v); };
+  state_.share.ghost.clear();
+  solver_->RestoreArrays(arrays, state_.particles.size());
 }
-
-DistributedSimulation::~DistributedSimulation() = default;
 
 void DistributedSimulation::Record(size_t pass, double ms) {
   PassProfile& prof = profile_[pass];
@@ -226,54 +237,6 @@ uint64_t DistributedSimulation::TotalParticles() const {
   int64_t n = int64_t(state_.particles.size());
   comm_.SumInPlace({&n, 1});
   return uint64_t(n);
-}
-
-ParticleArrays DistributedSimulation::GatherParticles() const {
-  // Per particle: order key, id, position, velocity, density, pressure.
-  constexpr size_t kStride = sizeof(uint64_t) + sizeof(uint32_t) + 8 * sizeof(Real);
-  const ParticleArrays& p = state_.particles;
-  Bytes mine(p.size() * kStride);
-  for (size_t i = 0; i < p.size(); ++i) {
-    std::byte* at = mine.data() + i * kStride;
-    std::memcpy(at, &keys_[i], 8);
-    std::memcpy(at + 8, &p.id[i], 4);
-    std::memcpy(at + 12, p.position[i].data(), 3 * sizeof(Real));
-    std::memcpy(at + 24, p.velocity[i].data(), 3 * sizeof(Real));
-    std::memcpy(at + 36, &p.density[i], sizeof(Real));
-    std::memcpy(at + 40, &p.pressure[i], sizeof(Real));
-  }
-  const std::vector<Bytes> parts = comm_.GatherToRoot(mine);
-  LocalParticles all;
-  if (comm_.rank() != 0) return {};
-  for (const Bytes& part : parts) {
-    for (size_t at = 0; at + kStride <= part.size(); at += kStride) {
-      const std::byte* from = part.data() + at;
-      uint64_t key;
-      uint32_t id;
-      Vec3 x, v;
-      Real density, pressure;
-      std::memcpy(&key, from, 8);
-      std::memcpy(&id, from + 8, 4);
-      std::memcpy(x.data(), from + 12, 3 * sizeof(Real));
-      std::memcpy(v.data(), from + 24, 3 * sizeof(Real));
-      std::memcpy(&density, from + 36, sizeof(Real));
-      std::memcpy(&pressure, from + 40, sizeof(Real));
-      all.key.push_back(key);
-      all.particles.id.push_back(id);
-      all.particles.position.push_back(x);
-      all.particles.velocity.push_back(v);
-      all.particles.density.push_back(density);
-      all.particles.pressure.push_back(pressure);
-    }
-  }
-  SortByKey(all);
-  return std::move(all.particles);
-}
-
-uint64_t DistributedSimulation::GlobalStateHash() const {
-  State whole;
-  whole.particles = GatherParticles();
-  return comm_.rank() == 0 ? StateHash(whole) : 0;
 }
 
 }  // namespace dysa::distributed

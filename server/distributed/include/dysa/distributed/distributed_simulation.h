@@ -12,7 +12,7 @@
 //
 // Supported so far: wcsph with symplectic Euler (time_integration 0), with walls, static and
 // moving obstacles, periodic axes, viscosity, density diffusion and particle shifting; seed.
-// Not yet: dfsph, the predictor-corrector, probes, frames, checkpoints (docs/distributed.md).
+// Not yet: dfsph, the predictor-corrector (docs/distributed.md).
 #pragma once
 
 #include <cstdint>
@@ -72,6 +72,15 @@ class DistributedSimulation {
   // have (order key), so that a probe or a frame sums and writes them as one process would;
   // empty elsewhere.
   ParticleArrays GatherParticles() const;
+  // Collective. On process 0 the checkpoint one process's Simulation::SaveCheckpoint gives for
+  // this state (its particles and solver arrays in that process's storage order), so that it
+  // restores on any number of processes; empty elsewhere. Its frame is the one restored last.
+  Checkpoint SaveCheckpoint() const;
+  // Collective: every process passes the same checkpoint, of this scene, taken on any number of
+  // processes or by Simulation. Restores its parameters (validated as by the constructor),
+  // particles, solver arrays, time and step, and re-cuts the slabs; the next steps give the
+  // bits they give after Simulation::RestoreCheckpoint.
+  void RestoreCheckpoint(const Checkpoint& checkpoint);
   // Collective. StateHash of the whole simulation on process 0 (the value one process's
   // Simulation gives for the same state); 0 elsewhere.
   uint64_t GlobalStateHash() const;
@@ -83,6 +92,14 @@ class DistributedSimulation {
   // After the passes: order keys for the next step, then the ghosts dropped.
   void DropGhosts();
   void Record(size_t pass, double ms);
+  // Checks the model can run across processes and builds its passes and grid layout.
+  void Configure(const Params& params);
+  // Keeps, of `all` (every process's particles in one process's storage order, which becomes
+  // their order key) and their solver arrays, those of this process's slab after a re-cut.
+  void Adopt(ParticleArrays all, std::vector<SolverArray> arrays);
+  // Collective: every process's particles (and with `arrays`, the solver's arrays) on process 0
+  // in key order.
+  LocalParticles GatherAll(bool arrays) const;
 
   Scene scene_;
   const Communicator& comm_;
