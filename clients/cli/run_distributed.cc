@@ -175,7 +175,8 @@ void RunDistributed(const RunOptions& options, const distributed::Communicator& 
   for (int64_t n : per_rank) out << " " << n;
   out << "\nmigrated: " << moved[0]
       << " particles; ghosts per step: " << (steps ? double(moved[1]) / double(steps) : 0.0)
-      << "; bytes sent per step: " << (steps ? double(moved[2]) / double(steps) : 0.0) << "\n";
+      << "; bytes sent per step: " << (steps ? double(moved[2]) / double(steps) : 0.0) << "\n"
+      << "re-balanced: " << t.recuts << " of " << steps << " steps moved a slab cut\n";
   if (!sim.alarm().empty()) out << "stopped: " << sim.alarm() << "\n";
   out << "probes: " << (dir / "probes.csv").string();
   if (vtk) {

@@ -1,8 +1,10 @@
 #!/bin/bash
-# ctest -L mpi: for each scene (tests/distributed/ranks_dam_break.json: wcsph; ranks_seed.json:
-# the seed model), 150 steps with plain `dysa run` and under mpirun on 1, 2 and 3 ranks must end
-# in the same state hash and write the same probes.csv and VTK frames, byte for byte; on 2 and 3
-# ranks particles must have migrated between ranks and every rank hold some.
+# ctest -L mpi: for each scene (tests/distributed/ranks_dam_break.json: wcsph;
+# ranks_seed.json: the seed model; ranks_periodic.json: wcsph across the periodic seam of the
+# slab axis), 150 steps with plain `dysa run` and under mpirun on 1, 2 and 3 ranks must end in
+# the same state hash and write the same probes.csv and VTK frames, byte for byte; on 2 and 3
+# ranks particles must have migrated between ranks, a re-balance have moved a slab cut, and
+# every rank hold some.
 # Usage: mpi_ranks_test.sh DYSA MPIEXEC SCENE... Exits 77 (skipped, with the reason printed)
 # when mpirun cannot be found.
 set -u
@@ -41,14 +43,17 @@ for scene in "$@"; do
       fail "$name: mpirun -np $ranks failed: $log"
     hash=$(field "state hash" "$log")
     migrated=$(field "migrated" "$log")
+    recuts=$(field "re-balanced" "$log")
     counts=$(sed -n 's/^particles per rank: //p' <<< "$log")
-    echo "$name, $ranks ranks: state hash $hash, migrated $migrated, particles per rank $counts"
+    echo "$name, $ranks ranks: state hash $hash, migrated $migrated, re-balanced $recuts steps," \
+      "particles per rank $counts"
     grep -q "^$steps steps of " <<< "$log" || fail "$name: $ranks ranks ran short: $log"
     [ "$hash" = "$reference" ] || fail "$name: $ranks ranks: hash $hash, not $reference: $log"
     diff -r "$out/$name/plain" "$out/$name/$ranks" > /dev/null ||
       fail "$name: $ranks ranks: probes.csv or frames differ from the plain run's"
     if [ $ranks -gt 1 ]; then
       [ "${migrated:-0}" -gt 0 ] || fail "$name: $ranks ranks: no particle migrated: $log"
+      [ "${recuts:-0}" -gt 0 ] || fail "$name: $ranks ranks: no slab cut moved: $log"
       for n in $counts; do
         [ "$n" -gt 0 ] || fail "$name: $ranks ranks: a rank holds no particles ($counts)"
       done

@@ -1,5 +1,6 @@
 #include "dysa/distributed/distributed_simulation.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstring>
@@ -158,7 +159,9 @@ void DistributedSimulation::Exchange() {
   // Re-balanced every step: the cuts follow the particles, and since the order keys do not
   // depend on where a particle lives, a re-cut changes no bit of the result.
   comm_.SumInPlace(counts);
+  const std::vector<int> before(slabs_->cuts().begin(), slabs_->cuts().end());
   slabs_->Balance(counts);
+  if (!std::equal(before.begin(), before.end(), slabs_->cuts().begin())) ++totals_.recuts;
 
   LocalParticles owned;
   owned.particles = std::move(state_.particles);

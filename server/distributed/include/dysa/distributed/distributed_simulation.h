@@ -37,6 +37,7 @@ struct ExchangeTotals {
   uint64_t migrated = 0;  // particles that left this process for another
   uint64_t ghosts = 0;    // ghosts received, summed over steps
   uint64_t bytes_sent = 0;
+  uint64_t recuts = 0;  // steps whose re-balance moved a cut (the same on every process)
 };
 
 class DistributedSimulation {
