@@ -1,8 +1,8 @@
 #!/bin/bash
 # ctest -L mpi: for each scene (tests/distributed/ranks_dam_break.json: wcsph;
 # ranks_seed.json: the seed model; ranks_periodic.json: wcsph across the periodic seam of the
-# slab axis), 150 steps with plain `dysa run` and under mpirun on 1, 2 and 3 ranks must end in
-# the same state hash and write the same probes.csv and VTK frames, byte for byte; on 2 and 3
+# slab axis), 150 steps with plain `dysa run` and under mpirun on 1, 2, 3 and 4 ranks must end in
+# the same state hash and write the same probes.csv and VTK frames, byte for byte; on 2, 3 and 4
 # ranks particles must have migrated between ranks, a re-balance have moved a slab cut, and
 # every rank hold some.
 # Usage: mpi_ranks_test.sh DYSA MPIEXEC SCENE... Exits 77 (skipped, with the reason printed)
@@ -36,7 +36,7 @@ for scene in "$@"; do
   reference=$(field "state hash" "$plain")
   [ -n "$reference" ] || fail "$name: no state hash in: $plain"
   echo "$name, plain dysa run: state hash $reference"
-  for ranks in 1 2 3; do
+  for ranks in 1 2 3 4; do
     log=$("$mpiexec" --oversubscribe --allow-run-as-root -np $ranks \
       "$dysa" run "$scene" --steps $steps --threads 1 --hash --vtk-every 3 \
       --out "$out/$name/$ranks" 2>&1) ||
@@ -60,4 +60,4 @@ for scene in "$@"; do
     fi
   done
 done
-echo "PASS: the same state hash, probes and frames on 1, 2 and 3 ranks as without mpirun"
+echo "PASS: the same state hash, probes and frames on 1, 2, 3 and 4 ranks as without mpirun"
