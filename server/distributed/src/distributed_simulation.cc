@@ -162,6 +162,12 @@ void DistributedSimulation::Exchange() {
   const std::vector<int> before(slabs_->cuts().begin(), slabs_->cuts().end());
   slabs_->Balance(counts);
   if (!std::equal(before.begin(), before.end(), slabs_->cuts().begin())) ++totals_.recuts;
+  // The boundary particles this slab's particles read: within a cell of it.
+  state_.share.layer_axis = axis_;
+  state_.share.boundary_layers.resize(size_t(slabs_->layers()));
+  for (int l = 0; l < slabs_->layers(); ++l) {
+    state_.share.boundary_layers[l] = slabs_->Distance(l, comm_.rank()) <= 1 ? 1 : 0;
+  }
 
   LocalParticles owned;
   owned.particles = std::move(state_.particles);

@@ -28,8 +28,10 @@ struct ParticleArrays {
 // Where a State is one process's part of a simulation spread over several (server/distributed):
 // besides the particles it owns it holds ghosts, copies of the particles of other processes
 // that its own particles' neighbour loops read. The passes compute ghosts like any particle
-// (their results are wrong near the ghosts' far edge and are thrown away); only a reduction
-// that steers the step (the CFL step's maxima) must skip them and combine over the processes.
+// (their results are wrong near the ghosts' far edge and are thrown away), except a last pass
+// whose results no neighbour reads, which may skip them (wcsph's interactions, shifting and
+// integration); a reduction that steers the step (the CFL step's maxima) must skip them and
+// combine over the processes.
 // Default: one process, no ghosts.
 struct ProcessShare {
   // Per particle in storage order (the order after the neighbour sort): 1 for a ghost. Empty
@@ -38,8 +40,16 @@ struct ProcessShare {
   // Replaces each value by its maximum over all processes (exact, so order-free); null on one
   // process.
   std::function<void(std::span<double>)> max_over_processes;
+  // The grid's cell layers along axis `layer_axis` whose boundary particles this process's own
+  // particles read (those within a cell of its slab), 1 per layer; empty: all. A pass over the
+  // boundary particles may skip the others (their values are read only by other processes).
+  int layer_axis = 0;
+  std::vector<uint8_t> boundary_layers;
 
   bool IsGhost(size_t i) const { return !ghost.empty() && ghost[i] != 0; }
+  bool NeedsBoundaryCell(const Eigen::Vector3i& cell) const {
+    return boundary_layers.empty() || boundary_layers[size_t(cell[layer_axis])] != 0;
+  }
 };
 
 // What every solver reads and writes. Each solver keeps the rest itself (Solver, solver.h):
