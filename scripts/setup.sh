@@ -31,6 +31,9 @@ PACKAGES=(
   xvfb
   xauth
   xdotool  # the viewer test presses keys
+  # MPI ranks for `mpirun -np N dysa run` (docs/distributed.md; optional at build time)
+  libopenmpi-dev
+  openmpi-bin
   # tests and benchmarks
   libgtest-dev
   libgmock-dev

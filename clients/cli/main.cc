@@ -12,7 +12,14 @@
 #include "dysa/core/text.h"
 #include "dysa/core/types.h"
 #include "run_command.h"
+#include "run_distributed.h"
 #include "validate_command.h"
+
+#ifdef DYSA_WITH_MPI
+#include <memory>
+
+#include "mpi_communicator.h"
+#endif
 
 #ifdef DYSA_WITH_REMOTE
 #include <atomic>
@@ -106,6 +113,40 @@ int ReportError(const std::string& command, const std::exception& error, const s
   std::cerr << "dysa " << command << ": error: " << error.what() << "\n";
   return status;
 }
+
+#ifdef DYSA_WITH_MPI
+constexpr const char* kMpiRunHelp =
+    "\n\nUnder mpirun (mpirun -np N dysa run SCENE) the run is spread over the N ranks "
+    "(docs/distributed.md): wcsph and seed, on the CPU.";
+
+// `dysa run` under mpirun. Every rank parsed the same arguments, so a ConfigError is the same on
+// every rank: rank 0 reports it and all exit together. Any other error may be one rank's alone
+// while the others wait in a collective: that rank aborts the whole job.
+int RunOnRanks(int argc, char** argv, const dysa::RunOptions& run, const std::string& device) {
+  dysa::distributed::MpiSession session(&argc, &argv);
+  const dysa::distributed::MpiCommunicator comm;
+  try {
+    dysa::RunDistributed(run, comm, std::cout);
+  } catch (const dysa::ConfigError& e) {
+    // As RunOffline's errors: 2 for --device, 1 for a scene or parameter.
+    const int status = e.field() == "device" ? 2 : 1;
+    if (comm.rank() == 0) ReportError("run", e, device, status);
+    return status;
+  } catch (const dysa::CollectiveError& e) {
+    if (comm.rank() == 0) std::cerr << "dysa run: error: " << e.what() << "\n";
+    return 1;
+  } catch (const std::invalid_argument& e) {
+    if (comm.rank() == 0) std::cerr << "dysa run: error: " << e.what() << "\n";
+    return 2;
+  } catch (const std::exception& e) {
+    std::cerr << "dysa run: error on rank " << comm.rank() << ": " << e.what() << "\n";
+    comm.Abort(1);
+  }
+  return 0;
+}
+#else
+constexpr const char* kMpiRunHelp = "";
+#endif
 
 #ifdef DYSA_WITH_REMOTE
 
@@ -383,7 +424,10 @@ int main(int argc, char** argv) {
       ->add_option("--vtk-every", run.vtk_every,
                    "Write a ParaView frame (OUT/frames/*.vtp, OUT/frames.pvd) every K frames")
       ->check(CLI::Range(1, 1 << 30));
-  run_cmd->footer(ParameterHelp());
+  run_cmd->add_flag("--hash", run.print_hash,
+                    "Print the final state hash (equal hashes: bit-identical states; the same "
+                    "under mpirun at any rank count)");
+  run_cmd->footer(ParameterHelp() + kMpiRunHelp);
 
   dysa::ValidateOptions validate;
   CLI::App* validate_cmd = app.add_subcommand(
@@ -433,6 +477,9 @@ int main(int argc, char** argv) {
     run.progress = isatty(STDERR_FILENO) != 0;
     try {
       run.device = dysa::ParseDevice(run_device);
+#ifdef DYSA_WITH_MPI
+      if (dysa::distributed::LaunchedByMpirun()) return RunOnRanks(argc, argv, run, run_device);
+#endif
       dysa::RunOffline(run, std::cout, std::cerr);
     } catch (const std::exception& e) {
       return ReportError("run", e, run_device, 1);

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
@@ -13,6 +14,7 @@
 
 #include "dysa/core/probes.h"
 #include "dysa/core/simulation.h"
+#include "probe_writer.h"
 #include "vtk_writer.h"
 
 namespace dysa {
@@ -28,26 +30,6 @@ std::string Number(double v) {
   s << v;
   return s.str();
 }
-
-class ProbeWriter {
- public:
-  ProbeWriter(const std::filesystem::path& path, const Scene& scene) : file_(path) {
-    if (!file_) throw std::runtime_error("cannot write " + path.string());
-    file_ << "time,step";
-    for (const std::string& column : ProbeColumns(scene.probes)) file_ << ',' << column;
-    file_ << '\n';
-    file_ << std::setprecision(9);
-  }
-  void Write(const Simulation& sim) {
-    file_ << sim.time() << ',' << sim.step();
-    for (double v : sim.EvaluateProbes(sim.scene().probes)) file_ << ',' << v;
-    file_ << '\n';
-    if (!file_) throw std::runtime_error("error writing probes.csv");
-  }
-
- private:
-  std::ofstream file_;
-};
 
 void PrintProfile(const Simulation& sim, double wall_s, uint64_t steps, int threads,
                   std::ostream& out) {
@@ -108,7 +90,7 @@ void RunOffline(const RunOptions& options, std::ostream& out, std::ostream& prog
                         : "until t = " + Number(end_time) + " s")
       << ", output in " << dir.string() << "\n";
 
-  probes.Write(sim);
+  probes.Write(sim.time(), sim.step(), sim.EvaluateProbes(sc.probes));
   if (vtk) vtk->WriteFrame(sim.state().particles, 0.0);
   double next_output = interval;
   const double vtk_interval = frame_time * std::max(options.vtk_every, 1);
@@ -132,7 +114,7 @@ void RunOffline(const RunOptions& options, std::ostream& out, std::ostream& prog
     const double time = sim.time();
     const uint64_t step = sim.step();
     if (time + 1e-9 * interval >= next_output) {
-      probes.Write(sim);
+      probes.Write(sim.time(), sim.step(), sim.EvaluateProbes(sc.probes));
       while (next_output <= time + 1e-9 * interval) next_output += interval;
     }
     if (adaptive) {
@@ -166,6 +148,12 @@ void RunOffline(const RunOptions& options, std::ostream& out, std::ostream& prog
     out << ", ParaView series: " << (dir / "frames.pvd").string() << " (" << vtk->frames()
         << " frames)";
   out << "\n";
+  if (options.print_hash) {
+    char hash[19];
+    std::snprintf(hash, sizeof hash, "0x%016llx",
+                  static_cast<unsigned long long>(StateHash(sim.state())));
+    out << "state hash: " << hash << "\n";
+  }
 }
 
 }  // namespace dysa

@@ -2,6 +2,8 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -23,6 +25,33 @@ struct ParticleArrays {
   void Resize(size_t n);
 };
 
+// Where a State is one process's part of a simulation spread over several (server/distributed):
+// besides the particles it owns it holds ghosts, copies of the particles of other processes
+// that its own particles' neighbour loops read. The passes compute ghosts like any particle
+// (their results are wrong near the ghosts' far edge and are thrown away), except a last pass
+// whose results no neighbour reads, which may skip them (wcsph's interactions, shifting and
+// integration); a reduction that steers the step (the CFL step's maxima) must skip them and
+// combine over the processes.
+// Default: one process, no ghosts.
+struct ProcessShare {
+  // Per particle in storage order (the order after the neighbour sort): 1 for a ghost. Empty
+  // when there are none.
+  std::vector<uint8_t> ghost;
+  // Replaces each value by its maximum over all processes (exact, so order-free); null on one
+  // process.
+  std::function<void(std::span<double>)> max_over_processes;
+  // The grid's cell layers along axis `layer_axis` whose boundary particles this process's own
+  // particles read (those within a cell of its slab), 1 per layer; empty: all. A pass over the
+  // boundary particles may skip the others (their values are read only by other processes).
+  int layer_axis = 0;
+  std::vector<uint8_t> boundary_layers;
+
+  bool IsGhost(size_t i) const { return !ghost.empty() && ghost[i] != 0; }
+  bool NeedsBoundaryCell(const Eigen::Vector3i& cell) const {
+    return boundary_layers.empty() || boundary_layers[size_t(cell[layer_axis])] != 0;
+  }
+};
+
 // What every solver reads and writes. Each solver keeps the rest itself (Solver, solver.h):
 // the seed's near densities, the physical solvers' boundary particles and accelerations,
 // dfsph's warm start and pair lists.
@@ -33,6 +62,7 @@ struct State {
   std::vector<Vec3> vec3_scratch;
   std::vector<Real> real_scratch;
   std::vector<uint32_t> index_scratch;
+  ProcessShare share;
 
   // s, the step being taken: Model::dt for a fixed-step solver, set before the passes; chosen
   // by a physical solver's time_step pass (CFL), at most max_dt. Both are rewritten every step

@@ -54,19 +54,24 @@ void ChooseStep(const Model& model, const physical::PhysicalData& data, State& s
   const ParticleArrays& p = state.particles;
   const int64_t n = int64_t(p.size());
   // Maxima are exact whatever the order they are taken in, so the reduction is deterministic.
+  // Ghosts (ProcessShare) are left out: their accelerations are incomplete.
+  const uint8_t* ghost = state.share.ghost.empty() ? nullptr : state.share.ghost.data();
   Real v2_max = 0;
   Real a2_max = 0;
   Real density_max = 0;
 #pragma omp parallel for schedule(static) reduction(max : v2_max, a2_max, density_max)
   for (int64_t i = 0; i < n; ++i) {
+    if (ghost && ghost[i]) continue;
     v2_max = std::max(v2_max, p.velocity[i].squaredNorm());
     a2_max = std::max(a2_max, data.acceleration[i].squaredNorm());
     density_max = std::max(density_max, p.density[i]);
   }
+  // A float converts to double exactly, so the maxima over the processes are those of one.
+  double maxima[3] = {double(v2_max), double(a2_max), double(density_max)};
+  if (state.share.max_over_processes) state.share.max_over_processes(maxima);
   // A moving obstacle's samples may not cross more of a spacing per step than the fluid.
-  const double v_max = std::max(std::sqrt(double(v2_max)), data.max_obstacle_speed);
-  const TimeStepLimits limits =
-      CflLimits(model, v_max, std::sqrt(double(a2_max)), acoustic, density_max);
+  const double v_max = std::max(std::sqrt(maxima[0]), data.max_obstacle_speed);
+  const TimeStepLimits limits = CflLimits(model, v_max, std::sqrt(maxima[1]), acoustic, maxima[2]);
   state.dt = ChooseTimeStep(limits, state.max_dt);
   if (acoustic) {
     if (std::string warning = SupersonicWarning(model.params, v_max); !warning.empty()) {

@@ -18,8 +18,11 @@ void ComputeParticleShifting(const Model& model, PhysicalData& data, State& stat
   const Real* volume = boundary.padded_volume();
   const int64_t n = int64_t(p.size());
   data.shift.resize(p.size());
+  // A ghost's shift is read by no one (ProcessShare): left as it was.
+  const uint8_t* ghost = state.share.ghost.empty() ? nullptr : state.share.ghost.data();
 #pragma omp parallel for schedule(static)
   for (int64_t i = 0; i < n; ++i) {
+    if (ghost && ghost[i]) continue;
     const Eigen::Vector3i cell = state.grid.SortedCell(uint32_t(i));
     const Vec3& x = p.position[i];
     Vec3 concentration = Vec3::Zero();  // grad C_i

@@ -66,11 +66,12 @@ void ExtrapolateWallVelocity(const Model& model, PhysicalData& data, State& stat
   data.boundary_velocity.resize(size_t(nb));
   // v_b = -(Shepard mean of the fluid's velocity around b): the wall's velocity (0) at the
   // surface halfway between b and its fluid neighbours.
+  const ProcessShare& share = state.share;
 #pragma omp parallel for schedule(static)
   for (int64_t b = 0; b < nb; ++b) {
     Vec3 weighted = Vec3::Zero();
     Real weights = 0;
-    if (no_slip[b]) {
+    if (no_slip[b] && share.NeedsBoundaryCell(bgrid.SortedCell(uint32_t(b)))) {
       const Vec3 x(bx[b], by[b], bz[b]);
       ForEachWithin(state.grid, bgrid.SortedCell(uint32_t(b)), x, support,
                     [&](uint32_t f, const Vec3&, Real r) {

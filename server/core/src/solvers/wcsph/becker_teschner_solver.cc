@@ -96,8 +96,11 @@ void ComputeBoundaryPressure(const Model& model, BeckerTeschnerData& data, State
   const int64_t n = int64_t(boundary.size());
   data.boundary_pressure.resize(boundary.size());
   data.boundary_p_over_rho2.resize(boundary.size());
+  const ProcessShare& share = state.share;
 #pragma omp parallel for schedule(static)
   for (int64_t b = 0; b < n; ++b) {
+    // Across processes, only the boundary particles this process's own particles read.
+    if (!share.NeedsBoundaryCell(bgrid.SortedCell(uint32_t(b)))) continue;
     const Vec3 x(bx[b], by[b], bz[b]);
     Real weights = 0;
     Real weighted = 0;  // sum_f (p_f + rho_f g . (x_b - x_f)) W_bf
@@ -168,8 +171,11 @@ void ComputeInteractions(const Model& model, BeckerTeschnerData& data, State& st
   const int64_t n = int64_t(p.size());
   data.density_rate.resize(p.size());
   data.acceleration.resize(p.size());
+  // A ghost's rates are read by no one (ProcessShare): left as they were.
+  const uint8_t* ghost = state.share.ghost.empty() ? nullptr : state.share.ghost.data();
 #pragma omp parallel for schedule(static)
   for (int64_t i = 0; i < n; ++i) {
+    if (ghost && ghost[i]) continue;
     const Eigen::Vector3i cell = state.grid.SortedCell(uint32_t(i));
     const Vec3& x = p.position[i];
     const Vec3& v = p.velocity[i];
@@ -222,8 +228,11 @@ void Integrate(const Model& model, BeckerTeschnerData& data, State& state) {
   const Vec3* shift = model.params.particle_shifting > 0 ? data.shift.data() : nullptr;
   const Real rho_lo = Real(model.params.rest_density * kCarriedDensityMin);
   const Real rho_hi = Real(model.params.rest_density * kCarriedDensityMax);
+  // Ghosts are dropped after the step (ProcessShare) and their rates were not computed.
+  const uint8_t* ghost = state.share.ghost.empty() ? nullptr : state.share.ghost.data();
 #pragma omp parallel for schedule(static)
   for (int64_t i = 0; i < n; ++i) {
+    if (ghost && ghost[i]) continue;
     p.velocity[i] += data.acceleration[i] * dt;
     physical::LimitApproachToSurfaces(model, frames, dt, p.position[i], p.velocity[i]);
     if (shift == nullptr) {

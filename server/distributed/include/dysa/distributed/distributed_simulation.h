@@ -1,0 +1,122 @@
+// One simulation spread over the processes of a Communicator by slabs of whole grid cells
+// (slabs.h), giving the same bits at any process count as dysa::Simulation on one.
+//
+// A step on each process: re-cut the slabs for the particle counts of the layers (summed over
+// the processes), send each owned particle to the owner of its layer (migration) and a copy to
+// the processes that hold its layer as ghosts, sort by order key (particle_exchange.h), then
+// run the solver's own passes unchanged over owned particles and ghosts alike; the CFL step's
+// maxima skip the ghosts and combine over the processes (State::share). Ghosts reach deep
+// enough (2 layers for wcsph, 5 for the seed) that every value an owned particle reads is
+// computed locally from exact inputs and one exchange per step suffices. After the passes the
+// ghosts are dropped.
+//
+// Supported so far: wcsph with symplectic Euler (time_integration 0), with walls, static and
+// moving obstacles, periodic axes, viscosity, density diffusion and particle shifting; seed.
+// Not yet: dfsph, the predictor-corrector (docs/distributed.md).
+#pragma once
+
+#include <cstdint>
+#include <limits>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "dysa/core/model.h"
+#include "dysa/core/scene.h"
+#include "dysa/core/simulation.h"
+#include "dysa/core/solver.h"
+#include "dysa/core/state.h"
+#include "dysa/distributed/communicator.h"
+#include "dysa/distributed/particle_exchange.h"
+#include "dysa/distributed/slabs.h"
+
+namespace dysa::distributed {
+
+// What this process exchanged since the start.
+struct ExchangeTotals {
+  uint64_t migrated = 0;  // particles that left this process for another
+  uint64_t ghosts = 0;    // ghosts received, summed over steps
+  uint64_t bytes_sent = 0;
+  uint64_t recuts = 0;  // steps whose re-balance moved a cut (the same on every process)
+};
+
+class DistributedSimulation {
+ public:
+  // Collective. Validates the scene (ConfigError) and what runs across processes so far
+  // (wcsph, seed: ConfigError naming "solver" or "time_integration"), spawns its particles and
+  // keeps those of this process's slab. `comm` must outlive this.
+  DistributedSimulation(Scene scene, const Communicator& comm);
+  ~DistributedSimulation();
+
+  const Scene& scene() const { return scene_; }
+  const Model& model() const { return model_; }
+  const Communicator& comm() const { return comm_; }
+  const Slabs& slabs() const { return *slabs_; }
+  // The grid axis the slabs cut (the one with the most cells).
+  int axis() const { return axis_; }
+  double time() const { return state_.time; }
+  uint64_t step() const { return state_.step; }
+  double last_dt() const { return state_.dt; }
+  // The particles this process owns between steps.
+  const ParticleArrays& particles() const { return state_.particles; }
+  const ExchangeTotals& totals() const { return totals_; }
+  // Per pass, with "exchange" first and "drop_ghosts" last: this process's time.
+  const std::vector<PassProfile>& profile() const { return profile_; }
+  // As Simulation::alarm; the same on every process.
+  const std::string& alarm() const { return alarm_; }
+
+  // Collective. One step, as Simulation::Step(until).
+  void Step(double until = std::numeric_limits<double>::infinity());
+  // Collective. The particles of all processes.
+  uint64_t TotalParticles() const;
+  // Collective. Every process's particles on process 0, in the storage order one process would
+  // have (order key), so that a probe or a frame sums and writes them as one process would;
+  // empty elsewhere.
+  ParticleArrays GatherParticles() const;
+  // Collective. On process 0 the checkpoint one process's Simulation::SaveCheckpoint gives for
+  // this state (its particles and solver arrays in that process's storage order), so that it
+  // restores on any number of processes; empty elsewhere. Its frame is the one restored last.
+  Checkpoint SaveCheckpoint() const;
+  // Collective: every process passes the same checkpoint, of this scene, taken on any number of
+  // processes or by Simulation. Restores its parameters (validated as by the constructor),
+  // particles, solver arrays, time and step, and re-cuts the slabs; the next steps give the
+  // bits they give after Simulation::RestoreCheckpoint.
+  void RestoreCheckpoint(const Checkpoint& checkpoint);
+  // Collective. StateHash of the whole simulation on process 0 (the value one process's
+  // Simulation gives for the same state); 0 elsewhere.
+  uint64_t GlobalStateHash() const;
+
+ private:
+  void Exchange();
+  // After the neighbour sort: the ghost flags in sorted order and the cells' occupancy.
+  bool AfterSort(double start_time);
+  // After the passes: order keys for the next step, then the ghosts dropped.
+  void DropGhosts();
+  void Record(size_t pass, double ms);
+  // Checks the model can run across processes and builds its passes and grid layout.
+  void Configure(const Params& params);
+  // Keeps, of `all` (every process's particles in one process's storage order, which becomes
+  // their order key) and their solver arrays, those of this process's slab after a re-cut.
+  void Adopt(ParticleArrays all, std::vector<SolverArray> arrays);
+  // Collective: every process's particles (and with `arrays`, the solver's arrays) on process 0
+  // in key order.
+  LocalParticles GatherAll(bool arrays) const;
+
+  Scene scene_;
+  const Communicator& comm_;
+  Model model_;
+  std::unique_ptr<Solver> solver_;
+  std::vector<Pass> passes_;
+  size_t sort_pass_ = 0;
+  State state_;
+  uint64_t total_ = 0;          // particles over all processes
+  std::vector<uint64_t> keys_;  // order keys of the owned particles, storage order
+  NeighborGrid layout_;         // the solver's grid layout, for the particles' layers
+  int axis_ = 0;
+  std::unique_ptr<Slabs> slabs_;
+  ExchangeTotals totals_;
+  std::vector<PassProfile> profile_;
+  std::string alarm_;
+};
+
+}  // namespace dysa::distributed

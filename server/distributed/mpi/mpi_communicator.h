@@ -1,0 +1,41 @@
+// MPI_COMM_WORLD as a Communicator. This header does not include mpi.h: only
+// mpi_communicator.cc sees MPI, so nothing above this library needs MPI's headers.
+#pragma once
+
+#include "dysa/distributed/communicator.h"
+
+namespace dysa::distributed {
+
+// MPI_Init on construction, MPI_Finalize on destruction: one per process, for its lifetime.
+class MpiSession {
+ public:
+  MpiSession(int* argc, char*** argv);
+  ~MpiSession();
+  MpiSession(const MpiSession&) = delete;
+  MpiSession& operator=(const MpiSession&) = delete;
+};
+
+// True when this process was started by mpirun/mpiexec (Open MPI's or a PMIx launcher's
+// environment), so that a plain `dysa run` never initialises MPI.
+bool LaunchedByMpirun();
+
+class MpiCommunicator final : public Communicator {
+ public:
+  // MPI_COMM_WORLD; needs a live MpiSession.
+  MpiCommunicator();
+  int rank() const override { return rank_; }
+  int size() const override { return size_; }
+  void MaxInPlace(std::span<double> values) const override;
+  void SumInPlace(std::span<int64_t> values) const override;
+  std::vector<Bytes> AllToAll(const std::vector<Bytes>& to) const override;
+  std::vector<Bytes> GatherToRoot(std::span<const std::byte> mine) const override;
+  // Ends every process of the job (a rank that fails alone would leave the others waiting in
+  // a collective forever).
+  [[noreturn]] void Abort(int code) const;
+
+ private:
+  int rank_ = 0;
+  int size_ = 1;
+};
+
+}  // namespace dysa::distributed

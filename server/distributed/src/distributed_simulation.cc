@@ -1,0 +1,251 @@
+#include "dysa/distributed/distributed_simulation.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <stdexcept>
+#include <utility>
+
+namespace dysa::distributed {
+namespace {
+
+// Ghost layers each side of a slab, by solver. wcsph: an owned particle reads, within one cell,
+// the fluid's positions, velocities and carried densities (exchanged) and what the pressure pass
+// derives from them per particle; and the boundary particles' extrapolated pressure and wall
+// velocity, which each sums over the fluid within one cell of that boundary particle: two cells
+// from the owned one. seed: the pressure force reads the neighbours' densities (two cells) and
+// the viscosity their velocities after the pressure force (three); and it sorts by positions
+// predicted 1/120 s ahead, which the velocity limiter (smoothing_radius / dt) keeps within 2
+// cells at the thesis's dt, so that the exchange, by the positions at the step's start, sends 2
+// layers more. With these depths every value an owned particle reads is computed here from exact
+// inputs, as on one process; the values of the ghosts themselves may be wrong (their
+// neighbourhoods are cut) but nothing owned reads them, and they are dropped after the step.
+int GhostDepth(const std::string& solver) { return solver == "seed" ? 3 + 2 : 2; }
+
+using Clock = std::chrono::steady_clock;
+
+double MsSince(Clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+}  // namespace
+
+DistributedSimulation::DistributedSimulation(Scene scene, const Communicator& comm)
+    : scene_(std::move(scene)), comm_(comm) {
+  solver_ = FindSolver(scene_.solver).create();
+  Configure(scene_.params);
+  // Every process spawns the whole scene (deterministic) and keeps its slab's particles; the
+  // spawn index is their first order key, the order one process starts in.
+  ParticleArrays all;
+  SpawnParticles(scene_, model_.params, all);
+  Adopt(std::move(all), {});
+  state_.share.max_over_processes = [this](std::span<double> v) { comm_.MaxInPlace(v); };
+}
+
+void DistributedSimulation::Configure(const Params& params) {
+  const SolverInfo& info = FindSolver(scene_.solver);
+  if (scene_.solver != "wcsph" && scene_.solver != "seed") {
+    throw ConfigError("solver", "'" + scene_.solver +
+                                    "' does not run across processes yet; allowed: wcsph, seed "
+                                    "(run other solvers without mpirun)");
+  }
+  if (params.time_integration != 0) {
+    throw ConfigError("time_integration",
+                      "must be 0 (symplectic Euler) across processes, not " +
+                          std::to_string(params.time_integration) +
+                          ": the predictor-corrector's second neighbour sort is not exchanged yet");
+  }
+  BlockParticleCounts(scene_, params);
+  model_ = MakeModel(scene_, params, info);
+  passes_ = solver_->BuildPasses(model_);
+  sort_pass_ = passes_.size();
+  profile_.assign(1, {"exchange"});
+  for (size_t k = 0; k < passes_.size(); ++k) {
+    if (passes_[k].name == kNeighbourSortPass) sort_pass_ = k;
+    profile_.push_back({passes_[k].name});
+  }
+  profile_.push_back({"drop_ghosts"});
+  if (sort_pass_ == passes_.size()) throw std::logic_error("the solver has no neighbour sort");
+
+  // The layout every step sorts into (cell edge: the kernel support, the seed's smoothing radius).
+  layout_.Configure(model_.domain, Real(model_.kernel_support), model_.periodic);
+  const Eigen::Vector3i dims = layout_.dims();
+  axis_ = 0;
+  for (int a = 1; a < 3; ++a) {
+    if (dims[a] > dims[axis_]) axis_ = a;
+  }
+  slabs_ = std::make_unique<Slabs>(dims[axis_], comm_.size(), model_.periodic[axis_],
+                                   GhostDepth(scene_.solver));
+}
+
+DistributedSimulation::~DistributedSimulation() = default;
+
+void DistributedSimulation::Adopt(ParticleArrays all, std::vector<SolverArray> arrays) {
+  std::vector<int> layer(all.size());
+  std::vector<int64_t> counts(size_t(slabs_->layers()), 0);
+  for (size_t i = 0; i < all.size(); ++i) {
+    layer[i] = layout_.CellOf(all.position[i])[axis_];
+    ++counts[layer[i]];
+  }
+  slabs_->Balance(counts);
+  std::vector<uint8_t> keep(all.size());
+  keys_.clear();
+  for (size_t i = 0; i < all.size(); ++i) {
+    keep[i] = slabs_->OwnerOf(layer[i]) == comm_.rank();
+    if (keep[i]) keys_.push_back(i);
+  }
+  total_ = keep.size();  // every process holds them all
+  // Arrays of another size than the particles are cold starts, as in Solver::RestoreArrays.
+  std::erase_if(arrays, [&](const SolverArray& a) { return a.values.size() != keep.size(); });
+  KeepParticles(keep, all, arrays);
+  state_.particles = std::move(all);
+  state_.share.ghost.clear();
+  solver_->RestoreArrays(arrays, state_.particles.size());
+}
+
+void DistributedSimulation::Record(size_t pass, double ms) {
+  PassProfile& prof = profile_[pass];
+  prof.last_ms = ms;
+  prof.total_ms += ms;
+  ++prof.calls;
+}
+
+void DistributedSimulation::Step(double until) {
+  if (!alarm_.empty()) return;
+  const double start_time = state_.time;
+  const double rest = until - start_time;
+  if (model_.physical) {
+    state_.max_dt = rest > 0 ? rest : std::numeric_limits<double>::infinity();
+  } else {
+    state_.dt = model_.dt;
+  }
+  auto start = Clock::now();
+  Exchange();
+  Record(0, MsSince(start));
+  for (size_t k = 0; k < passes_.size(); ++k) {
+    start = Clock::now();
+    passes_[k].run(model_, state_);
+    Record(k + 1, MsSince(start));
+    if (k == sort_pass_ && !AfterSort(start_time)) return;
+  }
+  start = Clock::now();
+  DropGhosts();
+  Record(profile_.size() - 1, MsSince(start));
+  double diverged = StateIsFinite(state_.particles) ? 0 : 1;
+  comm_.MaxInPlace({&diverged, 1});
+  // As Simulation::Step: a step clamped to the cap lands on `until` itself.
+  state_.time = model_.physical && state_.dt >= state_.max_dt ? until : start_time + state_.dt;
+  ++state_.step;
+  if (diverged > 0) {
+    alarm_ = "non-finite particle state after step " + std::to_string(state_.step) +
+             " (t = " + std::to_string(start_time) + " s, dt = " + std::to_string(state_.dt) +
+             " s): the step diverged; reduce the time step or stiffness, or reset";
+  } else if (!(state_.dt > 0) || !std::isfinite(state_.dt)) {
+    alarm_ = "the time step collapsed to " + std::to_string(state_.dt) + " s at step " +
+             std::to_string(state_.step) + " (t = " + std::to_string(start_time) + " s)";
+  }
+}
+
+void DistributedSimulation::Exchange() {
+  const ParticleArrays& p = state_.particles;
+  const size_t n = p.size();
+  std::vector<int> layer(n);
+  std::vector<int64_t> counts(size_t(slabs_->layers()), 0);
+  for (size_t i = 0; i < n; ++i) {
+    layer[i] = layout_.CellOf(p.position[i])[axis_];
+    ++counts[layer[i]];
+  }
+  // Re-balanced every step: the cuts follow the particles, and since the order keys do not
+  // depend on where a particle lives, a re-cut changes no bit of the result.
+  comm_.SumInPlace(counts);
+  const std::vector<int> before(slabs_->cuts().begin(), slabs_->cuts().end());
+  slabs_->Balance(counts);
+  if (!std::equal(before.begin(), before.end(), slabs_->cuts().begin())) ++totals_.recuts;
+  // The boundary particles this slab's particles read: within a cell of it.
+  state_.share.layer_axis = axis_;
+  state_.share.boundary_layers.resize(size_t(slabs_->layers()));
+  for (int l = 0; l < slabs_->layers(); ++l) {
+    state_.share.boundary_layers[l] = slabs_->Distance(l, comm_.rank()) <= 1 ? 1 : 0;
+  }
+
+  LocalParticles owned;
+  owned.particles = std::move(state_.particles);
+  owned.key = std::move(keys_);
+  // The solver's per-particle arrays travel with the particles; one a process does not hold
+  // for every particle (wcsph's carried density before the first step) is a cold start on all.
+  std::vector<SolverArray> arrays = solver_->SaveArrays();
+  std::vector<double> missing(arrays.size());
+  for (size_t k = 0; k < arrays.size(); ++k) missing[k] = arrays[k].values.size() != n ? 1 : 0;
+  comm_.MaxInPlace(missing);
+  for (size_t k = 0; k < arrays.size(); ++k) {
+    if (missing[k] == 0) owned.arrays.push_back(std::move(arrays[k]));
+  }
+  ExchangeCounts moved;
+  LocalParticles mine = ExchangeParticles(comm_, *slabs_, layer, owned, moved);
+  totals_.migrated += moved.migrated;
+  totals_.ghosts += moved.ghosts;
+  totals_.bytes_sent += moved.bytes_sent;
+  state_.particles = std::move(mine.particles);
+  state_.share.ghost = std::move(mine.ghost);
+  solver_->RestoreArrays(mine.arrays, state_.particles.size());
+}
+
+bool DistributedSimulation::AfterSort(double start_time) {
+  const NeighborGrid& grid = state_.grid;
+  const size_t n = state_.particles.size();
+  // The sort reordered the particles, by the positions the solver sorts with (the seed's
+  // predicted ones): a particle is owned where its sorted cell lies, a ghost elsewhere. Each
+  // must be owned by exactly one process, which holds when the sort's positions stay within
+  // the ghost layers' slack of the exchange's.
+  std::vector<uint8_t>& ghost = state_.share.ghost;
+  ghost.assign(n, 0);
+  int64_t owned = 0;
+  for (size_t k = 0; k < n; ++k) {
+    ghost[k] = slabs_->OwnerOf(grid.SortedCell(uint32_t(k))[axis_]) != comm_.rank();
+    owned += ghost[k] ? 0 : 1;
+  }
+  comm_.SumInPlace({&owned, 1});
+  double crowded = grid.max_cell_count();
+  comm_.MaxInPlace({&crowded, 1});
+  if (uint64_t(owned) != total_) {
+    alarm_ = std::to_string(owned) + " of " + std::to_string(total_) +
+             " particles found an owner at step " + std::to_string(state_.step + 1) +
+             " (t = " + std::to_string(start_time) +
+             " s): a particle's sorted position moved past the ghost layers (" +
+             std::to_string(GhostDepth(scene_.solver)) + " cells) from where it was exchanged";
+  } else if (crowded > NeighborGrid::kMaxParticlesPerCell) {
+    alarm_ = std::to_string(uint64_t(crowded)) +
+             " particles crowd one neighbour-grid cell at step " + std::to_string(state_.step + 1) +
+             " (t = " + std::to_string(start_time) + " s; at most " +
+             std::to_string(NeighborGrid::kMaxParticlesPerCell) +
+             " can, or each step costs O(n^2)): the fluid collapsed";
+  } else {
+    return true;
+  }
+  DropGhosts();
+  return false;
+}
+
+void DistributedSimulation::DropGhosts() {
+  const size_t n = state_.particles.size();
+  const std::vector<uint64_t> keys = OrderKeys(state_.grid, n);
+  std::vector<uint8_t> keep(n);
+  keys_.clear();
+  for (size_t k = 0; k < n; ++k) {
+    keep[k] = !state_.share.IsGhost(k);
+    if (keep[k]) keys_.push_back(keys[k]);
+  }
+  std::vector<SolverArray> arrays = solver_->SaveArrays();
+  KeepParticles(keep, state_.particles, arrays);
+  solver_->RestoreArrays(arrays, state_.particles.size());
+  state_.share.ghost.clear();
+}
+
+uint64_t DistributedSimulation::TotalParticles() const {
+  int64_t n = int64_t(state_.particles.size());
+  comm_.SumInPlace({&n, 1});
+  return uint64_t(n);
+}
+
+}  // namespace dysa::distributed

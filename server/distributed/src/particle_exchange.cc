@@ -1,0 +1,175 @@
+#include "dysa/distributed/particle_exchange.h"
+
+#include <algorithm>
+#include <cstring>
+#include <numeric>
+#include <stdexcept>
+#include <string>
+
+namespace dysa::distributed {
+namespace {
+
+// One particle on the wire, followed by one Real per solver array.
+struct Record {
+  uint64_t key;
+  uint32_t id;
+  uint32_t ghost;
+  Real position[3];
+  Real velocity[3];
+};
+static_assert(sizeof(Record) == 40);
+
+void Append(Bytes& out, const LocalParticles& from, size_t i, bool ghost) {
+  Record r;
+  r.key = from.key[i];
+  r.id = from.particles.id[i];
+  r.ghost = ghost ? 1 : 0;
+  for (int a = 0; a < 3; ++a) {
+    r.position[a] = from.particles.position[i][a];
+    r.velocity[a] = from.particles.velocity[i][a];
+  }
+  const size_t at = out.size();
+  out.resize(at + sizeof(Record) + from.arrays.size() * sizeof(Real));
+  std::memcpy(out.data() + at, &r, sizeof(Record));
+  for (size_t k = 0; k < from.arrays.size(); ++k) {
+    std::memcpy(out.data() + at + sizeof(Record) + k * sizeof(Real), &from.arrays[k].values[i],
+                sizeof(Real));
+  }
+}
+
+// Appends particle i of `from` to `to` (whose arrays match from's).
+void Push(LocalParticles& to, const LocalParticles& from, size_t i, bool ghost) {
+  to.particles.id.push_back(from.particles.id[i]);
+  to.particles.position.push_back(from.particles.position[i]);
+  to.particles.velocity.push_back(from.particles.velocity[i]);
+  to.key.push_back(from.key[i]);
+  to.ghost.push_back(ghost ? 1 : 0);
+  for (size_t k = 0; k < from.arrays.size(); ++k)
+    to.arrays[k].values.push_back(from.arrays[k].values[i]);
+}
+
+void Unpack(const Bytes& in, LocalParticles& to) {
+  const size_t stride = sizeof(Record) + to.arrays.size() * sizeof(Real);
+  if (in.size() % stride != 0) throw std::logic_error("ExchangeParticles: a truncated record");
+  for (size_t at = 0; at < in.size(); at += stride) {
+    Record r;
+    std::memcpy(&r, in.data() + at, sizeof(Record));
+    to.particles.id.push_back(r.id);
+    to.particles.position.emplace_back(r.position[0], r.position[1], r.position[2]);
+    to.particles.velocity.emplace_back(r.velocity[0], r.velocity[1], r.velocity[2]);
+    to.key.push_back(r.key);
+    to.ghost.push_back(uint8_t(r.ghost));
+    for (size_t k = 0; k < to.arrays.size(); ++k) {
+      Real v;
+      std::memcpy(&v, in.data() + at + sizeof(Record) + k * sizeof(Real), sizeof(Real));
+      to.arrays[k].values.push_back(v);
+    }
+  }
+}
+
+template <class T>
+void Permute(std::span<const size_t> order, std::vector<T>& data) {
+  std::vector<T> out(order.size());
+  for (size_t k = 0; k < order.size(); ++k) out[k] = data[order[k]];
+  data.swap(out);
+}
+
+}  // namespace
+
+std::vector<uint64_t> OrderKeys(const NeighborGrid& grid, size_t count) {
+  std::vector<uint64_t> keys(count);
+  uint32_t previous = 0;
+  uint32_t slot = 0;
+  for (size_t k = 0; k < count; ++k) {
+    const uint32_t cell = grid.CellIndex(grid.SortedCell(uint32_t(k)));
+    slot = k > 0 && cell == previous ? slot + 1 : 0;
+    previous = cell;
+    keys[k] = OrderKey(cell, slot);
+  }
+  return keys;
+}
+
+LocalParticles ExchangeParticles(const Communicator& comm, const Slabs& slabs,
+                                 std::span<const int> layer, const LocalParticles& owned,
+                                 ExchangeCounts& counts) {
+  const int me = comm.rank();
+  LocalParticles mine;
+  for (const SolverArray& a : owned.arrays) mine.arrays.push_back({a.name, {}});
+  std::vector<Bytes> to(size_t(comm.size()));
+  counts = {};
+  for (size_t i = 0; i < owned.size(); ++i) {
+    const int owner = slabs.OwnerOf(layer[i]);
+    if (owner == me) {
+      Push(mine, owned, i, false);
+    } else {
+      Append(to[owner], owned, i, false);
+      ++counts.migrated;
+    }
+    for (int reader : slabs.GhostReaders(layer[i])) {
+      if (reader == me) {
+        Push(mine, owned, i, true);
+      } else {
+        Append(to[reader], owned, i, true);
+      }
+      ++counts.ghosts_sent;
+    }
+  }
+  for (const Bytes& b : to) counts.bytes_sent += b.size();
+  const std::vector<Bytes> from = comm.AllToAll(to);
+  for (size_t p = 0; p < from.size(); ++p) {
+    if (int(p) != me) Unpack(from[p], mine);
+  }
+  for (uint8_t g : mine.ghost) counts.ghosts += g;
+
+  // Key order: arrival order must not matter.
+  mine.particles.density.assign(mine.size(), Real(0));
+  mine.particles.pressure.assign(mine.size(), Real(0));
+  SortByKey(mine);
+  return mine;
+}
+
+void SortByKey(LocalParticles& mine) {
+  std::vector<size_t> order(mine.size());
+  std::iota(order.begin(), order.end(), size_t{0});
+  std::sort(order.begin(), order.end(),
+            [&](size_t a, size_t b) { return mine.key[a] < mine.key[b]; });
+  for (size_t k = 1; k < order.size(); ++k) {
+    if (mine.key[order[k]] == mine.key[order[k - 1]]) {
+      throw std::logic_error("two particles share the order key " +
+                             std::to_string(mine.key[order[k]]));
+    }
+  }
+  ParticleArrays& p = mine.particles;
+  Permute<uint32_t>(order, p.id);
+  Permute<Vec3>(order, p.position);
+  Permute<Vec3>(order, p.velocity);
+  if (p.density.size() == order.size()) Permute<Real>(order, p.density);
+  if (p.pressure.size() == order.size()) Permute<Real>(order, p.pressure);
+  Permute<uint64_t>(order, mine.key);
+  if (mine.ghost.size() == order.size()) Permute<uint8_t>(order, mine.ghost);
+  for (SolverArray& a : mine.arrays) Permute<Real>(order, a.values);
+}
+
+void KeepParticles(std::span<const uint8_t> keep, ParticleArrays& particles,
+                   std::vector<SolverArray>& arrays) {
+  const size_t n = particles.size();
+  size_t out = 0;
+  for (size_t i = 0; i < n; ++i) {
+    if (!keep[i]) continue;
+    particles.id[out] = particles.id[i];
+    particles.position[out] = particles.position[i];
+    particles.velocity[out] = particles.velocity[i];
+    particles.density[out] = particles.density[i];
+    particles.pressure[out] = particles.pressure[i];
+    for (SolverArray& a : arrays) {
+      if (a.values.size() == n) a.values[out] = a.values[i];
+    }
+    ++out;
+  }
+  particles.Resize(out);
+  for (SolverArray& a : arrays) {
+    if (a.values.size() == n) a.values.resize(out);
+  }
+}
+
+}  // namespace dysa::distributed

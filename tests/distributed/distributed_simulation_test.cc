@@ -1,0 +1,143 @@
+// Tests of server/distributed/src/distributed_simulation.cc on one process (SingleProcess):
+// its steps, driven by the order keys of particle_exchange.h rather than by the storage order,
+// give the bits of dysa::Simulation; what does not run across processes yet is refused by
+// name. The same on 2 and 3 MPI ranks: mpi_ranks_test.sh (ctest -L mpi).
+#include "dysa/distributed/distributed_simulation.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <string>
+
+#include "dysa/core/scene.h"
+#include "dysa/core/simulation.h"
+#include "dysa/core/types.h"
+
+#if !defined(DYSA_RANKS_SCENE) || !defined(DYSA_RANKS_SEED_SCENE)
+#error "tests/CMakeLists.txt defines DYSA_RANKS_SCENE and DYSA_RANKS_SEED_SCENE (tests/distributed)"
+#endif
+
+namespace dysa::distributed {
+namespace {
+
+using ::testing::HasSubstr;
+
+// Both step to the same caps (the end of each frame), as `dysa run` does.
+void ExpectSameBits(const Scene& scene, int frames) {
+  const SingleProcess one;
+  DistributedSimulation spread(scene, one);
+  Simulation plain(scene);
+  ASSERT_EQ(spread.TotalParticles(), plain.particle_count());
+  for (int f = 0; f < frames; ++f) {
+    const double end = plain.time() + plain.model().FrameTime();
+    while (plain.time() < end) plain.Step(end);
+    while (spread.time() < end) spread.Step(end);
+    ASSERT_EQ(spread.step(), plain.step()) << "frame " << f;
+    ASSERT_EQ(spread.GlobalStateHash(), StateHash(plain.state())) << "frame " << f;
+  }
+  EXPECT_TRUE(spread.alarm().empty()) << spread.alarm();
+  EXPECT_GT(plain.step(), 20u);
+}
+
+// Steps `sim` (Simulation or DistributedSimulation) through `frames` frames, each step capped at
+// the frame's end.
+template <class Sim>
+void StepFrames(Sim& sim, double frame_time, int frames) {
+  for (int f = 0; f < frames; ++f) {
+    const double end = sim.time() + frame_time;
+    while (sim.time() < end) sim.Step(end);
+  }
+}
+
+TEST(DistributedSimulationTest, ACheckpointIsTheOneOfSimulation) {
+  const Scene scene = LoadScene(DYSA_RANKS_SCENE);
+  const SingleProcess one;
+  DistributedSimulation spread(scene, one);
+  Simulation plain(scene);
+  const double frame = plain.model().FrameTime();
+  StepFrames(plain, frame, 2);
+  StepFrames(spread, frame, 2);
+  const Checkpoint a = plain.SaveCheckpoint();
+  const Checkpoint b = spread.SaveCheckpoint();
+  EXPECT_EQ(b.time, a.time);
+  EXPECT_EQ(b.step, a.step);
+  EXPECT_EQ(b.id, a.id);
+  EXPECT_TRUE(b.position == a.position);
+  EXPECT_TRUE(b.velocity == a.velocity);
+  ASSERT_EQ(b.solver_arrays.size(), a.solver_arrays.size());
+  for (size_t k = 0; k < a.solver_arrays.size(); ++k) {
+    EXPECT_EQ(b.solver_arrays[k].name, a.solver_arrays[k].name);
+    EXPECT_EQ(b.solver_arrays[k].values, a.solver_arrays[k].values);
+    EXPECT_EQ(a.solver_arrays[k].values.size(), a.id.size());  // wcsph's carried density
+  }
+}
+
+TEST(DistributedSimulationTest, ACheckpointOfSimulationRestoresAndStepsOnBitForBit) {
+  const Scene scene = LoadScene(DYSA_RANKS_SCENE);
+  Simulation plain(scene);
+  const double frame = plain.model().FrameTime();
+  StepFrames(plain, frame, 2);
+  Checkpoint checkpoint = plain.SaveCheckpoint();
+  StepFrames(plain, frame, 2);
+  const SingleProcess one;
+  DistributedSimulation spread(scene, one);
+  spread.RestoreCheckpoint(checkpoint);
+  EXPECT_EQ(spread.step(), checkpoint.step);
+  StepFrames(spread, frame, 2);
+  EXPECT_EQ(spread.step(), plain.step());
+  EXPECT_EQ(spread.GlobalStateHash(), StateHash(plain.state()));
+  // A checkpoint whose parameters cannot run across processes is refused by name.
+  checkpoint.params.time_integration = 1;
+  EXPECT_THROW(spread.RestoreCheckpoint(checkpoint), ConfigError);
+}
+
+TEST(DistributedSimulationTest, OneProcessGivesTheBitsOfSimulation) {
+  ExpectSameBits(LoadScene(DYSA_RANKS_SCENE), 3);
+}
+
+TEST(DistributedSimulationTest, TheMartinMoyceDamBreakWithShiftingToo) {
+  Scene scene = LoadScene("dam_break_martin_moyce");
+  scene.params.particle_spacing = 0.0038;  // a coarse column: 15 x 30 x 2 particles
+  scene.params.particle_shifting = 2;
+  ExpectSameBits(scene, 2);
+}
+
+TEST(DistributedSimulationTest, TheSeedModelToo) {
+  Scene scene = LoadScene(DYSA_RANKS_SEED_SCENE);
+  ExpectSameBits(scene, 8);
+}
+
+TEST(DistributedSimulationTest, SolversNotSpreadYetAreRefusedByName) {
+  const SingleProcess one;
+  Scene scene = LoadScene(DYSA_RANKS_SCENE);
+  scene.solver = "dfsph";
+  try {
+    DistributedSimulation sim(scene, one);
+    FAIL() << "dfsph accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.field(), "solver");
+    EXPECT_THAT(e.message(), HasSubstr("allowed: wcsph, seed"));
+  }
+  scene.solver = "wcsph";
+  scene.params.time_integration = 1;
+  try {
+    DistributedSimulation sim(scene, one);
+    FAIL() << "the predictor-corrector accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.field(), "time_integration");
+  }
+}
+
+TEST(DistributedSimulationTest, ExchangeOnOneProcessMovesNothing) {
+  const SingleProcess one;
+  DistributedSimulation sim(LoadScene(DYSA_RANKS_SCENE), one);
+  for (int k = 0; k < 5; ++k) sim.Step();
+  EXPECT_EQ(sim.totals().migrated, 0u);
+  EXPECT_EQ(sim.totals().ghosts, 0u);
+  EXPECT_EQ(sim.particles().size(), sim.TotalParticles());
+  EXPECT_EQ(sim.slabs().processes(), 1);
+  EXPECT_EQ(sim.axis(), 0);  // x: 40 layers against 20 and 4
+}
+
+}  // namespace
+}  // namespace dysa::distributed

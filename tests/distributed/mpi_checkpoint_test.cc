@@ -1,0 +1,85 @@
+// ctest -L mpi, run by mpirun on 2 and 3 ranks: a checkpoint taken on the ranks is the one a
+// single process's Simulation takes of the same state, bit for bit, and a single process's
+// checkpoint restores on the ranks and steps on to the bits of the single process. Together: a
+// checkpoint taken on N ranks restores on M. Every rank runs the plain Simulation too (the test
+// scene is small); rank 0 compares.
+#include <gtest/gtest.h>
+
+#include "dysa/core/scene.h"
+#include "dysa/core/simulation.h"
+#include "dysa/distributed/distributed_simulation.h"
+#include "mpi_communicator.h"
+
+#ifndef DYSA_RANKS_SCENE
+#error "tests/CMakeLists.txt defines DYSA_RANKS_SCENE (tests/distributed/ranks_dam_break.json)"
+#endif
+
+namespace dysa::distributed {
+namespace {
+
+const MpiCommunicator* g_comm = nullptr;
+
+template <class Sim>
+void StepFrames(Sim& sim, double frame_time, int frames) {
+  for (int f = 0; f < frames; ++f) {
+    const double end = sim.time() + frame_time;
+    while (sim.time() < end) sim.Step(end);
+  }
+}
+
+TEST(MpiCheckpointTest, ACheckpointOnRanksIsTheOneOfOneProcess) {
+  const Scene scene = LoadScene(DYSA_RANKS_SCENE);
+  DistributedSimulation spread(scene, *g_comm);
+  Simulation plain(scene);
+  const double frame = plain.model().FrameTime();
+  StepFrames(spread, frame, 3);
+  StepFrames(plain, frame, 3);
+  const Checkpoint b = spread.SaveCheckpoint();
+  EXPECT_GT(spread.totals().migrated + spread.totals().ghosts, 0u);
+  if (g_comm->rank() != 0) return;
+  const Checkpoint a = plain.SaveCheckpoint();
+  EXPECT_EQ(b.step, a.step);
+  EXPECT_EQ(b.time, a.time);
+  EXPECT_EQ(b.id, a.id);
+  EXPECT_TRUE(b.position == a.position);
+  EXPECT_TRUE(b.velocity == a.velocity);
+  ASSERT_EQ(b.solver_arrays.size(), a.solver_arrays.size());
+  for (size_t k = 0; k < a.solver_arrays.size(); ++k) {
+    EXPECT_EQ(b.solver_arrays[k].values, a.solver_arrays[k].values) << a.solver_arrays[k].name;
+  }
+}
+
+TEST(MpiCheckpointTest, AOneProcessCheckpointRestoresOnRanks) {
+  const Scene scene = LoadScene(DYSA_RANKS_SCENE);
+  Simulation plain(scene);
+  const double frame = plain.model().FrameTime();
+  StepFrames(plain, frame, 2);
+  const Checkpoint checkpoint = plain.SaveCheckpoint();
+  StepFrames(plain, frame, 2);
+  DistributedSimulation spread(scene, *g_comm);
+  spread.RestoreCheckpoint(checkpoint);
+  StepFrames(spread, frame, 2);
+  const uint64_t hash = spread.GlobalStateHash();
+  if (g_comm->rank() != 0) return;
+  EXPECT_EQ(spread.step(), plain.step());
+  EXPECT_EQ(hash, StateHash(plain.state()));
+}
+
+}  // namespace
+}  // namespace dysa::distributed
+
+// MPI around GoogleTest: every rank runs every test (their collectives pair up); only rank 0
+// prints, and the job fails when any rank's tests failed.
+int main(int argc, char** argv) {
+  dysa::distributed::MpiSession session(&argc, &argv);
+  const dysa::distributed::MpiCommunicator comm;
+  dysa::distributed::g_comm = &comm;
+  ::testing::InitGoogleTest(&argc, argv);
+  if (comm.rank() != 0) {
+    delete ::testing::UnitTest::GetInstance()->listeners().Release(
+        ::testing::UnitTest::GetInstance()->listeners().default_result_printer());
+  }
+  double failed = RUN_ALL_TESTS() != 0 ? 1 : 0;
+  comm.MaxInPlace({&failed, 1});
+  return failed > 0 ? 1 : 0;
+}
