@@ -90,8 +90,15 @@ std::shared_ptr<Subscription> FrameHub::Subscribe(const SubscriptionOptions& req
   subscription->hub_ = this;
   subscription->listener_ = listener;
   subscription->detail_ = std::make_unique<DetailController>(options.budget);
+  subscription->ack_token_ = options.ack_token;
+  if (options.ack_token != 0) subscription->detail_->ExpectAcknowledgements();
   {
     std::lock_guard lock(mu_);
+    if (options.ack_token != 0 &&
+        std::any_of(subscriptions_.begin(), subscriptions_.end(),
+                    [&](const auto& s) { return s->ack_token_ == options.ack_token; })) {
+      throw std::invalid_argument("ack_token: another stream uses this token; pick a random one");
+    }
     if (options.budget.active()) {
       // A late joiner starts at the detail its particle budget allows (the link is unknown).
       if (last_total_ > 0) subscription->detail_->SetTotal(SteadySeconds(), last_total_);
@@ -236,6 +243,36 @@ void FrameHub::FrameLate(const std::shared_ptr<Subscription>& s, double now) {
     threshold = s->detail_->threshold();
   }
   ApplyDetail(s, threshold);
+}
+
+bool FrameHub::HoldFrame(const std::shared_ptr<Subscription>& s, double now) {
+  std::lock_guard lock(s->detail_mu_);
+  return s->detail_->Hold(now);
+}
+
+bool FrameHub::Acknowledge(uint64_t ack_token, double now, uint64_t frames, double rtt) {
+  if (ack_token == 0) return false;
+  std::shared_ptr<Subscription> s;
+  {
+    std::lock_guard lock(mu_);
+    auto it = std::find_if(subscriptions_.begin(), subscriptions_.end(),
+                           [&](const auto& x) { return x->ack_token_ == ack_token; });
+    if (it == subscriptions_.end()) return false;
+    s = *it;
+  }
+  uint32_t threshold = 0;
+  bool budgeted = false;
+  {
+    std::lock_guard lock(s->detail_mu_);
+    s->detail_->OnAcknowledged(now, frames, rtt);
+    threshold = s->detail_->threshold();
+    budgeted = s->detail_->budget().active();
+  }
+  if (budgeted) ApplyDetail(s, threshold);
+  // A frame held back for this report may go now.
+  std::lock_guard lock(s->listener_mu_);
+  if (s->listener_) s->listener_->OnFrameReady();
+  return true;
 }
 
 void FrameHub::ApplyDetail(const std::shared_ptr<Subscription>& s, uint32_t threshold) {

@@ -139,6 +139,12 @@ void FrameStreamReactor::WriteNextLocked() {
   grpc::Slice slices[2];
   size_t count = 1;
   if (!wire_ || next_message_ == wire_->messages.size()) {
+    // The link is behind its client's reports: the frame waits (a newer one may replace it);
+    // the next report calls OnFrameReady.
+    if (hub_.HoldFrame(subscription_, SteadySeconds())) {
+      wire_ = nullptr;
+      return;
+    }
     uint32_t skipped = 0;
     frame_ = subscription_->Take(&skipped);
     if (!frame_) {  // OnFrameReady will follow

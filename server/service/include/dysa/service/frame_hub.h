@@ -59,6 +59,9 @@ struct SubscriptionOptions {
   // The subscriber's own budget: not part of the group's identity (subscribers with different
   // budgets at the same detail share an encoder). With one, the hub sets stream.detail_threshold.
   DetailBudget budget;
+  // Nonzero: the client acknowledges the frames it receives under this token (Acknowledge), the
+  // delivery signal of its DetailController. Unique among the streams; not part of the identity.
+  uint64_t ack_token = 0;
   bool operator==(const SubscriptionOptions& other) const;
 };
 
@@ -99,6 +102,7 @@ class Subscription {
 
   std::mutex detail_mu_;  // after FrameHub::mu_ and frame_mu_ when nested
   std::unique_ptr<DetailController> detail_;
+  uint64_t ack_token_ = 0;  // set once, before the subscription is shared
 };
 
 class FrameHub {
@@ -136,6 +140,13 @@ class FrameHub {
   void BytesDelivered(const std::shared_ptr<Subscription>& s, double now, size_t bytes,
                       bool frame_done);
   void FrameLate(const std::shared_ptr<Subscription>& s, double now);
+  // Whether the stream should hold back its next frame now (DetailController::Hold); its
+  // listener hears OnFrameReady again when the next acknowledgement comes.
+  bool HoldFrame(const std::shared_ptr<Subscription>& s, double now);
+  // The client of the stream subscribed with `ack_token` has received `frames` frames of it
+  // completely; `rtt`: s, its latest report's round trip (0: unknown). False when no stream has
+  // that token (it ended, or never was).
+  bool Acknowledge(uint64_t ack_token, double now, uint64_t frames, double rtt);
   // Each subscriber's budget and delivery, in subscription order.
   std::vector<StreamReport> StreamReports(double now) const;
 
