@@ -231,7 +231,7 @@ void FrameDecoder::FinishFrame(const ChunkHeader& first, Frame& out) {
     const uint64_t key[3] = {first.count, first.stride, first.detail_threshold};
     if (!std::equal(key, key + 3, ids_key_)) {
       std::fill(ids_key_, ids_key_ + 3, 0);
-      if (!FirstKeptIds(first.count, first.stride, first.detail_threshold, kMaxCount, ids_)) {
+      if (!FirstKeptIds(first.count, first.stride, first.detail_threshold, kMaxIds, ids_)) {
         have_previous_ = false;
         pending_seq_.reset();
         throw DecodeError("corrupt frame header: count " + std::to_string(first.count) +

@@ -207,11 +207,18 @@ bool DetailController::Fits(int level, double share) const {
 }
 
 int DetailController::BudgetLevel() const {
-  if (budget_.particles_per_frame == 0 || total_ == 0) return 0;
+  if (total_ == 0) return 0;
+  // The frame limit holds for the particles a frame actually keeps, a binomial sample of mean
+  // m = fraction x total: m + 4 sqrt(m) stays below it (a frame over it would be refused).
+  const double limit = double(frame_limit_);
+  auto over = [&](int level) {
+    const double m = LevelFraction(level) * total_;
+    return (budget_.particles_per_frame > 0 && m > double(budget_.particles_per_frame)) ||
+           (m < double(total_) && m + 4 * std::sqrt(m) > limit) ||
+           (m >= double(total_) && m > limit);
+  };
   int level = 0;
-  while (level + 1 < kLevels && LevelFraction(level) * total_ > budget_.particles_per_frame) {
-    ++level;
-  }
+  while (level + 1 < kLevels && over(level)) ++level;
   return level;
 }
 

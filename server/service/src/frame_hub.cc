@@ -90,6 +90,7 @@ std::shared_ptr<Subscription> FrameHub::Subscribe(const SubscriptionOptions& req
   subscription->hub_ = this;
   subscription->listener_ = listener;
   subscription->detail_ = std::make_unique<DetailController>(options.budget);
+  subscription->detail_->SetFrameLimit(max_frame_particles_);
   subscription->ack_token_ = options.ack_token;
   if (options.ack_token != 0) subscription->detail_->ExpectAcknowledgements();
   {
@@ -105,6 +106,10 @@ std::shared_ptr<Subscription> FrameHub::Subscribe(const SubscriptionOptions& req
       options.stream.detail_threshold = subscription->detail_->threshold();
     }
     if (closed_) throw SubscriberLimitError("the server is shutting down");
+    if (!options.budget.active()) {
+      const std::string refusal = FrameLimitRefusal(last_total_, options.stream.stride);
+      if (!refusal.empty()) throw SubscriberLimitError(refusal);
+    }
     if (subscriptions_.size() >= max_subscribers_) {
       throw SubscriberLimitError("subscriber limit reached: at most " +
                                  std::to_string(max_subscribers_) +
@@ -181,6 +186,26 @@ uint32_t FrameHub::NeededFields() const {
   uint32_t fields = 0;
   for (const auto& g : groups_) fields |= g->options.stream.fields;
   return fields;
+}
+
+uint32_t FrameHub::NeededThreshold() const {
+  std::lock_guard lock(mu_);
+  uint32_t widest = 0;
+  for (const auto& g : groups_) {
+    const uint32_t t = g->options.stream.detail_threshold;
+    if (t == 0) return 0;
+    widest = std::max(widest, t);
+  }
+  return widest;
+}
+
+std::string FrameHub::FrameLimitRefusal(uint64_t total, uint32_t stride) const {
+  const uint64_t count = (total + std::max(stride, 1u) - 1) / std::max(stride, 1u);
+  if (count <= max_frame_particles_) return "";
+  return "StreamFrames: a full-detail frame of this scene holds " + std::to_string(count) +
+         " particles; a frame holds at most " + std::to_string(max_frame_particles_) +
+         ": ask for a budget (fps_target, particle_budget) or a stride of at least " +
+         std::to_string((total + max_frame_particles_ - 1) / max_frame_particles_);
 }
 
 uint64_t FrameHub::frames_encoded() const {
@@ -330,7 +355,26 @@ void FrameHub::Publish(const FrameSnapshot& snapshot, bool force, bool discontin
     for (const auto& g : groups_) work.emplace_back(g, g->members);
   }
   const auto now = Clock::now();
+  const auto total = uint32_t(snapshot.positions.size() / 3);
+  bool missed = false;
   for (auto& [group, members] : work) {
+    // A group whose detail sends particles the snapshot did not gather (its detail rose since)
+    // waits for the next frame, which gathers them.
+    const uint32_t threshold = group->options.stream.detail_threshold;
+    if (snapshot.threshold != 0 && (threshold == 0 || threshold > snapshot.threshold)) {
+      missed = true;
+      continue;
+    }
+    if (threshold == 0) {  // budgets chose a threshold below the limit in FitBudgetsTo
+      const std::string refusal = FrameLimitRefusal(total, group->options.stream.stride);
+      if (!refusal.empty()) {  // a scene that grew past the limit under a full-detail stream
+        for (const auto& s : members) {
+          std::lock_guard lock(s->listener_mu_);
+          if (s->listener_) s->listener_->OnRefused(refusal);
+        }
+        continue;
+      }
+    }
     // The frame-rate cap holds max_fps on average: the next frame is due one period after this
     // one was due (not after it was sent), and passes up to a quarter period early. Measuring
     // from the send instead skipped a frame whenever one came a hair early, so frames produced
@@ -387,6 +431,7 @@ void FrameHub::Publish(const FrameSnapshot& snapshot, bool force, bool discontin
       if (s->listener_) s->listener_->OnFrameReady();
     }
   }
+  if (missed && frame_needed_) frame_needed_();
   // A group whose last subscriber left during this Publish is freed here.
   for (auto& [group, members] : work) {
     members.clear();

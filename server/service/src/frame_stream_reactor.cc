@@ -92,6 +92,13 @@ void FrameStreamReactor::OnHubClosed() {
   if (!writing_) FinishLocked({grpc::StatusCode::UNAVAILABLE, "the server is shutting down"});
 }
 
+void FrameStreamReactor::OnRefused(const std::string& why) {
+  std::lock_guard lock(mu_);
+  refusal_ = why;
+  closing_ = true;
+  if (!writing_) FinishLocked({grpc::StatusCode::RESOURCE_EXHAUSTED, why});
+}
+
 void FrameStreamReactor::OnWriteDone(bool ok) {
   std::lock_guard lock(mu_);
   writing_ = false;
@@ -103,6 +110,8 @@ void FrameStreamReactor::OnWriteDone(bool ok) {
   // here then, not wait for a frame that may never come (a paused server).
   if (!ok || cancelled_) {
     FinishLocked({grpc::StatusCode::CANCELLED, "the stream was cancelled"});
+  } else if (closing_ && !refusal_.empty()) {
+    FinishLocked({grpc::StatusCode::RESOURCE_EXHAUSTED, refusal_});
   } else if (closing_) {
     FinishLocked({grpc::StatusCode::UNAVAILABLE, "the server is shutting down"});
   } else if (!finished_) {

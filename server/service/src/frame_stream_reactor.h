@@ -11,6 +11,7 @@
 #include <cstddef>
 #include <memory>
 #include <mutex>
+#include <string>
 
 #include "dysa/service/frame_hub.h"
 #include "dysa/service/write_starter.h"
@@ -40,6 +41,7 @@ class FrameStreamReactor final : public grpc::ServerWriteReactor<grpc::ByteBuffe
   // On the simulation's thread: no lock of ours (a gRPC thread may hold it inside StartWrite).
   void OnFrameReady() override { starter_.Schedule(this); }
   void OnHubClosed() override;
+  void OnRefused(const std::string& why) override;
 
   void OnWriteDone(bool ok) override;
   void OnCancel() override;
@@ -59,6 +61,7 @@ class FrameStreamReactor final : public grpc::ServerWriteReactor<grpc::ByteBuffe
   bool finished_ = false;
   bool closing_ = false;
   bool cancelled_ = false;
+  std::string refusal_;                        // OnRefused's reason: the stream ends with it
   std::shared_ptr<const EncodedFrame> frame_;  // being sent; owns wire_
   const WireFrame* wire_ = nullptr;
   size_t next_message_ = 0;

@@ -92,6 +92,8 @@ class DetailController {
 
   // The stream's particle count before selection, known before its first frame (a late joiner).
   void SetTotal(double now, uint32_t total);
+  // The most particles a frame may hold (the hub's frame limit): the detail stays below it.
+  void SetFrameLimit(uint64_t particles) { frame_limit_ = particles; }
 
   uint32_t total() const { return total_; }
   // Frames started on this stream, and acknowledged by its client (0: none, or no acks).
@@ -114,6 +116,7 @@ class DetailController {
   DetailBudget budget_;
   int level_ = 0;
   uint32_t total_ = 0;
+  uint64_t frame_limit_ = UINT64_MAX;
   // Cost per particle, bytes: delta frames (what a stream mostly sends) and keyframes.
   double delta_bpp_ = 2.6, key_bpp_ = 5.6;
   std::optional<double> link_;  // bytes/s while sending

@@ -19,6 +19,7 @@
 #include <mutex>
 #include <optional>
 #include <stdexcept>
+#include <string>
 #include <vector>
 
 #include "dysa/codec/frame_codec.h"
@@ -37,7 +38,14 @@ struct FrameSnapshot {
   std::vector<float> velocities;                     // 3 per particle, m/s
   std::vector<float> densities;                      // kg/m^3
   int64_t produced_unix_us = 0;                      // wall clock, microseconds since the epoch
+  // The particles the arrays hold: those of DetailRank(id) below it (0: every one). The others'
+  // entries are stale (GatherSnapshot copies only what the widest subscribed detail sends).
+  uint32_t threshold = 0;
 };
+
+// The most particles one frame holds (the codec's frame limit, kMaxCount): a stream that would
+// send more is refused, and budgets never choose more.
+inline constexpr uint64_t kMaxFrameParticles = 20'000'000;
 
 struct EncodedFrame {
   uint64_t frame = 0;
@@ -72,6 +80,8 @@ class FrameListener {
   virtual void OnFrameReady() = 0;
   // The hub is closing (server shutdown): end the stream.
   virtual void OnHubClosed() = 0;
+  // The stream cannot be sent (a full-detail frame over the frame limit): end it with `why`.
+  virtual void OnRefused(const std::string& why) { (void)why; }
 };
 
 // Thrown by Subscribe when the subscriber limit is reached.
@@ -107,7 +117,9 @@ class Subscription {
 
 class FrameHub {
  public:
-  explicit FrameHub(size_t max_subscribers) : max_subscribers_(max_subscribers) {}
+  // `max_frame_particles`: the frame limit (kMaxFrameParticles; lower in tests).
+  explicit FrameHub(size_t max_subscribers, uint64_t max_frame_particles = kMaxFrameParticles)
+      : max_subscribers_(max_subscribers), max_frame_particles_(max_frame_particles) {}
 
   // Throws std::invalid_argument (bad options, naming the field) or SubscriberLimitError.
   // The subscriber's first frame is a keyframe; the hub asks for one (see set_frame_needed).
@@ -127,6 +139,9 @@ class FrameHub {
   size_t configuration_bytes() const;
   // The codec fields some subscriber wants; 0 when no one subscribes (nothing to publish).
   uint32_t NeededFields() const;
+  // The particles some subscriber's detail sends: those of DetailRank(id) below it; 0: every one
+  // (a stream without a threshold). What GatherSnapshot copies.
+  uint32_t NeededThreshold() const;
   uint64_t frames_encoded() const;
   // Encoded frames alive (held by the hub, subscribers or writes in flight): at most two per
   // subscriber plus one per group, whatever the subscribers do.
@@ -173,7 +188,12 @@ class FrameHub {
   void FitBudgetsTo(uint32_t total);
   uint32_t last_total_ = 0;  // particles of the latest snapshot published (guarded by mu_)
 
+  // A full-detail stream's message when a frame of `total` particles is over the frame limit;
+  // empty when it fits.
+  std::string FrameLimitRefusal(uint64_t total, uint32_t stride) const;
+
   const size_t max_subscribers_;
+  const uint64_t max_frame_particles_;
   std::function<void()> frame_needed_;
   TransportBuilder transport_builder_;
   std::mutex publish_mu_;  // one Publish at a time
