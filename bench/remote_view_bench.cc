@@ -17,6 +17,7 @@
 
 #include <CLI/CLI.hpp>
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -28,6 +29,7 @@
 #include "dysa/codec/frame_codec.h"
 #include "dysa/core/simulation.h"
 #include "dysa/service/detail_controller.h"
+#include "dysa/service/frame_publisher.h"
 #include "view_error.h"
 
 namespace {
@@ -137,6 +139,52 @@ int Bytes(const std::string& scene_path, int frames, int deltas, const std::stri
   return 0;
 }
 
+// The server's cost of one watched frame per detail: copying the particles out of the solver
+// (GatherSnapshot, which on the CPU copies only those of the widest detail subscribed) and
+// encoding them, the median of `repeats` frames (the encoder warmed up on one first).
+int Gather(const std::string& scene_path, const std::string& percents, int repeats, int threads) {
+  omp_set_num_threads(threads);
+  dysa::Simulation sim(dysa::LoadScene(scene_path));
+  sim.StepFrame();  // storage in cell order, as while running
+  const auto total = uint32_t(sim.particle_count());
+  std::printf("percent,fraction,particles,gather_ms,encode_ms\n");
+  std::stringstream list(percents);
+  for (std::string item; std::getline(list, item, ',');) {
+    const double percent = std::stod(item);
+    const int level = BudgetLevel(uint64_t(std::ceil(percent / 100 * total)), total);
+    const double fraction = dysa::service::DetailController::LevelFraction(level);
+    const uint32_t threshold = level == 0 ? 0 : dysa::codec::DetailThreshold(fraction);
+    dysa::codec::StreamConfig config;
+    config.detail_threshold = threshold;
+    config.keyframe_interval = 1;  // the same work every frame
+    dysa::codec::FrameEncoder encoder(config);
+    dysa::service::FrameSnapshot snapshot;
+    std::vector<double> gather_ms, encode_ms;
+    for (int r = 0; r <= repeats; ++r) {
+      const auto t0 = std::chrono::steady_clock::now();
+      dysa::service::GatherSnapshot(sim, config.fields, threshold, snapshot);
+      const auto t1 = std::chrono::steady_clock::now();
+      dysa::codec::FrameInput in;
+      in.domain_min = snapshot.domain_min;
+      in.domain_max = snapshot.domain_max;
+      in.positions = snapshot.positions;
+      in.velocities = snapshot.velocities;
+      encoder.Encode(in);
+      const auto t2 = std::chrono::steady_clock::now();
+      if (r == 0) continue;  // warm-up: buffers sized, the kept ids listed once
+      gather_ms.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
+      encode_ms.push_back(std::chrono::duration<double, std::milli>(t2 - t1).count());
+    }
+    auto median = [](std::vector<double> v) {
+      std::nth_element(v.begin(), v.begin() + long(v.size() / 2), v.end());
+      return v[v.size() / 2];
+    };
+    std::printf("%s,%.5f,%u,%.2f,%.2f\n", item.c_str(), fraction, encoder.last_count(),
+                median(gather_ms), median(encode_ms));
+  }
+  return 0;
+}
+
 std::vector<std::string> Split(const std::string& s) {
   std::vector<std::string> out;
   std::stringstream in(s);
@@ -196,6 +244,18 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1, 1024))
       ->capture_default_str();
 
+  int repeats = 7;
+  auto* gather = app.add_subcommand("gather", "Server cost of a frame at each detail (CSV)");
+  gather->add_option("--scene", scene, "Scene file (JSON)")->required()->check(CLI::ExistingFile);
+  gather->add_option("--percent", percents, "Particle budgets, percent of the scene")
+      ->capture_default_str();
+  gather->add_option("--repeats", repeats, "Frames timed per detail (the median is printed)")
+      ->check(CLI::Range(1, 1000))
+      ->capture_default_str();
+  gather->add_option("--threads", threads, "OpenMP threads")
+      ->check(CLI::Range(1, 1024))
+      ->capture_default_str();
+
   std::string reference, csv_in, images, csv_out, sheet;
   auto* compare = app.add_subcommand("compare", "Image error against the full-detail image");
   compare->add_option("--reference", reference, "Full-detail PNG")->required();
@@ -207,6 +267,7 @@ int main(int argc, char** argv) {
 
   try {
     if (*bytes) return Bytes(scene, frames, deltas, percents, fps, threads);
+    if (*gather) return Gather(scene, percents, repeats, threads);
     return Compare(reference, csv_in, images, csv_out, sheet);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "remote_view_bench: %s\n", e.what());

@@ -8,7 +8,8 @@
 #
 #   bench/remote_view_bench.sh [--frames N] [--per-axis P] [--mode particles|fluid]
 #
-# Writes bench/results/remote_view[_MODE].csv, remote_view[_MODE]_sheet.png (the renderings,
+# Writes bench/results/remote_view[_MODE].csv, remote_view[_MODE]_gather.csv (the server's cost
+# of copying and encoding a frame at each detail), remote_view[_MODE]_sheet.png (the renderings,
 # 3 per row, in the CSV's order), remote_view[_MODE]_full.png and remote_view[_MODE]_1percent.png
 # (full detail and the 1 % rendering).
 # Needs a release build of dysa-server, dysa, dysa-viewer and remote_view_bench.
@@ -67,9 +68,15 @@ scene = {
 json.dump(scene, open(sys.argv[1], "w"))
 PY
 
+suffix=""
+[[ "$mode" == particles ]] || suffix="_$mode"
 echo "remote_view_bench: bytes per frame at each detail (frame $frames) ..."
 "$bench_bin" bytes --scene "$work/block.json" --frames "$frames" > "$work/bytes.csv"
 cat "$work/bytes.csv"
+echo "remote_view_bench: the server's cost of a frame at each detail ..."
+# Passive OpenMP waits: spinning threads on a shared 2-core machine swamp the small encodes.
+OMP_WAIT_POLICY=PASSIVE "$bench_bin" gather --scene "$work/block.json" --repeats 15 > "bench/results/remote_view${suffix}_gather.csv"
+cat "bench/results/remote_view${suffix}_gather.csv"
 
 "$server_bin" --scene "$work/block.json" --paused --listen 127.0.0.1:0 --port-file "$work/port" \
   >"$work/server.log" 2>&1 &
@@ -99,8 +106,6 @@ shot() {  # shot PNG [viewer options...]: prints the viewer's render rate
   sed -E 's/.* s, ([0-9.]+) frames\/s.*/\1/' <<<"$line"
 }
 
-suffix=""
-[[ "$mode" == particles ]] || suffix="_$mode"
 shot "$work/full.png" >/dev/null
 cp "$work/full.png" "bench/results/remote_view${suffix}_full.png"
 header="$(head -1 "$work/bytes.csv"),render_fps"
