@@ -295,8 +295,12 @@ bool FrameHub::Acknowledge(uint64_t ack_token, double now, uint64_t frames, doub
   }
   if (budgeted) ApplyDetail(s, threshold);
   // A frame held back for this report may go now.
+  {
+    std::lock_guard lock(s->frame_mu_);
+    if (!s->pending_) return true;
+  }
   std::lock_guard lock(s->listener_mu_);
-  if (s->listener_) s->listener_->OnFrameReady();
+  if (s->listener_) s->listener_->OnMayWrite();
   return true;
 }
 

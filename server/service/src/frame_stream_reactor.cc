@@ -134,7 +134,10 @@ void FrameStreamReactor::OnDone() {
 void FrameStreamReactor::StartNextWrite() {
   std::lock_guard lock(mu_);
   // A new frame is ready while the last one is still being written: the link is behind.
-  if (writing_ && !finished_ && subscription_) hub_.FrameLate(subscription_, SteadySeconds());
+  const bool fresh = new_frame_.exchange(false);
+  if (fresh && writing_ && !finished_ && subscription_) {
+    hub_.FrameLate(subscription_, SteadySeconds());
+  }
   if (!writing_ && !finished_ && subscription_) WriteNextLocked();
 }
 

@@ -80,6 +80,8 @@ class FrameListener {
   virtual void OnFrameReady() = 0;
   // The hub is closing (server shutdown): end the stream.
   virtual void OnHubClosed() = 0;
+  // A frame held back (FrameHub::HoldFrame) may go now: not a new frame, so not lateness.
+  virtual void OnMayWrite() { OnFrameReady(); }
   // The stream cannot be sent (a full-detail frame over the frame limit): end it with `why`.
   virtual void OnRefused(const std::string& why) { (void)why; }
 };
