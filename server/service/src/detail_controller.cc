@@ -153,23 +153,19 @@ void DetailController::OnAcknowledged(double now, uint64_t frames, double rtt) {
   frames_sum_ = frames_sum_ * decay + count;
   rates_at_ = now;
   // The link's time on these bytes, as the server sees it: a frame written at `start` arrives
-  // a down-trip later and is reported an up-trip after that. The link started on it when the
-  // frame before had arrived (reported at last_ack_, an up-trip later) or, idle, a down-trip
-  // after `start`; it finished an up-trip before now. Taking the up-trip off both ends, it was
-  // busy for now - max(last_ack_, start + rtt): bytes over that is the link's rate whether the
-  // stream keeps it busy or not (without a round trip reported yet, a lower bound). Queueing
-  // only lengthens a reported round trip, so the smallest over ~10 s is used, and an interval
-  // under a quarter of the one without it is not trusted.
-  const double from = std::max(last_ack_, first_start);
-  const double busy = now - std::max(last_ack_, first_start + rtt_min_);
-  // Only while frames queue on the link (these went out before the frame ahead of them had
-  // arrived) do the reports time the link alone. A stream that leaves the link idle between
-  // frames adds its own delays (writing, reading, a busy CPU) to every interval: its samples are
-  // lower bounds, which may raise the estimate but never lower it (as BBR treats samples it
-  // marks application-limited), else a slow spell of the server would lower the detail, and
-  // smaller frames would read slower still.
+  // a down-trip later and is reported an up-trip after that. While frames queue on the link
+  // (these went out before the frame ahead of them had arrived: start + rtt before the previous
+  // report), the link took them from that frame's arrival to theirs, and the up-trips on both
+  // ends cancel: bytes / (now - previous report) is its rate. A stream that leaves the link idle
+  // between frames adds a round trip and its own delays (writing, reading, a busy CPU) to every
+  // interval: bytes / (now - start) is then a lower bound, which may raise the estimate but never
+  // lower it (as BBR treats samples it marks application-limited), else a slow spell of the
+  // server would lower the detail, and smaller frames would read slower still. (Taking the
+  // reported round trip off that interval read 3-4 times the link at 1 Gbit/s: a report's
+  // reply queues behind frames, so its round trip overstates the link's.)
   const bool queued = first_start + rtt_min_ < last_ack_;
-  if (bytes > 0 && busy > 1e-4 && busy >= 0.25 * (now - from)) {
+  const double busy = now - (queued ? last_ack_ : first_start);
+  if (bytes > 0 && busy > 1e-4) {
     const double sample = double(bytes) / busy;
     const double keep = Decay(now - link_sampled_at_);
     lower_bound_ = std::max(sample, lower_bound_ * keep);
