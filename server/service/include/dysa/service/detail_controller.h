@@ -11,7 +11,8 @@
 // - a write completes when the transport takes the bytes, not when they arrive (gRPC and the
 //   kernel buffer megabytes), so once the client acknowledges frames (OnAcknowledged), the
 //   link rate, the delivered rates and the age of the shown data come from acknowledgements:
-//   bytes acknowledged over the time the link was busy with them, the round trip taken out;
+//   bytes acknowledged over the time the link was busy with them (a lower bound when the
+//   stream leaves the link idle);
 // - the detail is a level on a ladder of fractions 2^(-level/4) (1, 0.84, 0.71, ... 1/4096):
 //   subscribers at the same level share one encoder;
 // - decrease at once (multiplicative) when the current level does not fit the measured link at
