@@ -381,7 +381,7 @@ void Pipeline(const dysa::Scene& scene, double warmup_time, int recorded,
     while (sim.time() < warmup_time) sim.StepFrame();
     for (FrameSnapshot& f : frames) {
       sim.StepFrame();
-      dysa::service::GatherSnapshot(sim, dysa::codec::kPositions | dysa::codec::kSpeed, f);
+      dysa::service::GatherSnapshot(sim, dysa::codec::kPositions | dysa::codec::kSpeed, 0, f);
     }
   }
   for (int n : counts) {

@@ -127,8 +127,9 @@ int main(int argc, char** argv) {
   cert_opt->needs(key_opt);
   key_opt->needs(cert_opt);
   app.add_option("--max-particles", max_particles,
-                 "Refuse scenes and parameters with more particles (RESOURCE_EXHAUSTED)")
-      ->check(CLI::Range(uint64_t{1}, uint64_t{dysa::kMaxStreamedParticles}))
+                 "Refuse scenes and parameters with more particles (RESOURCE_EXHAUSTED); above "
+                 "20,000,000 (a frame's limit) only streams with a budget can watch")
+      ->check(CLI::Range(uint64_t{1}, uint64_t{dysa::kMaxParticles}))
       ->capture_default_str();
   app.add_option("--max-subscribers", max_subscribers, "Frame streams open at once at most")
       ->check(CLI::Range(size_t{1}, size_t{100000}))

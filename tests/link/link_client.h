@@ -14,6 +14,7 @@
 #include <thread>
 #include <vector>
 
+#include "frame_acknowledger.h"  // dysa_client's, the delivery signal the clients send
 #include "soak/soak_client.h"
 
 namespace dysa::testing {
@@ -66,6 +67,13 @@ inline LinkFigures RunLinkClient(const LinkRun& run, std::string& error) {
   });
 
   auto stream = soak::Subscribe(*stub, run.request);
+  // With an ack token, every complete frame is reported as the client library reports it.
+  std::unique_ptr<remote::FrameAcknowledger> acks;
+  if (run.request.ack_token() != 0) {
+    acks = std::make_unique<remote::FrameAcknowledger>(
+        grpc::CreateChannel(run.address, grpc::InsecureChannelCredentials()),
+        run.request.ack_token(), "");
+  }
   int frames = 0;
   double bytes = 0, max_latency = 0, max_gap = 0, first_s = -1, last_s = -1;
   v1::FrameMessage last;
@@ -74,6 +82,7 @@ inline LinkFigures RunLinkClient(const LinkRun& run, std::string& error) {
       error = "the stream ended: " + stream->Close().error_message();
       break;
     }
+    if (acks) acks->FrameReceived();
     const double t = since();
     if (t < run.settle_s) continue;
     if (first_s >= 0) max_gap = std::max(max_gap, t - last_s);

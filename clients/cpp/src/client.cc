@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "dysa/v1/simulation.grpc.pb.h"
+#include "frame_acknowledger.h"
 #include "proto_convert.h"
 #include "rpc_error.h"
 
@@ -44,6 +45,7 @@ struct FrameStream::Impl {
   pb::FrameMessage message;
   std::atomic<bool> cancelled{false};
   bool finished = false;
+  std::unique_ptr<FrameAcknowledger> acks;  // with a budget: the delivery signal
 };
 
 FrameStream::FrameStream(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
@@ -59,6 +61,7 @@ FrameStream::~FrameStream() {
 
 bool FrameStream::Next(FrameMessage& out) {
   if (impl_->finished || !impl_->reader->Read(&impl_->message)) return false;
+  if (impl_->acks && impl_->message.last_of_frame()) impl_->acks->FrameReceived();
   FromProto(impl_->message, out);
   return true;
 }
@@ -83,6 +86,7 @@ void FrameStream::Finish() {
 
 struct Client::Impl {
   ConnectOptions options;
+  std::shared_ptr<grpc::Channel> channel;
   std::unique_ptr<pb::Simulation::Stub> stub;
 
   // Runs one unary call with the token and a deadline; throws RpcError unless it succeeds.
@@ -107,8 +111,8 @@ Client::Client(const ConnectOptions& options) : impl_(std::make_unique<Impl>()) 
   impl_->options = options;
   grpc::ChannelArguments args;
   if (!options.tls_server_name.empty()) args.SetSslTargetNameOverride(options.tls_server_name);
-  impl_->stub = pb::Simulation::NewStub(
-      grpc::CreateCustomChannel(options.address, Credentials(options), args));
+  impl_->channel = grpc::CreateCustomChannel(options.address, Credentials(options), args);
+  impl_->stub = pb::Simulation::NewStub(impl_->channel);
 }
 
 Client::~Client() = default;
@@ -232,9 +236,17 @@ SceneDescription Client::GetScene() {
 }
 
 std::unique_ptr<FrameStream> Client::StreamFrames(const StreamOptions& options) {
-  const pb::StreamFramesRequest request = ToProto(options);
+  pb::StreamFramesRequest request = ToProto(options);
   auto impl = std::make_unique<FrameStream::Impl>();
   impl->options = impl_->options;
+  const bool budget =
+      options.fps_target > 0 || options.byte_budget > 0 || options.particle_budget > 0;
+  if (options.acknowledge && budget) {
+    request.set_ack_token(FrameAcknowledger::NewToken());
+    impl->acks = std::make_unique<FrameAcknowledger>(
+        impl_->channel, request.ack_token(),
+        impl_->options.token.empty() ? "" : "Bearer " + impl_->options.token);
+  }
   PrepareContext(impl->context, impl_->options);
   // No deadline: a stream lasts as long as the caller wants; Cancel() ends it.
   impl->reader = impl_->stub->StreamFrames(&impl->context, request);

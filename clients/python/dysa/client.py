@@ -25,7 +25,9 @@ from __future__ import annotations
 import bisect
 import json
 import os
+import random
 import threading
+import time
 from dataclasses import dataclass
 from typing import Any, Dict, Iterable, List, Mapping, Optional, Tuple, Union
 
@@ -642,11 +644,15 @@ class Client:
             keyframe_interval=keyframe_interval,
             velocity_encoding=encodings[velocity_encoding], fps_target=fps_target,
             byte_budget=byte_budget, particle_budget=particle_budget)
+        # With a budget the stream reports each frame it receives (AckFrames): the server then
+        # measures what the link delivers, not what its transport took (docs/server.md).
+        if fps_target or byte_budget or particle_budget:
+            request.ack_token = random.SystemRandom().randrange(1, 2**64)
         if self._closed:
             raise DysaError("StreamFrames: the client is closed", grpc.StatusCode.CANCELLED)
         # No deadline: a stream lasts as long as the reader wants it.
         call = self._stub.StreamFrames(request, metadata=self._metadata)
-        return FrameStream(self, call, limit)
+        return FrameStream(self, call, limit, request.ack_token)
 
 
 def _view_request(stream_id: int, eye: Vec3, target: Vec3, up: Vec3, fov_y_deg: float,
@@ -697,13 +703,21 @@ class FrameStream:
     `refined` (this frame is the one before plus a refinement's particles).
     """
 
-    def __init__(self, client: Client, call: Any, limit: Optional[int]) -> None:
+    def __init__(self, client: Client, call: Any, limit: Optional[int],
+                 ack_token: int = 0) -> None:
         self._client = client
+        # Frames received completely, and the count last reported (one report in flight at
+        # most; counts that come meanwhile collapse into the newest).
+        self._ack_token = ack_token
+        self._arrived = 0
+        self._reported = 0
+        self._ack_in_flight = False
+        self._ack_rtt_us = 0  # the latest report's round trip, sent with the next
         self._call = call
         self._limit = limit
         self._decoder = FrameDecoder()
         self._closed = False
-        self._lock = threading.Lock()
+        self._lock = threading.RLock()  # re-entered by an AckFrames callback run at once
         self.frames_received = 0
         self.frames_skipped = 0
         self.bytes_received = 0
@@ -733,6 +747,11 @@ class FrameStream:
             self.bytes_received += sum(len(c) for c in message.chunks)
             if message.stream_id:
                 self.stream_id = message.stream_id
+            if message.last_of_frame and self._ack_token:
+                with self._lock:
+                    self._arrived += 1
+                    if not self._ack_in_flight:
+                        self._send_ack_locked()
             try:
                 frame = self._decoder.add_chunks(message.chunks)
             except Exception:
@@ -768,6 +787,31 @@ class FrameStream:
             raise DysaError("set_view: no frame received yet (the stream's id comes with it)",
                             grpc.StatusCode.FAILED_PRECONDITION)
         self._client.set_stream_view(self.stream_id, eye, target, up, fov_y_deg, aspect)
+
+    def _send_ack_locked(self) -> None:
+        """Reports the frames received so far, asynchronously (self._lock held)."""
+        self._ack_in_flight = True
+        self._reported = self._arrived
+        request = _pb.AckFramesRequest(ack_token=self._ack_token, frames=self._reported,
+                                       rtt_us=self._ack_rtt_us)
+        sent_at = time.monotonic()
+        future = self._client._stub.AckFrames.future(request, timeout=5,
+                                                    metadata=self._client._metadata)
+
+        def done(f: Any) -> None:
+            with self._lock:
+                self._ack_in_flight = False
+                code = f.code()
+                if code == grpc.StatusCode.OK:
+                    self._ack_rtt_us = max(1, min(2**32 - 1,
+                                                  int((time.monotonic() - sent_at) * 1e6)))
+                # An older server has no AckFrames; an ended stream has no token: stop.
+                if code in (grpc.StatusCode.UNIMPLEMENTED, grpc.StatusCode.NOT_FOUND):
+                    self._ack_token = 0
+                elif not self._closed and self._arrived > self._reported:
+                    self._send_ack_locked()
+
+        future.add_done_callback(done)
 
     def close(self) -> None:
         """Ends the stream (cancels the call; idempotent, thread-safe)."""

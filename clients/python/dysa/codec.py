@@ -62,7 +62,8 @@ _POS_X, _POS_Y, _POS_Z, _SPEED, _VEL_X, _VEL_Y, _VEL_Z, _DENSITY = range(8)
 _COMPONENTS = 8
 
 # A decoder never allocates more than this many particles, whatever a header claims.
-_MAX_COUNT = 20_000_000  # the solver's particle limit, as in the C++ decoder
+_MAX_COUNT = 20_000_000  # particles a frame holds at most, as in the C++ decoder
+_MAX_IDS = 500_000_000  # ids a subset by rank may name (the solver's limit), as in the C++ one
 
 # std::numeric_limits<float>::epsilon().
 _FLOAT_EPSILON = 2.0**-23
@@ -625,7 +626,7 @@ class FrameDecoder:
             z = self._residuals(raw[at:at + count * m], count,
                                 packed[bit_at:bit_at + (m * split + 7) // 8], split, m)
             ids = np.cumsum(z + 1) - 1
-            if m > 0 and ids[-1] >= _MAX_COUNT:
+            if m > 0 and ids[-1] >= _MAX_IDS:
                 return "particle id over the limit"
             frame.ids[first:last] = ids
         return None
@@ -678,7 +679,7 @@ class FrameDecoder:
         else:
             try:
                 frame.ids = _detail.kept_ids(first.count, first.stride, first.detail_threshold,
-                                             _MAX_COUNT)
+                                             _MAX_IDS)
             except ValueError as e:
                 self._have_previous = False
                 self._pending_seq = None

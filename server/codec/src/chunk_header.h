@@ -16,6 +16,9 @@ namespace dysa::codec {
 // A decoder never allocates for more particles than this, whatever a header claims: the
 // solver's own limit (kMaxParticles in dysa/core/scene.h), about 1 GB of decoder buffers.
 inline constexpr uint32_t kMaxCount = 20'000'000;
+// A frame by detail threshold (a subset of a larger scene) may name ids up to this: the solver's
+// kMaxParticles. A decoder scans at most this many ids for a frame's ids (once per threshold).
+inline constexpr uint32_t kMaxIds = 500'000'000;
 
 inline constexpr uint16_t kKeyframeFlag = 1u << 0;
 inline constexpr uint16_t kOctahedralFlag = 1u << 1;  // version 2 and later

@@ -7,7 +7,8 @@
 namespace dysa::codec {
 
 ChunkLayout LayOutChunks(size_t ids, const StreamConfig& config, size_t kept) {
-  if (ids > kMaxCount) throw std::invalid_argument("count over the limit of 20,000,000 particles");
+  if (ids > kMaxIds || (config.detail_threshold == 0 ? ids / config.stride : kept) > kMaxCount)
+    throw std::invalid_argument("count over the limit of 20,000,000 particles a frame");
   ChunkLayout layout;
   const uint32_t stride = config.stride;
   layout.count = config.detail_threshold != 0 || config.explicit_ids

@@ -58,7 +58,7 @@ bool UndoIdGaps(const ChunkHeader& h, const uint32_t* z, Frame& frame) {
   uint64_t id = 0;
   for (uint32_t k = 0; k < h.chunk_particles; ++k) {
     id = k == 0 ? z[0] : id + uint64_t{z[k]} + 1;
-    if (id >= kMaxCount) return false;
+    if (id >= kMaxIds) return false;
     frame.ids[h.first + k] = uint32_t(id);
   }
   return true;
@@ -269,7 +269,7 @@ void FrameDecoder::FinishFrame(const ChunkHeader& first, Frame& out) {
     const uint64_t key[3] = {first.count, first.stride, first.detail_threshold};
     if (!std::equal(key, key + 3, ids_key_)) {
       std::fill(ids_key_, ids_key_ + 3, 0);
-      if (!FirstKeptIds(first.count, first.stride, first.detail_threshold, kMaxCount, ids_)) {
+      if (!FirstKeptIds(first.count, first.stride, first.detail_threshold, kMaxIds, ids_)) {
         have_previous_ = false;
         pending_seq_.reset();
         throw DecodeError("corrupt frame header: count " + std::to_string(first.count) +

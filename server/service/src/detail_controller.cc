@@ -17,6 +17,8 @@ constexpr double kDownShare = 1.0;  // the current level must fit in all of it t
 constexpr int kLateStep = 2;        // levels down on lateness: x 0.71
 constexpr double kBaseHold = 0.5;   // s of headroom before a level up
 constexpr double kMaxHold = 8.0;
+constexpr double kRttWindow = 10.0;    // s, the window of the smallest round trip
+constexpr double kMaxHoldFrame = 5.0;  // s a frame may wait for its report before they stop
 
 double Decay(double dt) { return std::exp(-std::max(0.0, dt) / kTau); }
 
@@ -65,6 +67,8 @@ void DetailController::OnFrameStart(double now, size_t bytes, uint32_t particles
   frame_keyframe_ = keyframe;
   frame_level_ = level_;
   frame_produced_ = produced;
+  sent_.push_back({++started_, bytes, particles, now, produced, level_});
+  if (sent_.size() > kMaxUnacknowledged) sent_.pop_front();
   if (particles > 0) {
     double& bpp = keyframe ? key_bpp_ : delta_bpp_;
     bpp += 0.25 * (double(bytes) / particles - bpp);
@@ -76,6 +80,10 @@ void DetailController::OnFrameStart(double now, size_t bytes, uint32_t particles
 }
 
 void DetailController::OnBytesDelivered(double now, size_t bytes, bool frame_done) {
+  if (acknowledged_) {  // the client's acknowledgements measure delivery
+    if (frame_done) Decide(now);
+    return;
+  }
   const double decay = Decay(now - rates_at_);
   bytes_sum_ = bytes_sum_ * decay + double(bytes);
   frames_sum_ = frames_sum_ * decay + (frame_done ? 1.0 : 0.0);
@@ -84,13 +92,94 @@ void DetailController::OnBytesDelivered(double now, size_t bytes, bool frame_don
   shown_produced_ = frame_produced_;
   shown_particles_ = frame_particles_;
   const double took = now - frame_start_;
-  if (took > 1e-4 && frame_bytes_ > 0) {
-    const double sample = double(frame_bytes_) / took;
-    const double alpha = link_ ? std::clamp(1.0 - Decay(now - link_sampled_at_), 0.05, 1.0) : 1.0;
-    link_ = link_ ? *link_ + alpha * (sample - *link_) : sample;
+  if (took > 1e-4 && frame_bytes_ > 0) SampleLink(now, double(frame_bytes_) / took);
+  if (frame_level_ == level_) late_blocked_ = false;
+  Decide(now);
+}
+
+void DetailController::SampleLink(double now, double sample) {
+  const double alpha = link_ ? std::clamp(1.0 - Decay(now - link_sampled_at_), 0.05, 1.0) : 1.0;
+  link_ = link_ ? *link_ + alpha * (sample - *link_) : sample;
+  link_sampled_at_ = now;
+}
+
+bool DetailController::Hold(double now) {
+  if (!acknowledged_ || budget_.fps_target <= 0 || sent_.empty()) return false;
+  const double oldest = now - sent_.front().start;
+  // A client that stopped reporting must not stall its stream: after kMaxHold without a
+  // report, write completions measure again.
+  if (oldest > kMaxHoldFrame) {
+    acknowledged_ = false;
+    sent_.clear();
+    return false;
+  }
+  // One frame on its way is never held back: its own transfer is the age it adds. Three frame
+  // periods leave room for reports that come late (a busy client or server, a reply queued
+  // behind frames): holding is not lateness and never lowers the detail, which the measured
+  // link decides; it only keeps the transport's queue short.
+  return sent_.size() >= 2 && oldest > 3 / budget_.fps_target + rtt_min_;
+}
+
+void DetailController::OnAcknowledged(double now, uint64_t frames, double rtt) {
+  if (std::isfinite(rtt) && rtt > 0 && (rtt <= rtt_min_ || now - rtt_min_at_ > kRttWindow)) {
+    rtt_min_ = rtt;
+    rtt_min_at_ = now;
+  }
+  frames = std::min(frames, started_);
+  if (frames <= acked_frames_) return;
+  if (!acknowledged_) {
+    // What write completions measured was the transport's rate: start afresh.
+    ExpectAcknowledgements();
+    bytes_sum_ = frames_sum_ = 0;
+    link_.reset();
+  }
+  size_t bytes = 0;
+  double count = 0, first_start = INFINITY;
+  while (!sent_.empty() && sent_.front().ordinal <= frames) {
+    const Sent& s = sent_.front();
+    bytes += s.bytes;
+    count += 1;
+    first_start = std::min(first_start, s.start);
+    shown_produced_ = s.produced;
+    shown_particles_ = s.particles;
+    // Lateness acts again once a frame at the level it chose has arrived: the frames queued
+    // before it say nothing new (a queue of a few MiB drains for seconds on a slow link).
+    if (s.level == level_) late_blocked_ = false;
+    sent_.pop_front();
+  }
+  acked_frames_ = frames;
+  const double decay = Decay(now - rates_at_);
+  bytes_sum_ = bytes_sum_ * decay + double(bytes);
+  frames_sum_ = frames_sum_ * decay + count;
+  rates_at_ = now;
+  // The link's time on these bytes, as the server sees it: a frame written at `start` arrives
+  // a down-trip later and is reported an up-trip after that. While frames queue on the link
+  // (these went out before the frame ahead of them had arrived: start + rtt before the previous
+  // report), the link took them from that frame's arrival to theirs, and the up-trips on both
+  // ends cancel: bytes / (now - previous report) is its rate. A stream that leaves the link idle
+  // between frames adds a round trip and its own delays (writing, reading, a busy CPU) to every
+  // interval: bytes / (now - start) is then a lower bound, which may raise the estimate but never
+  // lower it (as BBR treats samples it marks application-limited), else a slow spell of the
+  // server would lower the detail, and smaller frames would read slower still. (Taking the
+  // reported round trip off that interval read 3-4 times the link at 1 Gbit/s: a report's
+  // reply queues behind frames, so its round trip overstates the link's.)
+  const bool queued = first_start + rtt_min_ < last_ack_;
+  const double busy = now - (queued ? last_ack_ : first_start);
+  if (bytes > 0 && busy > 1e-4) {
+    const double sample = double(bytes) / busy;
+    const double keep = Decay(now - link_sampled_at_);
+    lower_bound_ = std::max(sample, lower_bound_ * keep);
+    if (queued || (link_ && sample > *link_)) {
+      // Bytes and busy time are smoothed apart and divided: a mean of per-report rates would
+      // weigh the short intervals of reports that come bunched (a report's reply queues behind
+      // frames on the same connection) too much, and read high.
+      acked_bytes_ = acked_bytes_ * keep + double(bytes);
+      acked_busy_ = acked_busy_ * keep + busy;
+      link_ = acked_bytes_ / acked_busy_;
+    }
     link_sampled_at_ = now;
   }
-  if (frame_level_ == level_) late_blocked_ = false;
+  last_ack_ = now;
   Decide(now);
 }
 
@@ -114,11 +203,18 @@ bool DetailController::Fits(int level, double share) const {
 }
 
 int DetailController::BudgetLevel() const {
-  if (budget_.particles_per_frame == 0 || total_ == 0) return 0;
+  if (total_ == 0) return 0;
+  // The frame limit holds for the particles a frame actually keeps, a binomial sample of mean
+  // m = fraction x total: m + 4 sqrt(m) stays below it (a frame over it would be refused).
+  const double limit = double(frame_limit_);
+  auto over = [&](int level) {
+    const double m = LevelFraction(level) * total_;
+    return (budget_.particles_per_frame > 0 && m > double(budget_.particles_per_frame)) ||
+           (m < double(total_) && m + 4 * std::sqrt(m) > limit) ||
+           (m >= double(total_) && m > limit);
+  };
   int level = 0;
-  while (level + 1 < kLevels && LevelFraction(level) * total_ > budget_.particles_per_frame) {
-    ++level;
-  }
+  while (level + 1 < kLevels && over(level)) ++level;
   return level;
 }
 
@@ -157,7 +253,7 @@ DetailStatus DetailController::Status(double now) const {
   s.bytes_per_second = bytes_sum_ * decay / kTau;
   s.frames_per_second = frames_sum_ * decay / kTau;
   s.age_s = shown_produced_ ? std::max(0.0, now - *shown_produced_) : 0.0;
-  s.link_bytes_per_second = link_.value_or(0.0);
+  s.link_bytes_per_second = link_.value_or(lower_bound_);
   return s;
 }
 

@@ -96,14 +96,26 @@ std::shared_ptr<Subscription> FrameHub::Subscribe(const SubscriptionOptions& req
   subscription->hub_ = this;
   subscription->listener_ = listener;
   subscription->detail_ = std::make_unique<DetailController>(options.budget);
+  subscription->detail_->SetFrameLimit(max_frame_particles_);
+  subscription->ack_token_ = options.ack_token;
+  if (options.ack_token != 0) subscription->detail_->ExpectAcknowledgements();
   {
     std::lock_guard lock(mu_);
+    if (options.ack_token != 0 &&
+        std::any_of(subscriptions_.begin(), subscriptions_.end(),
+                    [&](const auto& s) { return s->ack_token_ == options.ack_token; })) {
+      throw std::invalid_argument("ack_token: another stream uses this token; pick a random one");
+    }
     if (options.budget.active()) {
       // A late joiner starts at the detail its particle budget allows (the link is unknown).
       if (last_total_ > 0) subscription->detail_->SetTotal(SteadySeconds(), last_total_);
       options.stream.detail_threshold = subscription->detail_->threshold();
     }
     if (closed_) throw SubscriberLimitError("the server is shutting down");
+    if (!options.budget.active()) {
+      const std::string refusal = FrameLimitRefusal(last_total_, options.stream.stride);
+      if (!refusal.empty()) throw SubscriberLimitError(refusal);
+    }
     if (subscriptions_.size() >= max_subscribers_) {
       throw SubscriberLimitError("subscriber limit reached: at most " +
                                  std::to_string(max_subscribers_) +
@@ -183,6 +195,27 @@ uint32_t FrameHub::NeededFields() const {
   return fields;
 }
 
+uint32_t FrameHub::NeededThreshold() const {
+  std::lock_guard lock(mu_);
+  uint32_t widest = 0;
+  for (const auto& g : groups_) {
+    const uint32_t t = g->options.stream.detail_threshold;
+    // A view stream picks its particles by camera, and completes the frame while paused.
+    if (t == 0 || g->options.view_owner != 0) return 0;
+    widest = std::max(widest, t);
+  }
+  return widest;
+}
+
+std::string FrameHub::FrameLimitRefusal(uint64_t total, uint32_t stride) const {
+  const uint64_t count = (total + std::max(stride, 1u) - 1) / std::max(stride, 1u);
+  if (count <= max_frame_particles_) return "";
+  return "StreamFrames: a full-detail frame of this scene holds " + std::to_string(count) +
+         " particles; a frame holds at most " + std::to_string(max_frame_particles_) +
+         ": ask for a budget (fps_target, particle_budget) or a stride of at least " +
+         std::to_string((total + max_frame_particles_ - 1) / max_frame_particles_);
+}
+
 uint64_t FrameHub::frames_encoded() const {
   std::lock_guard lock(mu_);
   return frames_encoded_;
@@ -245,6 +278,40 @@ void FrameHub::FrameLate(const std::shared_ptr<Subscription>& s, double now) {
     threshold = s->detail_->threshold();
   }
   ApplyDetail(s, threshold);
+}
+
+bool FrameHub::HoldFrame(const std::shared_ptr<Subscription>& s, double now) {
+  std::lock_guard lock(s->detail_mu_);
+  return s->detail_->Hold(now);
+}
+
+bool FrameHub::Acknowledge(uint64_t ack_token, double now, uint64_t frames, double rtt) {
+  if (ack_token == 0) return false;
+  std::shared_ptr<Subscription> s;
+  {
+    std::lock_guard lock(mu_);
+    auto it = std::find_if(subscriptions_.begin(), subscriptions_.end(),
+                           [&](const auto& x) { return x->ack_token_ == ack_token; });
+    if (it == subscriptions_.end()) return false;
+    s = *it;
+  }
+  uint32_t threshold = 0;
+  bool budgeted = false;
+  {
+    std::lock_guard lock(s->detail_mu_);
+    s->detail_->OnAcknowledged(now, frames, rtt);
+    threshold = s->detail_->threshold();
+    budgeted = s->detail_->budget().active();
+  }
+  if (budgeted) ApplyDetail(s, threshold);
+  // A frame held back for this report may go now.
+  {
+    std::lock_guard lock(s->frame_mu_);
+    if (!s->pending_) return true;
+  }
+  std::lock_guard lock(s->listener_mu_);
+  if (s->listener_) s->listener_->OnMayWrite();
+  return true;
 }
 
 void FrameHub::ApplyDetail(const std::shared_ptr<Subscription>& s, uint32_t threshold) {
@@ -355,7 +422,28 @@ void FrameHub::Publish(const FrameSnapshot& snapshot, bool force, bool discontin
   const auto now = Clock::now();
   const std::array<uint64_t, 3> this_snapshot = {snapshot.frame, snapshot.step,
                                                  snapshot.positions.size() / 3};
+  const auto total = uint32_t(snapshot.positions.size() / 3);
+  bool missed = false;
   for (auto& [group, members] : work) {
+    // A group whose detail sends particles the snapshot did not gather (its detail rose since,
+    // or it is a view stream, which may pick any particle) waits for the next frame, which
+    // gathers them.
+    const uint32_t threshold = group->options.stream.detail_threshold;
+    if (snapshot.threshold != 0 &&
+        (threshold == 0 || threshold > snapshot.threshold || group->view)) {
+      missed = true;
+      continue;
+    }
+    if (threshold == 0) {  // budgets chose a threshold below the limit in FitBudgetsTo
+      const std::string refusal = FrameLimitRefusal(total, group->options.stream.stride);
+      if (!refusal.empty()) {  // a scene that grew past the limit under a full-detail stream
+        for (const auto& s : members) {
+          std::lock_guard lock(s->listener_mu_);
+          if (s->listener_) s->listener_->OnRefused(refusal);
+        }
+        continue;
+      }
+    }
     // A republish of the snapshot a group has (the server paused and a frame was asked for)
     // changes nothing for it unless it needs a keyframe; a view stream may refine it.
     const bool keyframe_needed = group->keyframe_needed.exchange(false);
@@ -436,6 +524,7 @@ void FrameHub::Publish(const FrameSnapshot& snapshot, bool force, bool discontin
       if (s->listener_) s->listener_->OnFrameReady();
     }
   }
+  if (missed && frame_needed_) frame_needed_();
   // A group whose last subscriber left during this Publish is freed here.
   for (auto& [group, members] : work) {
     members.clear();

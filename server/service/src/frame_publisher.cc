@@ -6,6 +6,8 @@
 #include <cstdint>
 #include <utility>
 
+#include "dysa/codec/detail_subset.h"
+
 namespace dysa::service {
 
 namespace {
@@ -23,7 +25,7 @@ int64_t UnixMicros() {
 
 }  // namespace
 
-void GatherSnapshot(const Simulation& sim, uint32_t fields, FrameSnapshot& s) {
+void GatherSnapshot(const Simulation& sim, uint32_t fields, uint32_t threshold, FrameSnapshot& s) {
   const size_t n = sim.particle_count();
   s.frame = sim.frame();
   s.step = sim.step();
@@ -38,10 +40,32 @@ void GatherSnapshot(const Simulation& sim, uint32_t fields, FrameSnapshot& s) {
   // the fields asked for cross to the host, already in id order.
   const bool velocities = fields & (codec::kSpeed | codec::kVelocity);
   const bool densities = fields & codec::kDensity;
+  // Sized for every id (resizing keeps what is there: nothing is written that is not sent).
   s.positions.resize(3 * n);
   s.velocities.resize(velocities ? 3 * n : 0);
   s.densities.resize(densities ? n : 0);
-  sim.ReadParticlesById({s.positions, s.velocities, s.densities});
+  if (threshold == 0 || sim.device().is_cuda()) {
+    s.threshold = 0;
+    sim.ReadParticlesById({s.positions, s.velocities, s.densities});
+    return;
+  }
+  // Every subscriber sends a subset by rank: copy those particles only. The rank is a hash of
+  // the id (a few multiplications); the copy is what costs (memory), and it now scales with the
+  // particles sent, so a scene far above the frame limit can be watched with a budget.
+  s.threshold = threshold;
+  const ParticleArrays& p = sim.state().particles;
+#pragma omp parallel for schedule(static)
+  for (int64_t i = 0; i < int64_t(p.size()); ++i) {
+    const uint32_t id = p.id[size_t(i)];
+    if (codec::DetailRank(id) >= threshold) continue;
+    for (int a = 0; a < 3; ++a) s.positions[3 * size_t(id) + a] = float(p.position[size_t(i)][a]);
+    if (velocities) {
+      for (int a = 0; a < 3; ++a) {
+        s.velocities[3 * size_t(id) + a] = float(p.velocity[size_t(i)][a]);
+      }
+    }
+    if (densities) s.densities[id] = float(p.density[size_t(i)]);
+  }
 }
 
 FramePublisher::FramePublisher(FrameHub& hub, int threads) : hub_(hub) {

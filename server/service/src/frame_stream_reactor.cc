@@ -96,6 +96,13 @@ void FrameStreamReactor::OnHubClosed() {
   if (!writing_) FinishLocked({grpc::StatusCode::UNAVAILABLE, "the server is shutting down"});
 }
 
+void FrameStreamReactor::OnRefused(const std::string& why) {
+  std::lock_guard lock(mu_);
+  refusal_ = why;
+  closing_ = true;
+  if (!writing_) FinishLocked({grpc::StatusCode::RESOURCE_EXHAUSTED, why});
+}
+
 void FrameStreamReactor::OnWriteDone(bool ok) {
   std::lock_guard lock(mu_);
   writing_ = false;
@@ -107,6 +114,8 @@ void FrameStreamReactor::OnWriteDone(bool ok) {
   // here then, not wait for a frame that may never come (a paused server).
   if (!ok || cancelled_) {
     FinishLocked({grpc::StatusCode::CANCELLED, "the stream was cancelled"});
+  } else if (closing_ && !refusal_.empty()) {
+    FinishLocked({grpc::StatusCode::RESOURCE_EXHAUSTED, refusal_});
   } else if (closing_) {
     FinishLocked({grpc::StatusCode::UNAVAILABLE, "the server is shutting down"});
   } else if (!finished_) {
@@ -129,7 +138,10 @@ void FrameStreamReactor::OnDone() {
 void FrameStreamReactor::StartNextWrite() {
   std::lock_guard lock(mu_);
   // A new frame is ready while the last one is still being written: the link is behind.
-  if (writing_ && !finished_ && subscription_) hub_.FrameLate(subscription_, SteadySeconds());
+  const bool fresh = new_frame_.exchange(false);
+  if (fresh && writing_ && !finished_ && subscription_) {
+    hub_.FrameLate(subscription_, SteadySeconds());
+  }
   if (!writing_ && !finished_ && subscription_) WriteNextLocked();
 }
 
@@ -143,6 +155,12 @@ void FrameStreamReactor::WriteNextLocked() {
   grpc::Slice slices[3];
   size_t count = 1;
   if (!wire_ || next_message_ == wire_->messages.size()) {
+    // The link is behind its client's reports: the frame waits (a newer one may replace it);
+    // the next report calls OnFrameReady.
+    if (hub_.HoldFrame(subscription_, SteadySeconds())) {
+      wire_ = nullptr;
+      return;
+    }
     uint32_t skipped = 0;
     frame_ = subscription_->Take(&skipped);
     if (!frame_) {  // OnFrameReady will follow

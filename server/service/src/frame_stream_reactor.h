@@ -8,9 +8,11 @@
 #include <grpcpp/support/server_callback.h>
 #include <grpcpp/support/status.h>
 
+#include <atomic>
 #include <cstddef>
 #include <memory>
 #include <mutex>
+#include <string>
 
 #include "dysa/service/frame_hub.h"
 #include "dysa/service/write_starter.h"
@@ -38,8 +40,13 @@ class FrameStreamReactor final : public grpc::ServerWriteReactor<grpc::ByteBuffe
   void FinishNow(const grpc::Status& status);
 
   // On the simulation's thread: no lock of ours (a gRPC thread may hold it inside StartWrite).
-  void OnFrameReady() override { starter_.Schedule(this); }
+  void OnFrameReady() override {
+    new_frame_ = true;
+    starter_.Schedule(this);
+  }
+  void OnMayWrite() override { starter_.Schedule(this); }
   void OnHubClosed() override;
+  void OnRefused(const std::string& why) override;
 
   void OnWriteDone(bool ok) override;
   void OnCancel() override;
@@ -59,6 +66,9 @@ class FrameStreamReactor final : public grpc::ServerWriteReactor<grpc::ByteBuffe
   bool finished_ = false;
   bool closing_ = false;
   bool cancelled_ = false;
+  // A new frame came since the last StartNextWrite (not a retry of a held one).
+  std::atomic<bool> new_frame_{false};
+  std::string refusal_;                        // OnRefused's reason: the stream ends with it
   std::shared_ptr<const EncodedFrame> frame_;  // being sent; owns wire_
   const WireFrame* wire_ = nullptr;
   size_t next_message_ = 0;

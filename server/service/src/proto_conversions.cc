@@ -82,6 +82,7 @@ SubscriptionOptions ToOptions(const v1::StreamFramesRequest& r) {
   o.budget.bytes_per_second = double(r.byte_budget());
   o.budget.particles_per_frame = r.particle_budget();
   o.budget.Validate();
+  o.ack_token = r.ack_token();
   if (r.fps_target() > 0 && (o.max_fps == 0 || o.max_fps > r.fps_target())) {
     o.max_fps = r.fps_target();
   }

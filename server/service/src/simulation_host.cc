@@ -38,7 +38,7 @@ SimulationHost::SimulationHost(Scene scene, HostOptions options)
     : options_(std::move(options)),
       solver_threads_(options_.solver_threads > 0 ? options_.solver_threads
                                                   : omp_get_max_threads()),
-      hub_(options_.max_subscribers),
+      hub_(options_.max_subscribers, options_.max_frame_particles),
       publisher_(hub_, PublisherThreads(options_, solver_threads_)),
       queue_(std::make_unique<ControlQueue>()),
       history_(options_.history),
@@ -288,7 +288,7 @@ void SimulationHost::Publish(bool force, bool discontinuity) {
   const uint32_t fields = hub_.NeededFields();
   if (fields == 0) return;  // no one watches: nothing gathered, nothing encoded
   const auto start = Clock::now();
-  GatherSnapshot(*sim_, fields, snapshot_);
+  GatherSnapshot(*sim_, fields, hub_.NeededThreshold(), snapshot_);
   gather_.Add(std::chrono::duration<double, std::milli>(Clock::now() - start).count());
   publisher_.Offer(snapshot_, force, discontinuity);
 }

@@ -258,4 +258,21 @@ grpc::ServerWriteReactor<grpc::ByteBuffer>* SimulationService::StreamFrames(
   return stream;
 }
 
+grpc::ServerUnaryReactor* SimulationService::AckFrames(grpc::CallbackServerContext* context,
+                                                       const v1::AckFramesRequest* request,
+                                                       v1::AckFramesReply*) {
+  return Unary(context, Access::kWatch, [&](grpc::ServerUnaryReactor*) {
+    if (request->ack_token() == 0) {
+      return std::optional(grpc::Status(grpc::StatusCode::INVALID_ARGUMENT,
+                                        "ack_token: allowed range [1, 2^64 - 1] (the stream's)"));
+    }
+    if (!host_.hub().Acknowledge(request->ack_token(), SteadySeconds(), request->frames(),
+                                 1e-6 * request->rtt_us())) {
+      return std::optional(
+          grpc::Status(grpc::StatusCode::NOT_FOUND, "ack_token: no stream has this token"));
+    }
+    return std::optional(grpc::Status::OK);
+  });
+}
+
 }  // namespace dysa::service

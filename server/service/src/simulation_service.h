@@ -63,6 +63,9 @@ class SimulationService final
                                           v1::SetStreamViewReply* reply) override;
   grpc::ServerWriteReactor<grpc::ByteBuffer>* StreamFrames(
       grpc::CallbackServerContext* context, const grpc::ByteBuffer* request) override;
+  grpc::ServerUnaryReactor* AckFrames(grpc::CallbackServerContext* context,
+                                      const v1::AckFramesRequest* request,
+                                      v1::AckFramesReply* reply) override;
 
  private:
   enum class Access { kWatch, kControl };

@@ -164,6 +164,9 @@ struct StreamOptions {
   double fps_target = 0;         // frames per second, (0, 1000]
   uint64_t byte_budget = 0;      // bytes per second, >= 1000; needs fps_target
   uint32_t particle_budget = 0;  // particles per frame
+  // With a budget: report each frame received (AckFrames), so that the server measures what the
+  // link delivers rather than what its transport took.
+  bool acknowledge = true;
 };
 
 // dysa.v1.FrameMessage.

@@ -8,6 +8,11 @@
 // - it measures the link while sending (each frame's bytes over the time its writes took,
 //   smoothed over ~1 s), the bytes each particle costs (delta frames; keyframes apart), and
 //   what the stream delivers (bytes/s and frames/s, exponentially weighted over ~1 s);
+// - a write completes when the transport takes the bytes, not when they arrive (gRPC and the
+//   kernel buffer megabytes), so once the client acknowledges frames (OnAcknowledged), the
+//   link rate, the delivered rates and the age of the shown data come from acknowledgements:
+//   bytes acknowledged over the time the link was busy with them (a lower bound when the
+//   stream leaves the link idle);
 // - the detail is a level on a ladder of fractions 2^(-level/4) (1, 0.84, 0.71, ... 1/4096):
 //   subscribers at the same level share one encoder;
 // - decrease at once (multiplicative) when the current level does not fit the measured link at
@@ -19,6 +24,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <deque>
 #include <optional>
 
 namespace dysa::service {
@@ -36,12 +42,14 @@ struct DetailBudget {
 
 // What a stream delivers, as GetStatus reports it.
 struct DetailStatus {
-  double fraction = 1;               // of the particles sent (the detail chosen)
-  uint32_t particles = 0;            // particles in the latest frame sent
-  double bytes_per_second = 0;       // bytes delivered per second (write completions, EWMA ~1 s)
-  double frames_per_second = 0;      // frames delivered per second (EWMA ~1 s)
-  double age_s = 0;                  // s, how old the latest delivered frame's data is; 0: none yet
-  double link_bytes_per_second = 0;  // measured while sending; 0: not measured yet
+  double fraction = 1;           // of the particles sent (the detail chosen)
+  uint32_t particles = 0;        // particles in the latest frame sent
+  double bytes_per_second = 0;   // bytes delivered per second (write completions, EWMA ~1 s)
+  double frames_per_second = 0;  // frames delivered per second (EWMA ~1 s)
+  double age_s = 0;              // s, how old the latest delivered frame's data is; 0: none yet
+  // Measured while sending; 0: not measured yet. With acknowledgements and a stream that never
+  // fills the link, the best rate it has shown (a lower bound).
+  double link_bytes_per_second = 0;
 };
 
 // One stream in GetStatus: its budget and what it delivers.
@@ -70,11 +78,30 @@ class DetailController {
   void OnBytesDelivered(double now, size_t bytes, bool frame_done);
   // A new frame was ready at `now` while the current one was still being written.
   void OnLate(double now);
+  // The client has received `frames` frames completely on this stream so far (its
+  // acknowledgement, arriving at `now`); `rtt`: s, the client's latest acknowledgement round
+  // trip (0: not known). From the first one on, delivery is measured from them. Stale or
+  // repeated counts change nothing; a count above the frames started is capped.
+  void OnAcknowledged(double now, uint64_t frames, double rtt = 0);
+  // Whether to hold back the next frame at `now` (the stream then skips it, newest wins): with
+  // acknowledgements, while two frames or more are on their way and the oldest went out more
+  // than three frame periods and a round trip ago. The transport's buffers (megabytes) would
+  // otherwise fill with frames the link cannot take, and every frame would arrive that much
+  // older. A stream whose client stops reporting for 5 s falls back to write completions.
+  bool Hold(double now);
+  // The client will acknowledge (it sent an ack token): measure from acknowledgements from the
+  // first frame on, so that the transport's buffers never fill with frames the link cannot take.
+  void ExpectAcknowledgements() { acknowledged_ = true; }
 
   // The stream's particle count before selection, known before its first frame (a late joiner).
   void SetTotal(double now, uint32_t total);
+  // The most particles a frame may hold (the hub's frame limit): the detail stays below it.
+  void SetFrameLimit(uint64_t particles) { frame_limit_ = particles; }
 
   uint32_t total() const { return total_; }
+  // Frames started on this stream, and acknowledged by its client (0: none, or no acks).
+  uint64_t frames_started() const { return started_; }
+  uint64_t frames_acknowledged() const { return acked_frames_; }
   int level() const { return level_; }
   double fraction() const { return LevelFraction(level_); }
   // The codec's detail threshold for fraction() (0: every particle).
@@ -84,6 +111,7 @@ class DetailController {
 
  private:
   void Decide(double now);
+  void SampleLink(double now, double bytes_per_second);  // smoothed over ~1 s
   // Whether `level` fits the available bytes per second scaled by `share`.
   bool Fits(int level, double share) const;
   int BudgetLevel() const;  // the largest fraction the particle budget allows
@@ -91,6 +119,7 @@ class DetailController {
   DetailBudget budget_;
   int level_ = 0;
   uint32_t total_ = 0;
+  uint64_t frame_limit_ = UINT64_MAX;
   // Cost per particle, bytes: delta frames (what a stream mostly sends) and keyframes.
   double delta_bpp_ = 2.6, key_bpp_ = 5.6;
   std::optional<double> link_;  // bytes/s while sending
@@ -112,6 +141,27 @@ class DetailController {
   double last_increase_ = -1e9;
   double last_late_ = -1e9;
   bool late_blocked_ = false;  // lateness decreased already; wait for a frame at the new level
+  // Delivery from acknowledgements: the frames started and not yet acknowledged (at most
+  // kMaxUnacknowledged, the oldest dropped: a client that stops acknowledging costs nothing).
+  struct Sent {
+    uint64_t ordinal = 0;  // 1 for the stream's first frame
+    size_t bytes = 0;
+    uint32_t particles = 0;
+    double start = 0, produced = 0;
+    int level = 0;
+  };
+  static constexpr size_t kMaxUnacknowledged = 256;
+  std::deque<Sent> sent_;
+  uint64_t started_ = 0, acked_frames_ = 0;
+  bool acknowledged_ = false;  // an acknowledgement came: write completions no longer measure
+  double last_ack_ = -1e9;
+  // The smallest round trip reported over ~10 s (queueing only adds to it), and since when.
+  double rtt_min_ = 0, rtt_min_at_ = -1e9;
+  // Acknowledged bytes and the link's busy time for them, exponentially decayed (~1 s).
+  double acked_bytes_ = 0, acked_busy_ = 0;
+  // The best rate a stream that leaves the link idle has shown (decayed ~1 s): what the status
+  // reports while the link itself is not measured.
+  double lower_bound_ = 0;
 };
 
 }  // namespace dysa::service

@@ -19,6 +19,7 @@
 #include <mutex>
 #include <optional>
 #include <stdexcept>
+#include <string>
 #include <vector>
 
 #include "dysa/codec/frame_codec.h"
@@ -38,7 +39,14 @@ struct FrameSnapshot {
   std::vector<float> velocities;                     // 3 per particle, m/s
   std::vector<float> densities;                      // kg/m^3
   int64_t produced_unix_us = 0;                      // wall clock, microseconds since the epoch
+  // The particles the arrays hold: those of DetailRank(id) below it (0: every one). The others'
+  // entries are stale (GatherSnapshot copies only what the widest subscribed detail sends).
+  uint32_t threshold = 0;
 };
+
+// The most particles one frame holds (the codec's frame limit, kMaxCount): a stream that would
+// send more is refused, and budgets never choose more.
+inline constexpr uint64_t kMaxFrameParticles = 20'000'000;
 
 struct EncodedFrame {
   uint64_t frame = 0;
@@ -67,6 +75,9 @@ struct SubscriptionOptions {
   DetailBudget budget;
   // Nonzero: the id of the subscriber whose camera picks the particles (a group of its own).
   uint64_t view_owner = 0;
+  // Nonzero: the client acknowledges the frames it receives under this token (Acknowledge), the
+  // delivery signal of its DetailController. Unique among the streams; not part of the identity.
+  uint64_t ack_token = 0;
   bool operator==(const SubscriptionOptions& other) const;
 };
 
@@ -77,6 +88,10 @@ class FrameListener {
   virtual void OnFrameReady() = 0;
   // The hub is closing (server shutdown): end the stream.
   virtual void OnHubClosed() = 0;
+  // A frame held back (FrameHub::HoldFrame) may go now: not a new frame, so not lateness.
+  virtual void OnMayWrite() { OnFrameReady(); }
+  // The stream cannot be sent (a full-detail frame over the frame limit): end it with `why`.
+  virtual void OnRefused(const std::string& why) { (void)why; }
 };
 
 // Thrown by Subscribe when the subscriber limit is reached.
@@ -112,11 +127,14 @@ class Subscription {
 
   std::mutex detail_mu_;  // after FrameHub::mu_ and frame_mu_ when nested
   std::unique_ptr<DetailController> detail_;
+  uint64_t ack_token_ = 0;  // set once, before the subscription is shared
 };
 
 class FrameHub {
  public:
-  explicit FrameHub(size_t max_subscribers) : max_subscribers_(max_subscribers) {}
+  // `max_frame_particles`: the frame limit (kMaxFrameParticles; lower in tests).
+  explicit FrameHub(size_t max_subscribers, uint64_t max_frame_particles = kMaxFrameParticles)
+      : max_subscribers_(max_subscribers), max_frame_particles_(max_frame_particles) {}
 
   // Throws std::invalid_argument (bad options, naming the field) or SubscriberLimitError.
   // The subscriber's first frame is a keyframe; the hub asks for one (see set_frame_needed).
@@ -136,6 +154,9 @@ class FrameHub {
   size_t configuration_bytes() const;
   // The codec fields some subscriber wants; 0 when no one subscribes (nothing to publish).
   uint32_t NeededFields() const;
+  // The particles some subscriber's detail sends: those of DetailRank(id) below it; 0: every one
+  // (a stream without a threshold). What GatherSnapshot copies.
+  uint32_t NeededThreshold() const;
   uint64_t frames_encoded() const;
   // Encoded frames alive (held by the hub, subscribers or writes in flight): at most two per
   // subscriber plus one per group, whatever the subscribers do.
@@ -149,6 +170,13 @@ class FrameHub {
   void BytesDelivered(const std::shared_ptr<Subscription>& s, double now, size_t bytes,
                       bool frame_done);
   void FrameLate(const std::shared_ptr<Subscription>& s, double now);
+  // Whether the stream should hold back its next frame now (DetailController::Hold); its
+  // listener hears OnFrameReady again when the next acknowledgement comes.
+  bool HoldFrame(const std::shared_ptr<Subscription>& s, double now);
+  // The client of the stream subscribed with `ack_token` has received `frames` frames of it
+  // completely; `rtt`: s, its latest report's round trip (0: unknown). False when no stream has
+  // that token (it ended, or never was).
+  bool Acknowledge(uint64_t ack_token, double now, uint64_t frames, double rtt);
   // Each subscriber's budget and delivery, in subscription order.
   std::vector<StreamReport> StreamReports(double now) const;
 
@@ -191,7 +219,12 @@ class FrameHub {
   void FitBudgetsTo(uint32_t total);
   uint32_t last_total_ = 0;  // particles of the latest snapshot published (guarded by mu_)
 
+  // A full-detail stream's message when a frame of `total` particles is over the frame limit;
+  // empty when it fits.
+  std::string FrameLimitRefusal(uint64_t total, uint32_t stride) const;
+
   const size_t max_subscribers_;
+  const uint64_t max_frame_particles_;
   std::function<void()> frame_needed_;
   TransportBuilder transport_builder_;
   std::mutex publish_mu_;  // one Publish at a time

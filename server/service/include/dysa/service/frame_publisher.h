@@ -28,8 +28,11 @@
 namespace dysa::service {
 
 // Fills `snapshot` from the simulation's current frame: positions, and velocities or densities
-// when `fields` (codec fields) need them, scattered from storage order into id order.
-void GatherSnapshot(const Simulation& sim, uint32_t fields, FrameSnapshot& snapshot);
+// when `fields` (codec fields) need them, scattered from storage order into id order. With a
+// `threshold` (FrameHub::NeededThreshold), on the CPU only the particles of DetailRank(id) below
+// it are copied (snapshot.threshold says so); on a GPU every particle still is.
+void GatherSnapshot(const Simulation& sim, uint32_t fields, uint32_t threshold,
+                    FrameSnapshot& snapshot);
 
 // The time a per-frame stage took (gathering a frame, publishing it), as GetStatus shows it.
 struct StageTiming {

@@ -47,8 +47,11 @@ struct QueuedControl;
 struct HostOptions {
   double frame_rate = 60;  // frames per wall second the thread aims for; 0: as fast as possible
   HistoryConfig history;
-  uint64_t max_particles =
-      kMaxStreamedParticles;  // scenes and parameter sets beyond it are refused
+  // Scenes and parameter sets beyond it are refused. Up to kMaxParticles; above
+  // max_frame_particles only budgeted streams can watch.
+  uint64_t max_particles = kMaxStreamedParticles;
+  // The most particles one frame holds (kMaxFrameParticles, the codec's limit; lower in tests).
+  uint64_t max_frame_particles = kMaxFrameParticles;
   size_t max_subscribers = 64;
   bool start_paused = false;
   // OpenMP threads the solver steps with; 0: the creating thread's OpenMP default (every core
