@@ -19,6 +19,7 @@
 #include "dysa/service/server.h"
 #include "dysa/service/simulation_host.h"
 #include "dysa/v1/simulation.grpc.pb.h"
+#include "support/in_process_server.h"
 
 namespace dysa::service {
 namespace {
@@ -27,43 +28,20 @@ using v1::Simulation;
 
 constexpr uint64_t kLimit = 500;
 
-Scene SmallScene() {
-  Scene scene = LoadScene("seed_basic");
-  SetParam(scene.params, "particle_quantity", 10);  // 1000 particles
-  return scene;
-}
-
-class Fixture {
+// The test server with its frame limit lowered to kLimit.
+class Fixture : public testing::InProcessServer {
  public:
-  Fixture() {
-    HostOptions host_options;
-    host_options.start_paused = true;
-    host_options.solver_threads = 1;
-    host_options.max_frame_particles = kLimit;
-    ServerOptions server_options;
-    server_options.listen = "127.0.0.1:0";
-    host_ = std::make_unique<SimulationHost>(SmallScene(), host_options);
-    server_ = std::make_unique<Server>(*host_, server_options);
-    stub_ = Simulation::NewStub(grpc::CreateChannel("127.0.0.1:" + std::to_string(server_->port()),
-                                                    grpc::InsecureChannelCredentials()));
-  }
-  ~Fixture() {
-    server_.reset();
-    host_.reset();
-  }
-  Simulation::Stub& stub() { return *stub_; }
+  Fixture() : InProcessServer(LimitedHost()) {}
 
  private:
-  std::unique_ptr<SimulationHost> host_;
-  std::unique_ptr<Server> server_;
-  std::unique_ptr<Simulation::Stub> stub_;
+  static HostOptions LimitedHost() {
+    HostOptions options = testing::PausedHostOptions();
+    options.max_frame_particles = kLimit;
+    return options;
+  }
 };
 
-std::unique_ptr<grpc::ClientContext> Context() {
-  auto context = std::make_unique<grpc::ClientContext>();
-  context->set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(60));
-  return context;
-}
+using testing::Context;
 
 std::optional<codec::Frame> FirstFrame(grpc::ClientReader<v1::FrameMessage>& reader) {
   codec::FrameDecoder decoder;
@@ -138,7 +116,7 @@ TEST(FrameLimitTest, AStrideThatFitsIsServed) {
 }
 
 TEST(FrameLimitTest, TheSnapshotCopiesOnlyTheParticlesItsDetailSends) {
-  dysa::Simulation sim(SmallScene());
+  dysa::Simulation sim(testing::SmallSeedScene());
   sim.StepFrame();
   const size_t n = sim.particle_count();
   std::vector<float> positions(3 * n), velocities(3 * n);

@@ -15,44 +15,15 @@
 #include "dysa/service/server.h"
 #include "dysa/service/simulation_host.h"
 #include "dysa/v1/simulation.grpc.pb.h"
+#include "support/in_process_server.h"
 
 namespace dysa::service {
 namespace {
 
 using v1::Simulation;
 
-class Fixture {
- public:
-  Fixture() {
-    Scene scene = LoadScene("seed_basic");
-    SetParam(scene.params, "particle_quantity", 10);  // 1000 particles
-    HostOptions host_options;
-    host_options.start_paused = true;
-    host_options.solver_threads = 1;
-    ServerOptions server_options;
-    server_options.listen = "127.0.0.1:0";
-    host_ = std::make_unique<SimulationHost>(std::move(scene), host_options);
-    server_ = std::make_unique<Server>(*host_, server_options);
-    stub_ = Simulation::NewStub(grpc::CreateChannel("127.0.0.1:" + std::to_string(server_->port()),
-                                                    grpc::InsecureChannelCredentials()));
-  }
-  ~Fixture() {
-    server_.reset();
-    host_.reset();
-  }
-  Simulation::Stub& stub() { return *stub_; }
-
- private:
-  std::unique_ptr<SimulationHost> host_;
-  std::unique_ptr<Server> server_;
-  std::unique_ptr<Simulation::Stub> stub_;
-};
-
-std::unique_ptr<grpc::ClientContext> Context() {
-  auto context = std::make_unique<grpc::ClientContext>();
-  context->set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(60));
-  return context;
-}
+using Fixture = testing::InProcessServer;
+using testing::Context;
 
 v1::Status GetStatus(Simulation::Stub& stub) {
   v1::Status status;
