@@ -134,6 +134,15 @@ std::shared_ptr<Subscription> FrameHub::Subscribe(const SubscriptionOptions& req
   return subscription;
 }
 
+FrameHub::~FrameHub() {
+  std::vector<std::shared_ptr<Subscription>> left;
+  {
+    std::lock_guard lock(mu_);
+    left = subscriptions_;
+  }
+  for (const auto& s : left) Unsubscribe(s);
+}
+
 void FrameHub::Unsubscribe(const std::shared_ptr<Subscription>& subscription) {
   {
     std::lock_guard lock(subscription->listener_mu_);

@@ -135,6 +135,10 @@ class FrameHub {
   // `max_frame_particles`: the frame limit (kMaxFrameParticles; lower in tests).
   explicit FrameHub(size_t max_subscribers, uint64_t max_frame_particles = kMaxFrameParticles)
       : max_subscribers_(max_subscribers), max_frame_particles_(max_frame_particles) {}
+  // Unsubscribes whoever has not: a subscription and its group hold each other until then.
+  ~FrameHub();
+  FrameHub(const FrameHub&) = delete;
+  FrameHub& operator=(const FrameHub&) = delete;
 
   // Throws std::invalid_argument (bad options, naming the field) or SubscriberLimitError.
   // The subscriber's first frame is a keyframe; the hub asks for one (see set_frame_needed).
