@@ -42,18 +42,7 @@ class Fixture : public testing::InProcessServer {
 };
 
 using testing::Context;
-
-std::optional<codec::Frame> FirstFrame(grpc::ClientReader<v1::FrameMessage>& reader) {
-  codec::FrameDecoder decoder;
-  v1::FrameMessage message;
-  while (reader.Read(&message)) {
-    for (const std::string& chunk : message.chunks()) {
-      auto frame = decoder.AddChunk({reinterpret_cast<const uint8_t*>(chunk.data()), chunk.size()});
-      if (frame) return frame;
-    }
-  }
-  return std::nullopt;
-}
+using testing::FirstFrame;
 
 TEST(FrameLimitTest, AFullDetailStreamOverTheLimitIsRefusedNamingIt) {
   Fixture f;

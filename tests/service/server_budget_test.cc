@@ -24,24 +24,12 @@ using v1::Simulation;
 
 using Fixture = testing::InProcessServer;
 using testing::Context;
+using testing::FirstFrame;
 
 v1::Status GetStatus(Simulation::Stub& stub) {
   v1::Status status;
   EXPECT_TRUE(stub.GetStatus(Context().get(), {}, &status).ok());
   return status;
-}
-
-// The first complete frame of a stream.
-std::optional<codec::Frame> FirstFrame(grpc::ClientReader<v1::FrameMessage>& reader) {
-  codec::FrameDecoder decoder;
-  v1::FrameMessage message;
-  while (reader.Read(&message)) {
-    for (const std::string& chunk : message.chunks()) {
-      auto frame = decoder.AddChunk({reinterpret_cast<const uint8_t*>(chunk.data()), chunk.size()});
-      if (frame) return frame;
-    }
-  }
-  return std::nullopt;
 }
 
 TEST(ServerBudgetTest, AParticleBudgetGetsAnEvenSubsetThatNamesItsParticles) {

@@ -1,15 +1,17 @@
 // A dysa server inside the test process, on a free loopback port, with a stub to it: the
 // fixture of the service tests that talk real gRPC to one server (server_budget_test,
-// ack_frames_test, frame_limit_test).
+// ack_frames_test, frame_limit_test), and their helpers.
 #pragma once
 
 #include <grpcpp/grpcpp.h>
 
 #include <chrono>
 #include <memory>
+#include <optional>
 #include <string>
 #include <utility>
 
+#include "dysa/codec/frame_codec.h"
 #include "dysa/core/scene.h"
 #include "dysa/service/server.h"
 #include "dysa/service/simulation_host.h"
@@ -64,6 +66,19 @@ inline std::unique_ptr<grpc::ClientContext> Context() {
   auto context = std::make_unique<grpc::ClientContext>();
   context->set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(60));
   return context;
+}
+
+// The first complete frame of a stream (nullopt when the stream ends before one).
+inline std::optional<codec::Frame> FirstFrame(grpc::ClientReader<v1::FrameMessage>& reader) {
+  codec::FrameDecoder decoder;
+  v1::FrameMessage message;
+  while (reader.Read(&message)) {
+    for (const std::string& chunk : message.chunks()) {
+      auto frame = decoder.AddChunk({reinterpret_cast<const uint8_t*>(chunk.data()), chunk.size()});
+      if (frame) return frame;
+    }
+  }
+  return std::nullopt;
 }
 
 }  // namespace dysa::testing
