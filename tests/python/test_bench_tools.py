@@ -1,0 +1,101 @@
+"""Tests of two device-side helpers of the benchmarks (bench/README.md, "Martin & Moyce on one
+H100"): bench/partcsv_extremes.sh leaves bench/peer_compare.py's Martin & Moyce front exactly as
+it was, and bench/vtp_leaders.py finds the leading particle of each VTK frame and follows it."""
+
+import io
+import os
+import random
+import struct
+import subprocess
+import sys
+import tempfile
+import unittest
+from contextlib import redirect_stdout
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+sys.path.insert(0, os.path.join(ROOT, "bench"))
+import peer_compare as pc  # noqa: E402
+import vtp_leaders  # noqa: E402
+
+HEADER = ("Pos.x [m];Pos.y [m];Pos.z [m];Idp;Vel.x [m/s];Vel.y [m/s];Vel.z [m/s];"
+          "Rho [kg/m^3];Type;\n")
+
+
+class PartCsvExtremesTest(unittest.TestCase):
+    def test_the_front_is_unchanged_and_only_two_fluid_rows_stay(self):
+        with tempfile.TemporaryDirectory() as root:
+            os.makedirs(os.path.join(root, "data"))
+            with open(os.path.join(root, "Run.out"), "w") as f:
+                f.write("**2D-Simulation parameters:\nDp=0.001\nKernelH=0.0014\nTimePart=0.002\n")
+            rng = random.Random(7)
+            for k in range(5):
+                with open(os.path.join(root, "data", f"PartCsv_{k:04d}.csv"), "w") as f:
+                    f.write(HEADER)
+                    f.write("9.0;0;0;0;0;0;0;1000;0;\n")  # a wall particle beyond the fluid
+                    for i in range(200):
+                        x = rng.uniform(0.01, 0.05 + 0.01 * k)
+                        f.write(f"{x!r};{rng.random()!r};0;{i + 1};0;0;0;1000;3;\n")
+            before = pc.read_peer_front(root)
+            subprocess.run([os.path.join(ROOT, "bench", "partcsv_extremes.sh"), root], check=True)
+            after = pc.read_peer_front(root)
+            self.assertEqual(list(before[0]), list(after[0]))
+            self.assertEqual(list(before[1]), list(after[1]))
+            self.assertEqual(before[2:], after[2:])
+            with open(os.path.join(root, "data", "PartCsv_0003.csv")) as f:
+                lines = f.read().splitlines()
+            self.assertEqual(len(lines), 3)  # the header, the back and the front particle
+
+    def test_a_directory_without_parts_is_an_error(self):
+        with tempfile.TemporaryDirectory() as root:
+            proc = subprocess.run([os.path.join(ROOT, "bench", "partcsv_extremes.sh"), root],
+                                  capture_output=True, text=True)
+            self.assertEqual(proc.returncode, 2)
+            self.assertIn("no PartCsv", proc.stderr)
+
+
+def write_vtp(path, ids, positions, velocities, densities):
+    """A .vtp as the project's writer lays it out: raw appended arrays after a UInt64 count."""
+    arrays = [("UInt32", "id", 1, struct.pack(f"<{len(ids)}I", *ids)),
+              ("Float32", "velocity", 3, struct.pack(f"<{len(velocities)}f", *velocities)),
+              ("Float32", "density", 1, struct.pack(f"<{len(densities)}f", *densities)),
+              ("Float32", "pressure", 1, struct.pack(f"<{len(ids)}f", *([0.0] * len(ids)))),
+              ("Float32", "position", 3, struct.pack(f"<{len(positions)}f", *positions))]
+    head, blob = [], b""
+    for kind, name, components, data in arrays:
+        comp = f' NumberOfComponents="{components}"' if components > 1 else ""
+        head.append(f'<DataArray type="{kind}" Name="{name}"{comp} format="appended" '
+                    f'offset="{len(blob)}"/>')
+        blob += struct.pack("<Q", len(data)) + data
+    with open(path, "wb") as f:
+        f.write(("<VTKFile><PolyData><Piece>" + "".join(head) +
+                 "</Piece></PolyData>\n<AppendedData encoding=\"raw\">\n _").encode())
+        f.write(blob + b"\n</AppendedData></VTKFile>\n")
+
+
+class VtpLeadersTest(unittest.TestCase):
+    def test_leaders_and_the_last_leaders_history(self):
+        with tempfile.TemporaryDirectory() as root:
+            os.makedirs(os.path.join(root, "frames"))
+            # Particle 7 starts behind particle 3 and overtakes it in the second frame.
+            for n, (x3, x7) in enumerate([(0.5, 0.2), (0.6, 0.9)]):
+                write_vtp(os.path.join(root, "frames", f"frame_{n:06d}.vtp"), [3, 7],
+                          [x3, 0, 0, x7, 0.1, 0], [0] * 6, [1000 + n, 700])
+            out = io.StringIO()
+            with redirect_stdout(out):
+                vtp_leaders.main([root])
+            lines = out.getvalue().splitlines()
+            self.assertIn("rho min/max 700.0 1000.0 | lead: id 3 x 0.50000", lines[0])
+            self.assertIn("rho min/max 700.0 1001.0 | lead: id 7 x 0.90000", lines[1])
+            self.assertEqual(lines[2], "history of id 7")
+            self.assertIn("0 id 7 x 0.20000", lines[3])
+            self.assertIn("1 id 7 x 0.90000", lines[4])
+
+    def test_no_frames_names_the_directory(self):
+        with tempfile.TemporaryDirectory() as root:
+            with self.assertRaises(SystemExit) as e:
+                vtp_leaders.main([root])
+            self.assertIn("no .vtp files", str(e.exception.code))
+
+
+if __name__ == "__main__":
+    unittest.main()
