@@ -71,22 +71,31 @@ __device__ void ForEachPackedWithin(const DeviceGrid& grid, const float4* __rest
 }
 
 // Each boundary particle's pressure extrapolated from the fluid, and its p / rho^2 (its density
-// from its pressure through the inverse Tait equation) (ComputeBoundaryPressure).
+// from its pressure through the inverse Tait equation) (ComputeBoundaryPressure). The candidates
+// come from `packed` (one 16-byte load each, the same floats as f.x, f.y, f.z); a neighbour's
+// pressure and density are read only within the support. A wall particle without pressure (dry,
+// or next to a splash) skips the inverse Tait equation: rho_b = rho0 and p_b / rho_b^2 = 0
+// exactly, what the double pow would give.
 __global__ void BoundaryPressureKernel(DeviceGrid fluid_grid, DeviceGrid boundary_grid, Fluid f,
-                                       Boundary b, SphConstants c, float gravity) {
+                                       Boundary b, SphConstants c, PackedFluid packed,
+                                       float gravity) {
   const uint32_t k = blockIdx.x * blockDim.x + threadIdx.x;
   if (k >= b.n) return;
   const F3 x{b.x[k], b.y[k], b.z[k]};
   const F3 g{0, gravity, 0};
   float weights = 0, weighted = 0;
-  ForEachWithin(fluid_grid, {f.x, f.y, f.z}, boundary_grid.SortedCell(k), x, c.support,
-                [&](uint32_t j, F3 xbf, float r) {
-                  const float w = KernelW(r, c);
-                  weights += w;
-                  weighted += (f.pressure[j] + f.density[j] * Dot(g, xbf)) * w;
-                });
+  ForEachPackedWithin(fluid_grid, packed.position, boundary_grid.SortedCell(k), x, c.support,
+                      [&](uint32_t j, F3 xbf, float r, float4) {
+                        const float w = KernelW(r, c);
+                        weights += w;
+                        weighted += (f.pressure[j] + f.density[j] * Dot(g, xbf)) * w;
+                      });
   const float pressure = weights > 0 ? weighted / weights : 0.0f;
   b.pressure[k] = pressure > 0 ? pressure : 0.0f;
+  if (b.pressure[k] == 0) {
+    b.p_over_rho2[k] = 0;
+    return;
+  }
   const double pb = b.pressure[k];
   const double rho = c.rest_density * pow(pb / c.stiffness + 1, 1 / 7.0);
   b.p_over_rho2[k] = float(pb / (rho * rho));

@@ -346,7 +346,8 @@ void WcsphPipeline::Impl::ForcePasses(float gravity, float hydrostatic,
   m.carried_ready = true;
   begin_pass();  // boundary_pressure (and the no-slip walls' extrapolated velocity)
   if (m.nb > 0) {
-    BoundaryPressureKernel<<<boundary_blocks, kBlock, 0, s>>>(grid, bgrid, f, b, c, gravity);
+    BoundaryPressureKernel<<<boundary_blocks, kBlock, 0, s>>>(grid, bgrid, f, b, c, packed,
+                                                              gravity);
     if (cfg.wall_viscosity) {
       BoundaryVelocityKernel<<<boundary_blocks, kBlock, 0, s>>>(grid, bgrid, f, b, c);
     }

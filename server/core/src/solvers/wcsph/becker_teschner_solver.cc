@@ -113,7 +113,12 @@ void ComputeBoundaryPressure(const Model& model, BeckerTeschnerData& data, State
                   });
     const Real pressure = weights > 0 ? weighted / weights : Real(0);
     data.boundary_pressure[b] = pressure > 0 ? pressure : Real(0);
-    // p_b / rho_b^2, rho_b from p_b by the inverse Tait equation.
+    // p_b / rho_b^2, rho_b from p_b by the inverse Tait equation; 0 without pressure (rho_b =
+    // rho0 exactly, what pow would give, without its cost on every dry wall particle).
+    if (data.boundary_pressure[b] == 0) {
+      data.boundary_p_over_rho2[b] = 0;
+      continue;
+    }
     const double pb = data.boundary_pressure[b];
     const double rho = rho0 * std::pow(pb / stiffness + 1, 1 / kTaitExponent);
     data.boundary_p_over_rho2[b] = Real(pb / (rho * rho));
