@@ -424,6 +424,17 @@ int main(int argc, char** argv) {
       ->add_option("--vtk-every", run.vtk_every,
                    "Write a ParaView frame (OUT/frames/*.vtp, OUT/frames.pvd) every K frames")
       ->check(CLI::Range(1, 1 << 30));
+  double vtk_to = 0;
+  run_cmd
+      ->add_option("--vtk-from", run.vtk_from,
+                   "Simulated seconds before which no ParaView frame is written (default 0)")
+      ->check(CLI::Range(0.0, 1e6));
+  auto* vtk_to_opt =
+      run_cmd
+          ->add_option("--vtk-to", vtk_to,
+                       "Simulated seconds after which no ParaView frame is written (default: the "
+                       "end)")
+          ->check(CLI::Range(0.0, 1e6));
   run_cmd->add_flag("--hash", run.print_hash,
                     "Print the final state hash (equal hashes: bit-identical states; the same "
                     "under mpirun at any rank count)");
@@ -474,6 +485,7 @@ int main(int argc, char** argv) {
   if (run_cmd->parsed()) {
     if (*end_opt) run.end_time = end_time;
     if (*steps_opt) run.steps = steps;
+    if (*vtk_to_opt) run.vtk_to = vtk_to;
     run.progress = isatty(STDERR_FILENO) != 0;
     try {
       run.device = dysa::ParseDevice(run_device);

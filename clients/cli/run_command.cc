@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
+#include <limits>
 #include <ostream>
 #include <sstream>
 
@@ -59,6 +60,10 @@ void PrintProfile(const Simulation& sim, double wall_s, uint64_t steps, int thre
 }  // namespace
 
 void RunOffline(const RunOptions& options, std::ostream& out, std::ostream& progress) {
+  if (options.vtk_to && *options.vtk_to < options.vtk_from) {
+    throw ConfigError("--vtk-to", "must be at least --vtk-from (" + Number(options.vtk_from) +
+                                      " s), got " + Number(*options.vtk_to) + " s");
+  }
   Scene scene = LoadScene(options.scene);
   for (const std::string& assignment : options.sets) SetParamFromString(scene.params, assignment);
   BlockParticleCounts(scene, scene.params);
@@ -90,11 +95,19 @@ void RunOffline(const RunOptions& options, std::ostream& out, std::ostream& prog
                         : "until t = " + Number(end_time) + " s")
       << ", output in " << dir.string() << "\n";
 
-  probes.Write(sim.time(), sim.step(), sim.EvaluateProbes(sc.probes));
-  if (vtk) vtk->WriteFrame(sim.state().particles, 0.0);
-  double next_output = interval;
+  // Frames only within [vtk_from, vtk_to] (a fine run's few milliseconds of interest would
+  // otherwise write hundreds of MB a frame for the whole run).
   const double vtk_interval = frame_time * std::max(options.vtk_every, 1);
-  double next_vtk = vtk_interval;
+  const double vtk_to = options.vtk_to.value_or(std::numeric_limits<double>::infinity());
+  auto vtk_wanted = [&](double time) {
+    const double slack = 1e-9 * vtk_interval;
+    return time + slack >= options.vtk_from && time - slack <= vtk_to;
+  };
+  probes.Write(sim.time(), sim.step(), sim.EvaluateProbes(sc.probes));
+  if (vtk && vtk_wanted(0.0)) vtk->WriteFrame(sim.state().particles, 0.0);
+  double next_output = interval;
+  // The first multiple of the interval at or after vtk_from; adaptive steps land on it.
+  double next_vtk = vtk_interval * std::max(1.0, std::ceil(options.vtk_from / vtk_interval - 1e-9));
   const auto start = Clock::now();
   auto last_progress = start;
   // Per step: the cheap accessors only (on a GPU, state() copies every particle array back);
@@ -106,7 +119,7 @@ void RunOffline(const RunOptions& options, std::ostream& out, std::ostream& prog
   while (!done()) {
     if (adaptive) {
       double until = std::min(next_output, options.steps ? next_output : end_time);
-      if (vtk) until = std::min(until, next_vtk);
+      if (vtk && next_vtk <= vtk_to * (1 + 1e-9)) until = std::min(until, next_vtk);
       sim.Step(until);
     } else {
       sim.Step();
@@ -119,12 +132,13 @@ void RunOffline(const RunOptions& options, std::ostream& out, std::ostream& prog
     }
     if (adaptive) {
       if (vtk && time + 1e-9 * vtk_interval >= next_vtk) {
-        vtk->WriteFrame(sim.state().particles, time);
+        if (vtk_wanted(time)) vtk->WriteFrame(sim.state().particles, time);
         while (next_vtk <= time + 1e-9 * vtk_interval) next_vtk += vtk_interval;
       }
     } else {
       const uint64_t ipf = uint64_t(sim.params().iterations_per_frame);
-      if (vtk && step % ipf == 0 && (step / ipf) % uint64_t(options.vtk_every) == 0) {
+      if (vtk && step % ipf == 0 && (step / ipf) % uint64_t(options.vtk_every) == 0 &&
+          vtk_wanted(time)) {
         vtk->WriteFrame(sim.state().particles, time);
       }
     }

@@ -19,9 +19,11 @@ struct RunOptions {
   int threads = 0;                 // 0: OpenMP's default
   Device device;                   // where the steps run (--device): the CPU or a CUDA GPU
   std::string out_dir = "out";
-  int vtk_every = 0;        // write a VTK frame every K frames; 0: none
-  bool progress = false;    // a live progress line on stderr
-  bool print_hash = false;  // print the final StateHash (--hash)
+  int vtk_every = 0;             // write a VTK frame every K frames; 0: none
+  double vtk_from = 0;           // s: no VTK frame before this simulated time
+  std::optional<double> vtk_to;  // s: none after it (default: until the end)
+  bool progress = false;         // a live progress line on stderr
+  bool print_hash = false;       // print the final StateHash (--hash)
 };
 
 // Runs the scene and writes OUT/probes.csv (and VTK frames); prints the per-pass timing table

@@ -163,6 +163,41 @@ TEST(RunOfflineTest, VtkEveryTwoFramesWritesTheExpectedFrames) {
   EXPECT_THAT(out.str(), HasSubstr("frames.pvd"));
 }
 
+// seed_basic's frames last 1/60 s (3 steps): the 12 steps' frames end at 1/60 ... 4/60 s.
+TEST(RunOfflineTest, VtkFromAndToWriteOnlyTheFramesWithinTheWindow) {
+  TempDir dir;
+  RunOptions options = SmallRun(dir.path());
+  options.vtk_every = 1;
+  options.vtk_from = 0.02;  // after frame 1
+  options.vtk_to = 0.04;    // before frame 3
+  std::ostringstream out, progress;
+  RunOffline(options, out, progress);
+  const std::string pvd = ReadFile(fs::path(options.out_dir) / "frames.pvd");
+  std::vector<std::string> times;
+  for (size_t at = pvd.find("timestep=\""); at != std::string::npos;
+       at = pvd.find("timestep=\"", at + 1)) {
+    times.push_back(pvd.substr(at + 10, pvd.find('"', at + 10) - at - 10));
+  }
+  ASSERT_EQ(times.size(), 1u) << pvd;
+  EXPECT_NEAR(std::stod(times[0]), 2.0 / 60, 1e-9);
+}
+
+TEST(RunOfflineTest, VtkToBeforeVtkFromThrowsConfigErrorNamingIt) {
+  TempDir dir;
+  RunOptions options = SmallRun(dir.path());
+  options.vtk_every = 1;
+  options.vtk_from = 0.04;
+  options.vtk_to = 0.02;
+  std::ostringstream out, progress;
+  try {
+    RunOffline(options, out, progress);
+    FAIL() << "expected ConfigError";
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.field(), "--vtk-to");
+    EXPECT_THAT(e.what(), HasSubstr("--vtk-from"));
+  }
+}
+
 TEST(RunOfflineTest, ThreadsOptionGivesTheSameProbes) {
   TempDir dir;
   RunOptions one = SmallRun(dir.path());
