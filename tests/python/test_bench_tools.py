@@ -1,6 +1,7 @@
-"""Tests of two device-side helpers of the benchmarks (bench/README.md, "Martin & Moyce on one
+"""Tests of the device-side helpers of the benchmarks (bench/README.md, "Martin & Moyce on one
 H100"): bench/partcsv_extremes.sh leaves bench/peer_compare.py's Martin & Moyce front exactly as
-it was, and bench/vtp_leaders.py finds the leading particle of each VTK frame and follows it."""
+it was, bench/vtp_leaders.py finds the leading particle of each VTK frame and follows it, and
+bench/impact_front.py measures the tongue in front of a face (docs/validation.md)."""
 
 import io
 import os
@@ -14,6 +15,7 @@ from contextlib import redirect_stdout
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 sys.path.insert(0, os.path.join(ROOT, "bench"))
+import impact_front  # noqa: E402
 import peer_compare as pc  # noqa: E402
 import vtp_leaders  # noqa: E402
 
@@ -95,6 +97,62 @@ class VtpLeadersTest(unittest.TestCase):
             with self.assertRaises(SystemExit) as e:
                 vtp_leaders.main([root])
             self.assertIn("no .vtp files", str(e.exception.code))
+
+
+class ImpactFrontTest(unittest.TestCase):
+    def test_a_wedge_tongue_reads_its_tip_depth_speed_and_pressure(self):
+        dp, face, half = 0.01, 0.8, 0.02
+        with tempfile.TemporaryDirectory() as root:
+            os.makedirs(os.path.join(root, "frames"))
+            # A wedge: one layer at the tip (3 dp from the face), one more per spacing behind it,
+            # 4 particles across the slab; moving at 3 m/s towards -x. One particle outside the
+            # slab (z) and one behind the face (x < face) must not count.
+            ids, pos, vel, p = [], [], [], []
+            for n in range(5):
+                for layer in range(n + 1):
+                    for across in range(4):
+                        ids.append(len(ids))
+                        pos += [face + (3 + n + 0.5) * dp, (layer + 0.5) * dp,
+                                0.5 - half + (across + 0.5) * dp]
+                        vel += [-3.0, 0.0, 0.0]
+                        p.append(1000.0 * n)
+            for x, z in ((face + 0.035, 0.7), (face - 0.01, 0.5)):
+                ids.append(len(ids))
+                pos += [x, 0.005, z]
+                vel += [-9.0, 0.0, 0.0]
+                p.append(1e6)
+            write_vtp(os.path.join(root, "frames", "frame_000000.vtp"), ids, pos, vel,
+                      [1000.0] * len(ids))
+            # write_vtp's arrays hold zero pressure: put this test's pressures in instead.
+            frame = vtp_leaders.read_vtp(os.path.join(root, "frames", "frame_000000.vtp"))
+            frame["pressure"] = p
+            with open(os.path.join(root, "frames.pvd"), "w") as f:
+                f.write('<VTKFile><Collection>\n<DataSet timestep="0.41" group="" part="0" '
+                        'file="frames/frame_000000.vtp"/>\n</Collection></VTKFile>\n')
+            bins = impact_front.profile(frame, dp, face, 0.5, half, 0.1)
+            self.assertEqual([b[0] for b in bins[:9]], [0, 0, 0, 4, 8, 12, 16, 20, 0])
+            self.assertAlmostEqual(bins[3][2] / bins[3][0], 3.0)
+            self.assertEqual(bins[7][3], 4000.0)
+            self.assertAlmostEqual(bins[5][1], 2.5 * dp, places=6)
+            out = io.StringIO()
+            csv_path = os.path.join(root, "front.csv")
+            with redirect_stdout(out):
+                impact_front.main([root, "--dp", str(dp), "--face-x", str(face), "--z", "0.5",
+                                   "--half-width", str(half), "--reach", "0.1", "--csv",
+                                   csv_path])
+            row = out.getvalue().splitlines()[1].split()
+            self.assertEqual(row[0], "0.4100")
+            self.assertEqual(row[1], "0.0300")  # the tip, 3 spacings from the face
+            # Depth = count dp^3 / (dp 2 half): one layer at the tip, 3 and 5 behind it.
+            self.assertEqual(row[2:5], ["0.0100", "0.0300", "0.0500"])
+            with open(csv_path) as f:
+                self.assertEqual(len(f.read().splitlines()), 1 + 10)
+
+    def test_no_series_names_the_directory(self):
+        with tempfile.TemporaryDirectory() as root:
+            with self.assertRaises(SystemExit) as e:
+                impact_front.main([root, "--dp", "0.01"])
+            self.assertIn("no frames.pvd", str(e.exception.code))
 
 
 if __name__ == "__main__":

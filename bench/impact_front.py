@@ -1,0 +1,101 @@
+#!/usr/bin/env python3
+"""The water's tongue in front of a wall face, frame by frame: how thick, how fast and how blunt
+the front is that strikes a pressure sensor (docs/validation.md, "What is wrong at impact").
+
+  bench/impact_front.py OUT_DIR --dp DP [--face-x 0.8245] [--z 0.471] [--half-width 0.02]
+                        [--reach 0.2] [--csv FILE]
+
+Reads OUT_DIR/frames.pvd and its .vtp files (`dysa run --vtk-every N --vtk-from T0 --vtk-to T1
+--out OUT_DIR`). The fluid comes from +x towards the face at x = face-x (SPHERIC Test 2's box).
+In the slab |z - z_sensor| <= half-width, the particles within `reach` of the face are binned by
+their distance to it, one spacing per bin; per bin: the depth the particles' rest volume makes
+(count dp^3 / (dp 2 half-width): spray counts for its water only), the top particle's height,
+the mean velocity towards the face and the largest pressure. Per frame it prints the tip (the
+particle nearest the face) and the depth at the tip and 2, 4 and 8 spacings behind it: a tongue
+whose depth at its tip is already that of its body strikes with all of it at once. Plain Python
+(no numpy), so that it runs on the GPU box next to the frames.
+"""
+
+import argparse
+import csv
+import os
+import re
+import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from vtp_leaders import read_vtp  # noqa: E402
+
+_DATASET = re.compile(r'<DataSet timestep="([^"]+)"[^>]*file="([^"]+)"')
+
+
+def frames_of(out_dir):
+    """(time, path) of each frame named by OUT_DIR/frames.pvd, in time order."""
+    pvd = os.path.join(out_dir, "frames.pvd")
+    if not os.path.exists(pvd):
+        sys.exit(f"{out_dir}: no frames.pvd (dysa run --vtk-every N --out DIR)")
+    text = open(pvd).read()
+    found = [(float(t), os.path.join(out_dir, f)) for t, f in _DATASET.findall(text)]
+    if not found:
+        sys.exit(f"{pvd}: no DataSet entries")
+    return sorted(found)
+
+
+def profile(frame, dp, face_x, z, half_width, reach):
+    """Per bin of one spacing from the face: [count, top y, sum of vx towards the face, max p]."""
+    bins = [[0, 0.0, 0.0, 0.0] for _ in range(int(round(reach / dp)))]
+    x, v, p = frame["position"], frame["velocity"], frame["pressure"]
+    for k in range(len(frame["id"])):
+        d = x[3 * k] - face_x
+        if d < 0 or d >= reach or abs(x[3 * k + 2] - z) > half_width:
+            continue
+        b = bins[min(int(d / dp), len(bins) - 1)]
+        b[0] += 1
+        b[1] = max(b[1], x[3 * k + 1])
+        b[2] += -v[3 * k]
+        b[3] = max(b[3], p[k])
+    return bins
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("out_dir")
+    parser.add_argument("--dp", type=float, required=True, help="particle spacing, m")
+    parser.add_argument("--face-x", type=float, default=0.8245, help="the face's x, m")
+    parser.add_argument("--z", type=float, default=0.471, help="the sensor's z, m")
+    parser.add_argument("--half-width", type=float, default=0.02, help="slab half-width, m")
+    parser.add_argument("--reach", type=float, default=0.2, help="distance from the face, m")
+    parser.add_argument("--csv", help="write every bin of every frame here")
+    args = parser.parse_args(argv)
+    if args.dp <= 0 or args.half_width <= 0 or args.reach < args.dp:
+        sys.exit("--dp and --half-width must be > 0 and --reach at least --dp")
+    area = args.dp * 2 * args.half_width  # a bin's footprint across the slab
+    rows = []
+    print("t_s  tip_m  depth at tip / +2 / +4 / +8 dp (m)  speed at tip (m/s)  max p (kPa)")
+    for t, path in frames_of(args.out_dir):
+        bins = profile(read_vtp(path), args.dp, args.face_x, args.z, args.half_width, args.reach)
+        depth = [b[0] * args.dp ** 3 / area for b in bins]
+        for n, b in enumerate(bins):
+            rows.append((t, (n + 0.5) * args.dp, depth[n], b[1], b[2] / b[0] if b[0] else 0.0,
+                         b[3]))
+        wet = [n for n, b in enumerate(bins) if b[0] > 0]
+        if not wet:
+            print(f"{t:.4f}  dry")
+            continue
+        tip = wet[0]
+
+        def at(n):
+            return depth[n] if n < len(depth) else float("nan")
+
+        print(f"{t:.4f}  {tip * args.dp:.4f}  {at(tip):.4f} {at(tip + 2):.4f} {at(tip + 4):.4f} "
+              f"{at(tip + 8):.4f}  {bins[tip][2] / bins[tip][0]:.2f}  "
+              f"{max(b[3] for b in bins) / 1000:.1f}")
+    if args.csv:
+        with open(args.csv, "w", newline="") as f:
+            w = csv.writer(f)
+            w.writerow(["t_s", "distance_m", "depth_m", "top_y_m", "speed_to_face_m_s",
+                        "max_pressure_pa"])
+            w.writerows(rows)
+
+
+if __name__ == "__main__":
+    main()
