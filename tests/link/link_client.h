@@ -52,10 +52,17 @@ inline LinkFigures RunLinkClient(const LinkRun& run, std::string& error) {
     double detail, fps, bytes_per_s, age_s, link, particles, server_fps;
   };
   std::vector<Sample> samples;
+  // The link rate while settling (printed, not checked): the highest, and when.
+  double early_link_max = 0, early_link_max_at_s = 0;
   std::atomic<bool> done{false};
   std::thread poller([&] {
     while (!done && since() < end_s) {
       const auto status = soak::GetStatus(*status_stub, 2);
+      if (since() < run.settle_s && status && status->streams_size() == 1 &&
+          status->streams(0).link_bytes_per_second() > early_link_max) {
+        early_link_max = status->streams(0).link_bytes_per_second();
+        early_link_max_at_s = since();
+      }
       if (since() >= run.settle_s && status && status->streams_size() == 1) {
         const auto& s = status->streams(0);
         samples.push_back({s.detail(), s.frames_per_second(), s.bytes_per_second(), s.age_s(),
@@ -103,6 +110,8 @@ inline LinkFigures RunLinkClient(const LinkRun& run, std::string& error) {
   f["client_latency_max_s"] = max_latency;
   f["client_gap_max_s"] = max_gap;
   f["status_samples"] = double(samples.size());
+  f["settling_link_bytes_per_s_max"] = early_link_max;
+  f["settling_link_bytes_per_s_max_at_s"] = early_link_max_at_s;
   if (samples.empty()) return f;
   const auto stat = [&](const std::string& name, double Sample::*field) {
     double lo = samples[0].*field, hi = lo, sum = 0;

@@ -54,7 +54,9 @@ inline int RunCommand(const std::vector<std::string>& argv, std::string& output)
 class LinkNamespace {
  public:
   // A namespace named `name` whose `lo` has MTU 1500 (loopback's 64 KiB packets would exceed the
-  // bucket) and a token bucket of `rate` (tc's syntax: "100mbit", "1gbit").
+  // bucket) and a token bucket of `rate` (tc's syntax: "100mbit", "1gbit"). An empty `rate`: an
+  // unshaped namespace (its lo up as it comes, no qdisc), for a server that a relay
+  // (delay_relay.h) joins to a shaped one.
   LinkNamespace(const std::string& name, const std::string& rate) : name_(name) {
     skip_reason_ = Setup(rate);
     available_ = skip_reason_.empty();
@@ -104,6 +106,12 @@ class LinkNamespace {
       return "`ip netns add` failed: " + output;
     }
     created_ = true;
+    if (rate.empty()) {
+      if (Exec({ip_, "link", "set", "lo", "up"}, output) != 0) {
+        return "cannot bring up the namespace's lo: " + output;
+      }
+      return "";
+    }
     if (Exec({ip_, "link", "set", "lo", "mtu", "1500", "up"}, output) != 0) {
       return "cannot bring up the namespace's lo at MTU 1500: " + output;
     }

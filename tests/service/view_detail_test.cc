@@ -1,18 +1,25 @@
 // View-dependent detail (view_detail.h): the particles in view first and denser near the camera,
 // exactly the budget, nested and stable subsets, range errors for bad cameras; and through the
 // FrameHub, the progressive completion of a republished frame, which assembles bit-exactly into
-// the full-detail frame within a bounded number of frames.
+// the full-detail frame within a bounded number of frames; and setting a camera sends the view's
+// subset once (one keyframe request), then only refinements, also with a publishing thread that
+// answers each request as a paused server does.
 #include "dysa/service/view_detail.h"
 
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <cmath>
+#include <condition_variable>
 #include <cstring>
+#include <functional>
+#include <mutex>
 #include <random>
 #include <stdexcept>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "dysa/codec/frame_merge.h"
@@ -240,6 +247,142 @@ TEST(ViewDetail, RepublishedFramesCompleteTheShownFrameBitExactly) {
   ASSERT_EQ(shown->count, n);
   for (uint32_t k = 0; k < n; ++k) ASSERT_EQ(shown->ids[k], k);
   EXPECT_EQ(std::memcmp(shown->positions.data(), full->positions.data(), 12 * n), 0);
+}
+
+TEST(ViewDetail, SettingACameraAsksForOneKeyframe) {
+  FrameHub hub(4);
+  std::atomic<int> needed{0};
+  hub.set_frame_needed([&] { ++needed; });
+  Listener l;
+  SubscriptionOptions o;
+  o.budget = {.particles_per_frame = 500};
+  auto s = hub.Subscribe(o, &l);
+  const FrameSnapshot snapshot = Snapshot(3, Cloud(4000));
+  hub.Publish(snapshot, true, false);
+  ASSERT_TRUE(s->Take(nullptr));
+  // The first camera moves the stream to a view group of its own: one request, not one for the
+  // move and another for the view (a publish between the two sent the subset's keyframe twice).
+  int before = needed;
+  hub.SetStreamView(s->id(), NarrowView());
+  EXPECT_EQ(needed, before + 1) << "one keyframe request for the first camera";
+  // A new camera on the same group: one request too.
+  StreamView v = NarrowView();
+  v.eye = {-3, 0.5, 0};
+  before = needed;
+  hub.SetStreamView(s->id(), v);
+  EXPECT_EQ(needed, before + 1) << "one keyframe request for a new camera";
+  // Each is answered by one keyframe of the view's subset.
+  hub.Publish(snapshot, true, false);
+  auto frame = s->Take(nullptr);
+  ASSERT_TRUE(frame);
+  EXPECT_TRUE(frame->keyframe);
+  EXPECT_FALSE(frame->refines);
+}
+
+// A paused server: each frame request (set_frame_needed) republishes the shown frame on a thread
+// of its own, as SimulationHost does (requests that come together are one publish). After each
+// publish the subscriber takes its frame and reports it delivered, which asks for the next
+// refinement; `frames` records what it took.
+class PausedServer {
+ public:
+  struct Taken {
+    bool keyframe, refines, partial;
+  };
+  PausedServer(FrameHub& hub, FrameSnapshot snapshot)
+      : hub_(hub), snapshot_(std::move(snapshot)), thread_([this] { Loop(); }) {}
+  ~PausedServer() {
+    {
+      std::lock_guard lock(mu_);
+      stop_ = true;
+    }
+    cv_.notify_all();
+    thread_.join();
+  }
+  void Request() {
+    {
+      std::lock_guard lock(mu_);
+      requested_ = true;
+    }
+    cv_.notify_all();
+  }
+  void Watch(std::shared_ptr<Subscription> s) {
+    std::lock_guard lock(mu_);
+    watched_ = std::move(s);
+  }
+  // Waits until `done(frames)` holds (5 s at most); the frames taken so far.
+  std::vector<Taken> WaitFor(const std::function<bool(const std::vector<Taken>&)>& done) {
+    std::unique_lock lock(mu_);
+    cv_.wait_for(lock, std::chrono::seconds(5), [&] { return done(frames_); });
+    return frames_;
+  }
+
+ private:
+  void Loop() {
+    for (;;) {
+      std::shared_ptr<Subscription> s;
+      {
+        std::unique_lock lock(mu_);
+        cv_.wait(lock, [&] { return stop_ || requested_; });
+        if (stop_) return;
+        requested_ = false;
+        s = watched_;
+      }
+      hub_.Publish(snapshot_, true, false);
+      if (!s) continue;
+      auto frame = s->Take(nullptr);
+      if (!frame) continue;
+      {
+        std::lock_guard lock(mu_);
+        frames_.push_back({frame->keyframe, frame->refines, frame->partial});
+      }
+      cv_.notify_all();
+      hub_.BytesDelivered(s, SteadySeconds(), frame->bytes, true);
+    }
+  }
+
+  FrameHub& hub_;
+  const FrameSnapshot snapshot_;
+  std::mutex mu_;
+  std::condition_variable cv_;
+  bool stop_ = false, requested_ = false;
+  std::shared_ptr<Subscription> watched_;
+  std::vector<Taken> frames_;
+  std::thread thread_;
+};
+
+TEST(ViewDetail, SettingACameraWhilePausedSendsTheSubsetOnceThenOnlyRefinements) {
+  // The repeat needed a publish to come between two keyframe requests: a few rounds, each a
+  // fresh hub, stream and camera.
+  for (int round = 0; round < 10; ++round) {
+    FrameHub hub(4);
+    PausedServer server(hub, Snapshot(3, Cloud(4000, 7 + round)));
+    hub.set_frame_needed([&] { server.Request(); });
+    Listener l;
+    SubscriptionOptions o;
+    o.budget = {.particles_per_frame = 500};
+    auto s = hub.Subscribe(o, &l);
+    server.Watch(s);
+    server.Request();
+    using Taken = PausedServer::Taken;
+    ASSERT_EQ(server.WaitFor([](const std::vector<Taken>& f) { return !f.empty(); }).size(), 1u)
+        << "the stream's first frame";
+    hub.SetStreamView(s->id(), NarrowView());
+    // The view's frames: its subset (partial), then refinements until the frame is complete.
+    const std::vector<Taken> frames = server.WaitFor([](const std::vector<Taken>& f) {
+      return f.size() > 1 && !f.back().partial && f.back().refines;
+    });
+    ASSERT_GE(frames.size(), 3u) << "round " << round;
+    EXPECT_TRUE(frames[0].keyframe && !frames[0].partial) << "the plain stream's frame";
+    EXPECT_TRUE(frames[1].keyframe && frames[1].partial && !frames[1].refines)
+        << "round " << round << ": the view's subset";
+    for (size_t k = 2; k < frames.size(); ++k) {
+      EXPECT_TRUE(frames[k].refines) << "round " << round << ", frame " << k
+                                     << ": only refinements after the subset, not the subset again";
+    }
+    ASSERT_FALSE(frames.back().partial) << "round " << round << ": the frame completes";
+    server.Watch(nullptr);
+    hub.Unsubscribe(s);
+  }
 }
 
 }  // namespace

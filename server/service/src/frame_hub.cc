@@ -384,9 +384,13 @@ void FrameHub::SetStreamView(uint64_t stream_id, const StreamView& view) {
     std::lock_guard frame_lock(s->frame_mu_);
     group = s->group_;
   }
+  // The new view's subset goes out now, also while paused: one keyframe request. A stream that
+  // moved to its view's group has it from RegroupLocked; one already there (a new camera) asks
+  // here. Asking twice sent the subset's keyframe twice whenever a publish came between the two
+  // requests (it takes the first, the second asks again).
+  const bool moved = old_group != nullptr;
   if (old_group) Release(std::move(old_group));  // (a null one would trim the heap for nothing)
-  // The new view's subset goes out now, also while paused.
-  if (group) RequestKeyframe(*group);
+  if (group && !moved) RequestKeyframe(*group);
 }
 
 void FrameHub::MaybeRefine(const std::shared_ptr<Subscription>& s) {
