@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # On a machine with an NVIDIA GPU: builds with the CUDA backend, runs the GPU tests
 # (ctest -L gpu, which must run there, not skip), the GPU benchmarks (gpu_bench for the three
-# solvers, server_bench --part gpu), and `dysa validate` (--quick, and at the default
+# solvers, server_bench --part gpu and --part gpu_watch), and `dysa validate` (--quick, and at the default
 # resolutions without --quick) on the CPU and on the GPU, whose errors must agree within 0.2
 # points (scripts/compare-validation.py). Everything is
 # written under OUT_DIR, each file named after the GPU.
@@ -83,6 +83,9 @@ export OMP_WAIT_POLICY=PASSIVE
   --out "$out" 2>&1 | tee "$out/gpu_bench_$gpu.txt" || status=1
 "$build/bench/server_bench" --part gpu --gpu-sizes "$server_sizes" --seconds 5 --out "$out" 2>&1 |
   tee "$out/server_gpu_$gpu.txt" || status=1
+# What a budgeted stream watching the run costs its step rate (the subset chosen on the GPU).
+"$build/bench/server_bench" --part gpu_watch --gpu-sizes "$server_sizes" --watch-percent 1 \
+  --watch-rounds 3 --seconds 5 --out "$out" 2>&1 | tee "$out/server_gpu_watch_$gpu.txt" || status=1
 
 # The validation cases on both devices: the same errors within 0.2 points. A missed accuracy
 # target (dysa validate's exit status) is the solver's, on both devices alike, not the GPU's:

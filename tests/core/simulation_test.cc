@@ -17,8 +17,10 @@
 #include <utility>
 #include <vector>
 
+#include "dysa/codec/detail_subset.h"
 #include "dysa/core/params.h"
 #include "dysa/core/scene.h"
+#include "support/rank_subset_check.h"
 #include "support/with_threads.h"
 
 namespace dysa {
@@ -240,6 +242,32 @@ TEST(SimulationTest, ReadParticlesByIdOrdersByIdAndChecksSizes) {
   std::vector<float> positions_only(3 * n);
   sim.ReadParticlesById({positions_only, {}, {}});
   EXPECT_EQ(positions_only, position);
+}
+
+// A level of detail's subset (the server's budgeted frames) is the codec's host-side selection
+// exactly, with a full read's bits, for nested thresholds and each field alone.
+TEST(SimulationTest, ReadParticlesByIdBelowRankIsTheHostSelection) {
+  Simulation sim(BasicScene(8));
+  for (int i = 0; i < 10; ++i) sim.Step();
+  for (double fraction : {0.01, 0.2, 0.5, 0.999}) {
+    testing::ExpectSubsetIsTheHostSelection(sim, codec::DetailThreshold(fraction));
+  }
+  const size_t n = sim.particle_count();
+  const uint32_t threshold = codec::DetailThreshold(0.3);
+  const testing::SubsetRead all = testing::ReadSubset(sim, threshold);
+  std::vector<float> positions_only(3 * n, testing::kUnwritten);
+  EXPECT_EQ(sim.ReadParticlesByIdBelowRank(threshold, {positions_only, {}, {}}), all.written);
+  EXPECT_EQ(positions_only, all.position);
+  std::vector<float> densities_only(n, testing::kUnwritten);
+  sim.ReadParticlesByIdBelowRank(threshold, {{}, {}, densities_only});
+  EXPECT_EQ(densities_only, all.density);
+  // Threshold 0 keeps every particle, as the codec's.
+  std::vector<float> full(3 * n), every(3 * n);
+  sim.ReadParticlesById({full, {}, {}});
+  EXPECT_EQ(sim.ReadParticlesByIdBelowRank(0, {every, {}, {}}), n);
+  EXPECT_EQ(every, full);
+  std::vector<float> wrong(n);
+  EXPECT_THROW(sim.ReadParticlesByIdBelowRank(threshold, {wrong, {}, {}}), std::invalid_argument);
 }
 
 TEST(SimulationTest, SpawnIsDeterministicAndIdsAreAPermutation) {

@@ -2,15 +2,17 @@
 // real gRPC on a free loopback port: step back on the GPU (checkpoints downloaded from device
 // memory, restored into it, and frames re-simulated there) lands on the states of the first
 // pass bit for bit, for the seed and wcsph solvers; GetStatus names the GPU; frames gathered
-// from the GPU stream the simulation's particles in id order; a scene whose solver has no GPU
-// backend is refused naming the device, and the old scene runs on. ctest label `gpu`: every test
-// skips, printing why, where no CUDA GPU can run (a build without CUDA, no driver, no GPU).
+// from the GPU stream the simulation's particles in id order, and a budgeted stream's subset is
+// chosen on the GPU (only its particles read); a scene whose solver has no GPU backend is
+// refused naming the device, and the old scene runs on. ctest label `gpu`: every test skips,
+// printing why, where no CUDA GPU can run (a build without CUDA, no driver, no GPU).
 #include <grpcpp/grpcpp.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -18,10 +20,12 @@
 #include <thread>
 #include <vector>
 
+#include "dysa/codec/detail_subset.h"
 #include "dysa/codec/frame_codec.h"
 #include "dysa/core/device.h"
 #include "dysa/core/scene.h"
 #include "dysa/core/simulation.h"
+#include "dysa/service/frame_publisher.h"
 #include "dysa/service/server.h"
 #include "dysa/service/simulation_host.h"
 #include "dysa/v1/simulation.grpc.pb.h"
@@ -255,6 +259,95 @@ TEST(ServerGpuTest, FramesStreamTheGpuStateInIdOrder) {
     }
     ASSERT_TRUE(near(frame->densities[k], p.density[i], frame->density_error))
         << "particle " << k << ": " << frame->densities[k] << " vs " << p.density[i];
+  }
+}
+
+// A budgeted stream's snapshot on the GPU holds exactly the particles its detail sends, chosen
+// on the device, with the bits of a full read of the GPU's state, and the same particles as the
+// CPU's snapshot; the others are not written.
+TEST(ServerGpuTest, TheSnapshotOfABudgetedStreamIsChosenOnTheGpu) {
+  SKIP_WITHOUT_GPU();
+  dysa::Simulation gpu(SeedScene(), kGpu);
+  dysa::Simulation cpu(SeedScene());
+  for (int f = 0; f < 5; ++f) gpu.StepFrame(), cpu.StepFrame();
+  const size_t n = gpu.particle_count();
+  std::vector<float> positions(3 * n), velocities(3 * n), densities(n);
+  gpu.ReadParticlesById({positions, velocities, densities});
+  const uint32_t threshold = codec::DetailThreshold(0.2);
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const uint32_t fields = codec::kPositions | codec::kVelocity | codec::kDensity;
+  FrameSnapshot on_gpu, on_cpu;
+  for (FrameSnapshot* s : {&on_gpu, &on_cpu}) {
+    s->positions.assign(3 * n, nan);
+    s->velocities.assign(3 * n, nan);
+    s->densities.assign(n, nan);
+  }
+  GatherSnapshot(gpu, fields, threshold, on_gpu);
+  GatherSnapshot(cpu, fields, threshold, on_cpu);
+  EXPECT_EQ(on_gpu.threshold, threshold);
+  const std::vector<uint32_t> kept = codec::KeptIds(n, 1, threshold);
+  std::vector<bool> keeps(n, false);
+  for (uint32_t id : kept) keeps[id] = true;
+  for (size_t k = 0; k < n; ++k) {
+    for (int a = 0; a < 3; ++a) {
+      const size_t e = 3 * k + size_t(a);
+      ASSERT_EQ(std::isnan(on_gpu.positions[e]), !keeps[k]) << "particle " << k;
+      ASSERT_EQ(std::isnan(on_cpu.positions[e]), !keeps[k]) << "particle " << k;
+      if (!keeps[k]) continue;
+      ASSERT_EQ(on_gpu.positions[e], positions[e]) << "particle " << k;
+      ASSERT_EQ(on_gpu.velocities[e], velocities[e]) << "particle " << k;
+    }
+    ASSERT_EQ(std::isnan(on_gpu.densities[k]), !keeps[k]) << "particle " << k;
+    if (keeps[k]) {
+      ASSERT_EQ(on_gpu.densities[k], densities[k]) << "particle " << k;
+    }
+  }
+}
+
+// A budgeted subscriber of the GPU server gets a subset (the particles of its detail threshold)
+// of the frame the GPU computed.
+TEST(ServerGpuTest, BudgetedFramesStreamTheGpuSubset) {
+  SKIP_WITHOUT_GPU();
+  auto log = std::make_shared<LogLines>();
+  Fixture fx(SeedScene(), GpuOptions(log));
+  Step(fx.stub(), 5);
+  dysa::Simulation cpu(SeedScene());
+  for (int f = 0; f < 5; ++f) cpu.StepFrame();
+  const size_t n = cpu.particle_count();
+  std::vector<float> positions(3 * n);
+  cpu.ReadParticlesById({positions, {}, {}});
+
+  v1::StreamFramesRequest request;
+  request.set_particle_budget(200);
+  request.set_position_bits(24);
+  auto context = Context();
+  auto reader = fx.stub().StreamFrames(context.get(), request);
+  codec::FrameDecoder decoder;
+  std::optional<codec::Frame> frame;
+  v1::FrameMessage message;
+  while (!frame && reader->Read(&message)) {
+    for (const std::string& chunk : message.chunks()) {
+      auto decoded =
+          decoder.AddChunk({reinterpret_cast<const uint8_t*>(chunk.data()), chunk.size()});
+      if (decoded) frame = std::move(*decoded);
+    }
+  }
+  context->TryCancel();
+  ASSERT_TRUE(frame.has_value());
+  EXPECT_EQ(frame->step, cpu.step());
+  ASSERT_NE(frame->detail_threshold, 0u);
+  EXPECT_GT(frame->count, 100u);
+  EXPECT_LE(frame->count, 200u);
+  EXPECT_EQ(frame->ids, codec::KeptIds(n, 1, frame->detail_threshold));
+  ASSERT_EQ(frame->positions.size(), 3u * frame->count);
+  for (size_t j = 0; j < frame->ids.size(); ++j) {
+    const size_t k = frame->ids[j];
+    for (int a = 0; a < 3; ++a) {
+      const double expected = positions[3 * k + size_t(a)];
+      EXPECT_NEAR(frame->positions[3 * j + size_t(a)], expected,
+                  frame->position_error[a] + 1e-4 * std::abs(expected) + 1e-6)
+          << "particle " << k << " axis " << a;
+    }
   }
 }
 

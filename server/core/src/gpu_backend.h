@@ -14,6 +14,7 @@
 #include "dysa/core/solver.h"
 #include "dysa/core/state.h"
 #include "probe_gather.h"
+#include "rank_subset.h"
 
 namespace dysa {
 
@@ -39,6 +40,10 @@ class GpuBackend {
                                         std::vector<SolverArray>& solver_arrays) const = 0;
   // Positions, velocities (xyz triples) and densities in particle-id order; null: not copied.
   virtual void DownloadById(float* position, float* velocity, float* density) const = 0;
+  // The particles of BelowRank(id, threshold) (threshold > 0; dysa/detail_rank.h) in id order:
+  // chosen and packed on the device, so only they cross to the host (cuda/rank_subset.cuh).
+  virtual RankSubsetCopy DownloadBelowRank(uint32_t threshold, bool position, bool velocity,
+                                           bool density) const = 0;
   // The probes' gather (probe_gather.h) over the device's particles, on the device.
   virtual void GatherProbes(const ProbeGatherPlan& plan, ProbeGather& out) const = 0;
 

@@ -6,11 +6,36 @@
 #include <stdexcept>
 #include <string>
 
+#include "dysa/detail_rank.h"
 #include "gpu_backend.h"
 #include "probe_stages.h"
 #include "solvers/seed/seed_solver.h"
 
 namespace dysa {
+
+namespace {
+
+// The spans of `out` as pointers, null where empty; throws std::invalid_argument naming a span
+// whose size is not that of n particles.
+struct ByIdPointers {
+  float* position;
+  float* velocity;
+  float* density;
+};
+ByIdPointers CheckedPointers(const Simulation::ParticlesById& out, size_t n, const char* caller) {
+  const auto check = [&](std::span<float> span, size_t size, const char* what) {
+    if (!span.empty() && span.size() != size) {
+      throw std::invalid_argument(std::string(caller) + ": " + what + " holds " +
+                                  std::to_string(span.size()) + " floats, not " +
+                                  std::to_string(size));
+    }
+    return span.empty() ? nullptr : span.data();
+  };
+  return {check(out.position, 3 * n, "position"), check(out.velocity, 3 * n, "velocity"),
+          check(out.density, n, "density")};
+}
+
+}  // namespace
 
 Simulation::Simulation(Scene scene, const Device& device)
     : scene_(std::move(scene)), device_(device) {
@@ -47,19 +72,8 @@ const State& Simulation::state() const {
 
 void Simulation::ReadParticlesById(const ParticlesById& out) const {
   const size_t n = particle_count_;
-  const auto check = [](std::span<float> span, size_t size, const char* what) {
-    if (!span.empty() && span.size() != size) {
-      throw std::invalid_argument(std::string("ReadParticlesById: ") + what + " holds " +
-                                  std::to_string(span.size()) + " floats, not " +
-                                  std::to_string(size));
-    }
-  };
-  check(out.position, 3 * n, "position");
-  check(out.velocity, 3 * n, "velocity");
-  check(out.density, n, "density");
-  float* position = out.position.empty() ? nullptr : out.position.data();
-  float* velocity = out.velocity.empty() ? nullptr : out.velocity.data();
-  float* density = out.density.empty() ? nullptr : out.density.data();
+  const ByIdPointers to = CheckedPointers(out, n, "ReadParticlesById");
+  float *position = to.position, *velocity = to.velocity, *density = to.density;
   if (gpu_ && host_stale_) {
     gpu_->DownloadById(position, velocity, density);
     return;
@@ -74,6 +88,46 @@ void Simulation::ReadParticlesById(const ParticlesById& out) const {
     }
     if (density) density[k] = p.density[i];
   }
+}
+
+size_t Simulation::ReadParticlesByIdBelowRank(uint32_t threshold, const ParticlesById& out) const {
+  const size_t n = particle_count_;
+  const auto [position, velocity, density] = CheckedPointers(out, n, "ReadParticlesByIdBelowRank");
+  if (threshold == 0) {
+    ReadParticlesById(out);
+    return n;
+  }
+  if (gpu_ && host_stale_) {
+    // Packed in id order on the device; scattered to the ids' entries here.
+    const RankSubsetCopy c = gpu_->DownloadBelowRank(threshold, position != nullptr,
+                                                     velocity != nullptr, density != nullptr);
+#pragma omp parallel for schedule(static)
+    for (size_t j = 0; j < c.count; ++j) {
+      const size_t k = c.ids[j];
+      for (int a = 0; a < 3; ++a) {
+        if (position) position[3 * k + a] = c.position[3 * j + a];
+        if (velocity) velocity[3 * k + a] = c.velocity[3 * j + a];
+      }
+      if (density) density[k] = c.density[j];
+    }
+    return c.count;
+  }
+  // A scan of the storage: the rank is a hash of the id (a few multiplications).
+  const ParticleArrays& p = state_.particles;
+  size_t kept = 0;
+#pragma omp parallel for schedule(static) reduction(+ : kept)
+  for (size_t i = 0; i < n; ++i) {
+    const uint32_t id = p.id[i];
+    if (!BelowRank(id, threshold)) continue;
+    ++kept;
+    const size_t k = id;
+    for (int a = 0; a < 3; ++a) {
+      if (position) position[3 * k + a] = p.position[i][a];
+      if (velocity) velocity[3 * k + a] = p.velocity[i][a];
+    }
+    if (density) density[k] = p.density[i];
+  }
+  return kept;
 }
 
 std::string Simulation::DeviceDescription() const {

@@ -6,8 +6,6 @@
 #include <cstdint>
 #include <utility>
 
-#include "dysa/codec/detail_subset.h"
-
 namespace dysa::service {
 
 namespace {
@@ -36,36 +34,20 @@ void GatherSnapshot(const Simulation& sim, uint32_t fields, uint32_t threshold, 
     s.domain_max[a] = domain.max[a];
   }
   s.produced_unix_us = UnixMicros();
-  // Storage order is cell order and changes every step; subscribers index by id. On a GPU only
-  // the fields asked for cross to the host, already in id order.
+  // Storage order is cell order and changes every step; subscribers index by id. Only the fields
+  // asked for are read, in id order.
   const bool velocities = fields & (codec::kSpeed | codec::kVelocity);
   const bool densities = fields & codec::kDensity;
   // Sized for every id (resizing keeps what is there: nothing is written that is not sent).
   s.positions.resize(3 * n);
   s.velocities.resize(velocities ? 3 * n : 0);
   s.densities.resize(densities ? n : 0);
-  if (threshold == 0 || sim.device().is_cuda()) {
-    s.threshold = 0;
-    sim.ReadParticlesById({s.positions, s.velocities, s.densities});
-    return;
-  }
-  // Every subscriber sends a subset by rank: copy those particles only. The rank is a hash of
-  // the id (a few multiplications); the copy is what costs (memory), and it now scales with the
+  // When every subscriber sends a subset by rank, only those particles are read: on the CPU a
+  // scan of the solver's arrays (the rank is a hash of the id, the copy is what costs), on a GPU
+  // chosen and packed there, so only they cross to the host. The cost then scales with the
   // particles sent, so a scene far above the frame limit can be watched with a budget.
   s.threshold = threshold;
-  const ParticleArrays& p = sim.state().particles;
-#pragma omp parallel for schedule(static)
-  for (int64_t i = 0; i < int64_t(p.size()); ++i) {
-    const uint32_t id = p.id[size_t(i)];
-    if (codec::DetailRank(id) >= threshold) continue;
-    for (int a = 0; a < 3; ++a) s.positions[3 * size_t(id) + a] = float(p.position[size_t(i)][a]);
-    if (velocities) {
-      for (int a = 0; a < 3; ++a) {
-        s.velocities[3 * size_t(id) + a] = float(p.velocity[size_t(i)][a]);
-      }
-    }
-    if (densities) s.densities[id] = float(p.density[size_t(i)]);
-  }
+  sim.ReadParticlesByIdBelowRank(threshold, {s.positions, s.velocities, s.densities});
 }
 
 FramePublisher::FramePublisher(FrameHub& hub, int threads) : hub_(hub) {

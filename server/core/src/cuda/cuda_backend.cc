@@ -142,6 +142,10 @@ class SeedGpuBackend final : public GpuBackend {
   void DownloadById(float* position, float* velocity, float* density) const override {
     pipeline_.DownloadById(position, velocity, density);
   }
+  RankSubsetCopy DownloadBelowRank(uint32_t threshold, bool position, bool velocity,
+                                   bool density) const override {
+    return pipeline_.DownloadBelowRank(threshold, position, velocity, density);
+  }
   void GatherProbes(const ProbeGatherPlan& plan, ProbeGather& out) const override {
     pipeline_.GatherProbes(plan, out);
   }
@@ -335,6 +339,10 @@ class WcsphGpuBackend final : public GpuBackend {
   void DownloadById(float* position, float* velocity, float* density) const override {
     pipeline_.DownloadById(position, velocity, density);
   }
+  RankSubsetCopy DownloadBelowRank(uint32_t threshold, bool position, bool velocity,
+                                   bool density) const override {
+    return pipeline_.DownloadBelowRank(threshold, position, velocity, density);
+  }
   void GatherProbes(const ProbeGatherPlan& plan, ProbeGather& out) const override {
     pipeline_.GatherProbes(plan, out);
   }
@@ -449,6 +457,10 @@ class DfsphGpuBackend final : public GpuBackend {
 
   void DownloadById(float* position, float* velocity, float* density) const override {
     pipeline_.DownloadById(position, velocity, density);
+  }
+  RankSubsetCopy DownloadBelowRank(uint32_t threshold, bool position, bool velocity,
+                                   bool density) const override {
+    return pipeline_.DownloadBelowRank(threshold, position, velocity, density);
   }
   void GatherProbes(const ProbeGatherPlan& plan, ProbeGather& out) const override {
     pipeline_.GatherProbes(plan, out);

@@ -14,6 +14,7 @@
 #include "cuda/dfsph_pipeline.h"
 #include "cuda/moving_boundary.cuh"
 #include "cuda/probe_gatherer.cuh"
+#include "cuda/rank_subset.cuh"
 #include "cuda/sph_kernels.cuh"
 
 namespace dysa::cuda {
@@ -367,6 +368,7 @@ struct DfsphPipeline::Impl {
   DeviceBuffer<float> bn_weight, hydrostatic, kappa_b;
   mutable DeviceBuffer<float> frame_staging;  // DownloadById's
   mutable ProbeGatherer probe_gatherer;
+  mutable RankSubset rank_subset;  // DownloadBelowRank's
   DeviceBuffer<SphereObstacle> spheres;
   DeviceBuffer<BoxObstacle> boxes;
   DeviceBuffer<float> device_maxima;
@@ -549,6 +551,14 @@ void DfsphPipeline::GatherProbes(const ProbeGatherPlan& plan, ProbeGather& out) 
   Impl& m = *impl_;
   DeviceScope scope(m.device);
   m.probe_gatherer.Gather(ProbeParticlesOf(m), plan, m.stream.get(), out);
+}
+
+RankSubsetCopy DfsphPipeline::DownloadBelowRank(uint32_t threshold, bool position, bool velocity,
+                                                bool density) const {
+  Impl& m = *impl_;
+  DeviceScope scope(m.device);
+  return m.rank_subset.Download(SubsetParticlesOf(m), threshold, position, velocity, density,
+                                m.stream.get());
 }
 
 std::vector<std::string> DfsphPipeline::Configure(const DfsphStepConfig& config,
@@ -896,7 +906,7 @@ uint64_t DfsphPipeline::DeviceBytes() const {
          uint64_t(m.bn_weight.capacity()) * sizeof(float) +
          uint64_t(m.bx.capacity()) * (10 * sizeof(float) + 2 * sizeof(uint32_t) + 1) +
          m.sorter.DeviceBytes() + m.boundary_sorter.DeviceBytes() + m.moving.DeviceBytes() +
-         m.temp.capacity();
+         m.temp.capacity() + m.rank_subset.DeviceBytes();
 }
 
 }  // namespace dysa::cuda

@@ -19,6 +19,7 @@
 #include "cuda/gpu_types.h"
 #include "cuda/wcsph_pipeline.h"
 #include "probe_gather.h"
+#include "rank_subset.h"
 
 namespace dysa::cuda {
 
@@ -82,6 +83,10 @@ class DfsphPipeline {
   // Positions and velocities (xyz triples) and densities in particle-id order (id k at k);
   // any pointer may be null (not copied).
   void DownloadById(float* position, float* velocity, float* density) const;
+  // The particles of BelowRank(id, threshold) (threshold > 0) in id order, chosen and packed on
+  // the device (rank_subset.cuh): only they cross to the host.
+  RankSubsetCopy DownloadBelowRank(uint32_t threshold, bool position, bool velocity,
+                                   bool density) const;
   size_t size() const;
   // The most particles one grid cell held at the latest step's neighbour sort (read after the
   // step, or for dfsph after Prepare).

@@ -14,6 +14,7 @@
 #include "cuda/device_buffer.cuh"
 #include "cuda/device_grid.cuh"
 #include "cuda/probe_gatherer.cuh"
+#include "cuda/rank_subset.cuh"
 #include "cuda/seed_pipeline.h"
 
 namespace dysa::cuda {
@@ -752,6 +753,7 @@ struct SeedPipeline::Impl {
   DeviceBuffer<uint32_t> id, id2;
   mutable DeviceBuffer<float> frame_staging;  // DownloadById's
   mutable ProbeGatherer probe_gatherer;
+  mutable RankSubset rank_subset;  // DownloadBelowRank's
   DeviceBuffer<float> density, near_density, pressure, near_pressure;
   // The grid's points (px, py, pz), for the neighbour kernels, and kLanes - 1 entries of
   // padding (DensityListKernel loads whole blocks).
@@ -1056,6 +1058,14 @@ void SeedPipeline::GatherProbes(const ProbeGatherPlan& plan, ProbeGather& out) c
   m.probe_gatherer.Gather(ProbeParticlesOf(m), plan, m.stream.get(), out);
 }
 
+RankSubsetCopy SeedPipeline::DownloadBelowRank(uint32_t threshold, bool position, bool velocity,
+                                               bool density) const {
+  Impl& m = *impl_;
+  DeviceScope scope(m.device);
+  return m.rank_subset.Download(SubsetParticlesOf(m), threshold, position, velocity, density,
+                                m.stream.get());
+}
+
 uint32_t SeedPipeline::max_cell_count() const { return impl_->sorter.max_count(); }
 
 uint64_t SeedPipeline::DeviceBytes() const {
@@ -1067,7 +1077,7 @@ uint64_t SeedPipeline::DeviceBytes() const {
          uint64_t(m.pos4.capacity()) * sizeof(float4) +
          uint64_t(m.pos_value.capacity()) * sizeof(PosValue) +
          uint64_t(m.list_units.capacity() + m.list_words.capacity()) * sizeof(uint32_t) +
-         m.sorter.DeviceBytes();
+         m.sorter.DeviceBytes() + m.rank_subset.DeviceBytes();
 }
 
 }  // namespace dysa::cuda

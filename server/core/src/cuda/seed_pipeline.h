@@ -23,6 +23,7 @@
 
 #include "cuda/gpu_types.h"
 #include "probe_gather.h"
+#include "rank_subset.h"
 
 namespace dysa::cuda {
 
@@ -79,6 +80,10 @@ class SeedPipeline {
   // Positions and velocities (xyz triples) and densities in particle-id order (id k at k);
   // any pointer may be null (not copied).
   void DownloadById(float* position, float* velocity, float* density) const;
+  // The particles of BelowRank(id, threshold) (threshold > 0) in id order, chosen and packed on
+  // the device (rank_subset.cuh): only they cross to the host.
+  RankSubsetCopy DownloadBelowRank(uint32_t threshold, bool position, bool velocity,
+                                   bool density) const;
   size_t size() const;
   // Device memory held, bytes (particles, the grid, the neighbour list, scratch).
   // The most particles one grid cell held at the latest step's neighbour sort (read after the

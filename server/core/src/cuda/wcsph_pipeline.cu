@@ -11,6 +11,7 @@
 #include "cuda/moving_boundary.cuh"
 #include "cuda/particle_shifting.cuh"
 #include "cuda/probe_gatherer.cuh"
+#include "cuda/rank_subset.cuh"
 #include "cuda/sph_kernels.cuh"
 #include "cuda/symplectic_kernels.cuh"
 #include "cuda/wcsph_kernels.cuh"
@@ -57,6 +58,7 @@ struct WcsphPipeline::Impl {
   float obstacle_speed = 0;                   // m/s, the contact's fastest obstacle (MoveSurfaces)
   mutable DeviceBuffer<float> frame_staging;  // DownloadById's
   mutable ProbeGatherer probe_gatherer;
+  mutable RankSubset rank_subset;  // DownloadBelowRank's
   DeviceBuffer<SphereObstacle> spheres;
   DeviceBuffer<BoxObstacle> boxes;
   DeviceBuffer<float> device_maxima;              // [0] |v|^2, [1] |a|^2, [2] density
@@ -182,6 +184,14 @@ void WcsphPipeline::GatherProbes(const ProbeGatherPlan& plan, ProbeGather& out) 
   Impl& m = *impl_;
   DeviceScope scope(m.device);
   m.probe_gatherer.Gather(ProbeParticlesOf(m), plan, m.stream.get(), out);
+}
+
+RankSubsetCopy WcsphPipeline::DownloadBelowRank(uint32_t threshold, bool position, bool velocity,
+                                                bool density) const {
+  Impl& m = *impl_;
+  DeviceScope scope(m.device);
+  return m.rank_subset.Download(SubsetParticlesOf(m), threshold, position, velocity, density,
+                                m.stream.get());
 }
 
 std::vector<std::string> WcsphPipeline::Configure(const WcsphStepConfig& config,
@@ -472,7 +482,8 @@ uint64_t WcsphPipeline::DeviceBytes() const {
   return uint64_t(m.x.capacity()) * (23 * sizeof(float) + 2 * sizeof(uint32_t)) +
          uint64_t(m.packed_position.capacity()) * 2 * sizeof(float4) +
          uint64_t(m.bx.capacity()) * (9 * sizeof(float) + 1) + m.sorter.DeviceBytes() +
-         m.boundary_sorter.DeviceBytes() + m.moving.DeviceBytes() + m.reduce_temp.capacity();
+         m.boundary_sorter.DeviceBytes() + m.moving.DeviceBytes() + m.reduce_temp.capacity() +
+         m.rank_subset.DeviceBytes();
 }
 
 }  // namespace dysa::cuda

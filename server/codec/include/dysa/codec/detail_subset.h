@@ -17,18 +17,14 @@
 #include <cstdint>
 #include <vector>
 
+#include "dysa/detail_rank.h"
+
 namespace dysa::codec {
 
-// splitmix64's output function (its finaliser applied to id + golden gamma).
-constexpr uint64_t SplitMix64(uint64_t x) {
-  x += 0x9E3779B97F4A7C15ull;
-  x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
-  x = (x ^ (x >> 27)) * 0x94D049BB133111EBull;
-  return x ^ (x >> 31);
-}
-
-// The particle's rank, uniform over [0, 2^32).
-constexpr uint32_t DetailRank(uint32_t id) { return uint32_t(SplitMix64(id) >> 32); }
+// splitmix64's output function and the particle's rank, uniform over [0, 2^32): one definition
+// for the host and the GPU (dysa/detail_rank.h).
+using ::dysa::DetailRank;
+using ::dysa::SplitMix64;
 
 // The threshold that keeps `fraction` of the particles: 0 (all) for a fraction >= 1, at least
 // 1 for any fraction > 0. Throws std::invalid_argument unless 0 < fraction (finite).
@@ -38,7 +34,7 @@ double DetailFraction(uint32_t threshold);
 
 // Whether particle `id` is in the frame of this stride and threshold.
 constexpr bool DetailKeeps(uint32_t id, uint32_t stride, uint32_t threshold) {
-  return id % stride == 0 && (threshold == 0 || DetailRank(id) < threshold);
+  return id % stride == 0 && (threshold == 0 || BelowRank(id, threshold));
 }
 
 // The ids 0 .. ids - 1 a frame of this stride and threshold keeps, increasing (the encoder's

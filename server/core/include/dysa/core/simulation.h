@@ -89,6 +89,12 @@ class Simulation {
   // state() is neither read nor refreshed. Throws std::invalid_argument for a span of the wrong
   // size.
   void ReadParticlesById(const ParticlesById& out) const;
+  // The same for a level of detail's subset: only the particles of BelowRank(id, threshold)
+  // (dysa/detail_rank.h, the codec's detail threshold) are written, at their ids' entries; the
+  // other entries are left as they are. A threshold of 0 keeps every particle, as the codec's
+  // (ReadParticlesById). On a GPU the subset is chosen and packed on the device and only its
+  // particles cross to the host. Returns the particles written. Throws as ReadParticlesById.
+  size_t ReadParticlesByIdBelowRank(uint32_t threshold, const ParticlesById& out) const;
   // The values of `probes` for the current state, in ProbeColumns() order (probes.h), as
   // EvaluateProbes(probes, model(), state()) computes them. On a GPU they are evaluated on the
   // device, which sends back only the particles around each local probe and the sums, not the

@@ -29,8 +29,9 @@ namespace dysa::service {
 
 // Fills `snapshot` from the simulation's current frame: positions, and velocities or densities
 // when `fields` (codec fields) need them, scattered from storage order into id order. With a
-// `threshold` (FrameHub::NeededThreshold), on the CPU only the particles of DetailRank(id) below
-// it are copied (snapshot.threshold says so); on a GPU every particle still is.
+// `threshold` (FrameHub::NeededThreshold) only the particles of DetailRank(id) below it are
+// copied (snapshot.threshold says so), on any device: on a GPU they are chosen there and only
+// they cross to the host (Simulation::ReadParticlesByIdBelowRank).
 void GatherSnapshot(const Simulation& sim, uint32_t fields, uint32_t threshold,
                     FrameSnapshot& snapshot);
 
