@@ -62,8 +62,8 @@ void ExpectSameBits(const Scene& scene) {
   for (size_t k = 0; k < a.solver_arrays.size(); ++k) {
     EXPECT_EQ(a.solver_arrays[k].values, b.solver_arrays[k].values);
   }
-  int calls = 0;
-  EXPECT_FALSE(spread.StepFrame([&] { return ++calls > 2; }));
+  // One step of the next frame (the seed's has 3, wcsph's more).
+  EXPECT_FALSE(spread.StepFrame([] { return true; }));
   spread.RestoreCheckpoint(a);
   Params p = plain.params();
   p.iterations_per_frame = 4;    // the seed's frame
