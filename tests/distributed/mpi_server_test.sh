@@ -86,7 +86,6 @@ both back 3
 same "back 3"
 both step 2
 same "step 2 after back"
-both record --frames 1 --fields velocity density --out "$out/frame.npz"
 on one record --frames 1 --fields velocity density --out "$out/one.npz" > /dev/null ||
   fail "record on one process"
 on ranks record --frames 1 --fields velocity density --out "$out/ranks.npz" > /dev/null ||
