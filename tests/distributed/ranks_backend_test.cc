@@ -88,6 +88,18 @@ TEST(RanksBackendTest, SteppingOnTheRanksGivesTheBitsOfOneProcess) {
 
 TEST(RanksBackendTest, TheSeedToo) { ExpectSameBits(LoadScene(DYSA_RANKS_SEED_SCENE)); }
 
+TEST(RanksBackendTest, APhysicalSolversWarningIsOneProcesss) {
+  Scene scene = LoadScene(DYSA_RANKS_SCENE);
+  scene.params.speed_of_sound = 1;  // the fluid is thrown at 1.5 m/s
+  OnRanks ranks;
+  Simulation spread(scene, Device{}, ranks.factory());
+  Simulation plain(scene);
+  spread.StepFrame();
+  plain.StepFrame();
+  EXPECT_NE(plain.warning(), "");
+  EXPECT_EQ(spread.warning(), plain.warning());
+}
+
 TEST(RanksBackendTest, WhatTheRanksCannotRunIsRefusedByField) {
   OnRanks ranks;
   Scene scene = LoadScene(DYSA_RANKS_SCENE);

@@ -143,8 +143,10 @@ void DistributedSimulation::Step(double until) {
 
 DistributedSimulation::StepOutcome DistributedSimulation::StepAt(double time, uint64_t step,
                                                                  double max_dt) {
-  // The driver decides when to step again after an alarm (it restores or resets first).
+  // The driver decides when to step again after an alarm (it restores or resets first), and
+  // keeps the frame's warnings.
   alarm_.clear();
+  state_.warning.clear();
   state_.time = time;
   state_.step = step;
   if (model_.physical) {

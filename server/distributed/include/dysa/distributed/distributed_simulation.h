@@ -64,6 +64,9 @@ class DistributedSimulation {
   const std::vector<PassProfile>& profile() const { return profile_; }
   // As Simulation::alarm; the same on every process.
   const std::string& alarm() const { return alarm_; }
+  // What the latest StepAt's passes warned of (State::warning; empty: nothing). A physical
+  // solver's warnings come from the maxima over the processes: the same on every process.
+  const std::string& warning() const { return state_.warning; }
 
   // Collective. One step, as Simulation::Step(until).
   void Step(double until = std::numeric_limits<double>::infinity());
