@@ -96,7 +96,11 @@ both reset
 same "reset"
 # Running, then paused: the pause lands on a frame, wherever the ranks' server was.
 on ranks resume > /dev/null || fail "resume on 3 ranks"
-sleep 1
+for _ in $(seq 100); do
+  read -r frame _ <<< "$(state ranks)"
+  [ "${frame:-0}" -ge 2 ] && break
+  sleep 0.2
+done
 on ranks pause > /dev/null || fail "pause on 3 ranks"
 read -r frame _ hash running <<< "$(state ranks)"
 [ "$running" = "False" ] || fail "the ranks' server still runs after pause"
