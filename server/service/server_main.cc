@@ -20,6 +20,9 @@
 #include "dysa/service/server.h"
 #include "dysa/service/shutdown_signal.h"
 #include "dysa/service/simulation_host.h"
+#ifdef DYSA_WITH_MPI
+#include "server_ranks.h"
+#endif
 
 namespace {
 
@@ -171,9 +174,38 @@ int main(int argc, char** argv) {
   server_options.listen = listen;
   server_options.protect_watch = protect_watch;
 
+#ifdef DYSA_WITH_MPI
+  const bool on_ranks = dysa::service::LaunchedByMpirun();
+#else
+  const bool on_ranks = false;
+#endif
+  if (on_ranks && host_options.device.is_cuda()) {
+    std::cerr << "dysa-server: error: --device " << device_arg
+              << ": under mpirun the server's ranks step on the CPU (--device cpu)\n";
+    return 2;
+  }
+
   // Phase 3: signals. Blocked before any thread starts, so every thread inherits the mask and
-  // only the signal thread receives them (from here on, also during start-up).
+  // only the signal thread receives them (from here on, also during start-up). MPI's own
+  // threads, started next, too.
   dysa::service::ShutdownSignal signals(kShutdownBound, Log);
+
+#ifdef DYSA_WITH_MPI
+  // Under mpirun: rank 0 serves and steps on every rank (server_ranks.h); the others serve its
+  // commands until it stops them (or end within kShutdownBound of a signal).
+  std::unique_ptr<dysa::service::ServerRanks> ranks;
+  if (on_ranks) {
+    try {
+      ranks = std::make_unique<dysa::service::ServerRanks>(&argc, &argv);
+    } catch (const std::exception& e) {
+      std::cerr << "dysa-server: error: " << e.what() << "\n";
+      return 1;
+    }
+    if (ranks->rank() != 0) return ranks->Serve(threads, Log);
+    host_options.backend = ranks->backend();
+    Log("rank 0 of " + std::to_string(ranks->size()) + ": stepping on every rank");
+  }
+#endif
 
   // Phase 4: run.
   std::unique_ptr<dysa::service::SimulationHost> host;

@@ -486,7 +486,9 @@ Scene ParseSceneDocument(const json& root) {
 Scene ParseScene(std::string_view json_text) {
   const json root = ParseSceneJson(json_text);
   try {
-    return ParseSceneDocument(root);
+    Scene scene = ParseSceneDocument(root);
+    scene.source_json = std::string(json_text);
+    return scene;
   } catch (const json::exception& e) {
     // The reader checks every type before it reads a value, so this is a bug; still an error
     // that names the scene, not an exception a caller does not expect.

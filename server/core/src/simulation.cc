@@ -42,7 +42,18 @@ Simulation::Simulation(Scene scene, const Device& device)
   solver_info_ = &FindSolver(scene_.solver);
   solver_ = solver_info_->create();
   model_ = MakeModel(scene_, scene_.params, *solver_info_);
-  if (device_.is_cuda()) gpu_ = CreateGpuBackend(device_, scene_.solver);
+  if (device_.is_cuda()) backend_ = CreateGpuBackend(device_, scene_.solver);
+  Rebuild();
+  Reset();
+}
+
+Simulation::Simulation(Scene scene, const Device& device, const BackendFactory& make)
+    : scene_(std::move(scene)), device_(device) {
+  solver_info_ = &FindSolver(scene_.solver);
+  solver_ = solver_info_->create();
+  model_ = MakeModel(scene_, scene_.params, *solver_info_);
+  backend_ = make(scene_);
+  backend_->CheckParams(model_.params);
   Rebuild();
   Reset();
 }
@@ -54,17 +65,17 @@ Simulation& Simulation::operator=(Simulation&&) noexcept = default;
 std::vector<double> Simulation::EvaluateProbes(std::span<const ProbeSpec> probes) const {
   const ProbeGatherPlan plan = PlanProbeGather(probes, model_);
   ProbeGather gather;
-  if (gpu_ && host_stale_) {
-    gpu_->GatherProbes(plan, gather);
+  if (backend_ && host_stale_ && backend_->gathers_probes()) {
+    backend_->GatherProbes(plan, gather);
   } else {
-    GatherProbes(plan, state_.particles, gather);
+    GatherProbes(plan, state().particles, gather);
   }
   return FinishProbes(probes, model_, state_.time, gather);
 }
 
 const State& Simulation::state() const {
   if (host_stale_) {
-    gpu_->Download(state_.particles);
+    backend_->Download(state_.particles);
     host_stale_ = false;
   }
   return state_;
@@ -74,8 +85,8 @@ void Simulation::ReadParticlesById(const ParticlesById& out) const {
   const size_t n = particle_count_;
   const ByIdPointers to = CheckedPointers(out, n, "ReadParticlesById");
   float *position = to.position, *velocity = to.velocity, *density = to.density;
-  if (gpu_ && host_stale_) {
-    gpu_->DownloadById(position, velocity, density);
+  if (backend_ && host_stale_) {
+    backend_->DownloadById(position, velocity, density);
     return;
   }
   const ParticleArrays& p = state_.particles;
@@ -97,10 +108,11 @@ size_t Simulation::ReadParticlesByIdBelowRank(uint32_t threshold, const Particle
     ReadParticlesById(out);
     return n;
   }
-  if (gpu_ && host_stale_) {
+  const auto* gpu = dynamic_cast<const GpuBackend*>(backend_.get());
+  if (gpu && host_stale_) {
     // Packed in id order on the device; scattered to the ids' entries here.
-    const RankSubsetCopy c = gpu_->DownloadBelowRank(threshold, position != nullptr,
-                                                     velocity != nullptr, density != nullptr);
+    const RankSubsetCopy c = gpu->DownloadBelowRank(threshold, position != nullptr,
+                                                    velocity != nullptr, density != nullptr);
 #pragma omp parallel for schedule(static)
     for (size_t j = 0; j < c.count; ++j) {
       const size_t k = c.ids[j];
@@ -112,8 +124,9 @@ size_t Simulation::ReadParticlesByIdBelowRank(uint32_t threshold, const Particle
     }
     return c.count;
   }
-  // A scan of the storage: the rank is a hash of the id (a few multiplications).
-  const ParticleArrays& p = state_.particles;
+  // A scan of the storage (another backend's particles first come to the host whole): the
+  // rank is a hash of the id (a few multiplications).
+  const ParticleArrays& p = state().particles;
   size_t kept = 0;
 #pragma omp parallel for schedule(static) reduction(+ : kept)
   for (size_t i = 0; i < n; ++i) {
@@ -131,10 +144,10 @@ size_t Simulation::ReadParticlesByIdBelowRank(uint32_t threshold, const Particle
 }
 
 std::string Simulation::DeviceDescription() const {
-  return gpu_ ? gpu_->info().Describe(device_) : "cpu";
+  return backend_ ? backend_->Describe(device_) : "cpu";
 }
 
-uint64_t Simulation::DeviceBytes() const { return gpu_ ? gpu_->DeviceBytes() : 0; }
+uint64_t Simulation::DeviceBytes() const { return backend_ ? backend_->DeviceBytes() : 0; }
 
 std::vector<std::string> Simulation::PassNames() const {
   std::vector<std::string> names;
@@ -160,12 +173,16 @@ void Simulation::Step(double until) {
     state_.dt = model_.dt;
   }
   bool finite = true;
-  if (gpu_) {
-    const GpuBackend::StepReport report = gpu_->Step(model_, state_);
+  if (backend_) {
+    const StepBackend::StepReport report = backend_->Step(model_, state_);
     for (size_t k = 0; k < report.pass_ms.size() && k < profile_.size(); ++k) {
       RecordPassTime(k, report.pass_ms[k]);
     }
     host_stale_ = true;
+    if (!report.alarm.empty()) {
+      alarm_ = report.alarm;
+      return;
+    }
     if (report.max_cell_count > NeighborGrid::kMaxParticlesPerCell) {
       alarm_ = CrowdedAlarm(report.max_cell_count, start_time);
       if (report.stopped) return;
@@ -218,12 +235,14 @@ void Simulation::CheckStep(bool finite, double start_time) {
 
 void Simulation::UploadParticles(std::span<const SolverArray> solver_arrays) {
   particle_count_ = state_.particles.size();
-  if (!gpu_) return;
-  gpu_->Upload(state_.particles, solver_arrays);
+  if (!backend_) return;
+  backend_->Upload(state_.particles, solver_arrays);
   host_stale_ = false;
 }
 
-SolverStats Simulation::solver_stats() const { return gpu_ ? gpu_->stats() : solver_->stats(); }
+SolverStats Simulation::solver_stats() const {
+  return backend_ ? backend_->stats() : solver_->stats();
+}
 
 void Simulation::StepFrame() { StepFrame(nullptr); }
 
@@ -290,10 +309,10 @@ Checkpoint Simulation::SaveCheckpoint() const {
   checkpoint.time = state_.time;
   checkpoint.step = state_.step;
   checkpoint.frame = state_.frame;
-  if (gpu_) {
+  if (backend_) {
     // Only what the checkpoint holds crosses from the GPU; the host copy stays as it was.
     ParticleArrays p;
-    gpu_->DownloadCheckpointArrays(p, checkpoint.solver_arrays);
+    backend_->DownloadCheckpointArrays(p, checkpoint.solver_arrays);
     checkpoint.id = std::move(p.id);
     checkpoint.position = std::move(p.position);
     checkpoint.velocity = std::move(p.velocity);
@@ -321,7 +340,7 @@ void Simulation::RestoreCheckpoint(const Checkpoint& checkpoint) {
   state_.time = checkpoint.time;
   state_.step = checkpoint.step;
   state_.frame = checkpoint.frame;
-  if (gpu_) {
+  if (backend_) {
     UploadParticles(checkpoint.solver_arrays);
   } else {
     solver_->RestoreArrays(checkpoint.solver_arrays, p.size());
@@ -340,6 +359,7 @@ bool Simulation::SetParams(const Params& params) {
   Params checked;
   for (const ParamDecl& decl : ParamTable()) dysa::SetParam(checked, decl.name, decl.get(params));
   BlockParticleCounts(scene_, checked);
+  if (backend_) backend_->CheckParams(checked);
 
   bool needs_reset = false;
   for (const ParamDecl& decl : ParamTable()) {
@@ -357,8 +377,8 @@ void Simulation::ResetProfile() {
 
 void Simulation::Rebuild() {
   std::vector<std::string> names;
-  if (gpu_) {
-    names = gpu_->Configure(model_);
+  if (backend_) {
+    names = backend_->Configure(model_);
   } else {
     passes_ = solver_->BuildPasses(model_);
     sort_pass_ = passes_.size();

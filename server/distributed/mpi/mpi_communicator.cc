@@ -2,10 +2,12 @@
 
 #include <mpi.h>
 
+#include <chrono>
 #include <cstdlib>
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <thread>
 
 namespace dysa::distributed {
 namespace {
@@ -30,10 +32,17 @@ int CountOf(size_t bytes) {
 
 }  // namespace
 
-MpiSession::MpiSession(int* argc, char*** argv) {
-  // Only the main thread calls MPI (OpenMP threads never do).
+MpiSession::MpiSession(int* argc, char*** argv, bool any_thread) {
+  // Only the main thread calls MPI (OpenMP threads never do), or one thread at a time.
+  const int wanted = any_thread ? MPI_THREAD_SERIALIZED : MPI_THREAD_FUNNELED;
   int provided = 0;
-  Check(MPI_Init_thread(argc, argv, MPI_THREAD_FUNNELED, &provided), "MPI_Init_thread");
+  Check(MPI_Init_thread(argc, argv, wanted, &provided), "MPI_Init_thread");
+  if (provided < wanted) {
+    MPI_Finalize();
+    throw std::runtime_error(
+        "this MPI library does not let threads other than the main one call "
+        "it (MPI_THREAD_SERIALIZED)");
+  }
 }
 
 MpiSession::~MpiSession() { MPI_Finalize(); }
@@ -113,6 +122,22 @@ std::vector<Bytes> MpiCommunicator::GatherToRoot(std::span<const std::byte> mine
     from[p].assign(begin, begin + counts[p]);
   }
   return from;
+}
+
+void MpiCommunicator::Broadcast(Bytes& bytes) const {
+  uint64_t size = rank_ == 0 ? bytes.size() : 0;
+  MPI_Request request;
+  Check(MPI_Ibcast(&size, 1, MPI_UINT64_T, 0, MPI_COMM_WORLD, &request), "MPI_Ibcast");
+  const auto start = std::chrono::steady_clock::now();
+  for (int done = 0;;) {
+    Check(MPI_Test(&request, &done, MPI_STATUS_IGNORE), "MPI_Test");
+    if (done) break;
+    if (std::chrono::steady_clock::now() - start > std::chrono::milliseconds(1)) {
+      std::this_thread::sleep_for(std::chrono::microseconds(200));
+    }
+  }
+  if (rank_ != 0) bytes.resize(size);
+  Check(MPI_Bcast(bytes.data(), CountOf(bytes.size()), MPI_BYTE, 0, MPI_COMM_WORLD), "MPI_Bcast");
 }
 
 void MpiCommunicator::Abort(int code) const {

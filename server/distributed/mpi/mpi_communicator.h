@@ -9,7 +9,9 @@ namespace dysa::distributed {
 // MPI_Init on construction, MPI_Finalize on destruction: one per process, for its lifetime.
 class MpiSession {
  public:
-  MpiSession(int* argc, char*** argv);
+  // Only the main thread calls MPI; with `any_thread`, any one thread at a time may
+  // (MPI_THREAD_SERIALIZED: the server's simulation thread), or the constructor throws.
+  MpiSession(int* argc, char*** argv, bool any_thread = false);
   ~MpiSession();
   MpiSession(const MpiSession&) = delete;
   MpiSession& operator=(const MpiSession&) = delete;
@@ -29,6 +31,9 @@ class MpiCommunicator final : public Communicator {
   void SumInPlace(std::span<int64_t> values) const override;
   std::vector<Bytes> AllToAll(const std::vector<Bytes>& to) const override;
   std::vector<Bytes> GatherToRoot(std::span<const std::byte> mine) const override;
+  // The size travels first in a non-blocking broadcast that a waiting process polls, sleeping
+  // between polls once a millisecond has passed; then the bytes.
+  void Broadcast(Bytes& bytes) const override;
   // Ends every process of the job (a rank that fails alone would leave the others waiting in
   // a collective forever).
   [[noreturn]] void Abort(int code) const;

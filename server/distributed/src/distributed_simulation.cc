@@ -43,10 +43,9 @@ DistributedSimulation::DistributedSimulation(Scene scene, const Communicator& co
   state_.share.max_over_processes = [this](std::span<double> v) { comm_.MaxInPlace(v); };
 }
 
-void DistributedSimulation::Configure(const Params& params) {
-  const SolverInfo& info = FindSolver(scene_.solver);
-  if (scene_.solver != "wcsph" && scene_.solver != "seed") {
-    throw ConfigError("solver", "'" + scene_.solver +
+void DistributedSimulation::CheckSupported(const Scene& scene, const Params& params) {
+  if (scene.solver != "wcsph" && scene.solver != "seed") {
+    throw ConfigError("solver", "'" + scene.solver +
                                     "' does not run across processes yet; allowed: wcsph, seed "
                                     "(run other solvers without mpirun)");
   }
@@ -56,6 +55,13 @@ void DistributedSimulation::Configure(const Params& params) {
                           std::to_string(params.time_integration) +
                           ": the predictor-corrector's second neighbour sort is not exchanged yet");
   }
+}
+
+void DistributedSimulation::SetParams(const Params& params) { Configure(params); }
+
+void DistributedSimulation::Configure(const Params& params) {
+  const SolverInfo& info = FindSolver(scene_.solver);
+  CheckSupported(scene_, params);
   BlockParticleCounts(scene_, params);
   model_ = MakeModel(scene_, params, info);
   passes_ = solver_->BuildPasses(model_);
@@ -120,24 +126,12 @@ void DistributedSimulation::Step(double until) {
   } else {
     state_.dt = model_.dt;
   }
-  auto start = Clock::now();
-  Exchange();
-  Record(0, MsSince(start));
-  for (size_t k = 0; k < passes_.size(); ++k) {
-    start = Clock::now();
-    passes_[k].run(model_, state_);
-    Record(k + 1, MsSince(start));
-    if (k == sort_pass_ && !AfterSort(start_time)) return;
-  }
-  start = Clock::now();
-  DropGhosts();
-  Record(profile_.size() - 1, MsSince(start));
-  double diverged = StateIsFinite(state_.particles) ? 0 : 1;
-  comm_.MaxInPlace({&diverged, 1});
+  bool finite = true;
+  if (!RunStep(start_time, finite)) return;
   // As Simulation::Step: a step clamped to the cap lands on `until` itself.
   state_.time = model_.physical && state_.dt >= state_.max_dt ? until : start_time + state_.dt;
   ++state_.step;
-  if (diverged > 0) {
+  if (!finite) {
     alarm_ = "non-finite particle state after step " + std::to_string(state_.step) +
              " (t = " + std::to_string(start_time) + " s, dt = " + std::to_string(state_.dt) +
              " s): the step diverged; reduce the time step or stiffness, or reset";
@@ -145,6 +139,49 @@ void DistributedSimulation::Step(double until) {
     alarm_ = "the time step collapsed to " + std::to_string(state_.dt) + " s at step " +
              std::to_string(state_.step) + " (t = " + std::to_string(start_time) + " s)";
   }
+}
+
+DistributedSimulation::StepOutcome DistributedSimulation::StepAt(double time, uint64_t step,
+                                                                 double max_dt) {
+  // The driver decides when to step again after an alarm (it restores or resets first), and
+  // keeps the frame's warnings.
+  alarm_.clear();
+  state_.warning.clear();
+  state_.time = time;
+  state_.step = step;
+  if (model_.physical) {
+    state_.max_dt = max_dt;
+  } else {
+    state_.dt = model_.dt;
+  }
+  StepOutcome outcome;
+  outcome.completed = RunStep(time, outcome.finite);
+  outcome.dt = state_.dt;
+  if (outcome.completed) {
+    // The driver sets the time before the next step; this keeps time() meaningful meanwhile.
+    state_.time = model_.physical && state_.dt >= state_.max_dt ? time + max_dt : time + state_.dt;
+    ++state_.step;
+  }
+  return outcome;
+}
+
+bool DistributedSimulation::RunStep(double start_time, bool& finite) {
+  auto start = Clock::now();
+  Exchange();
+  Record(0, MsSince(start));
+  for (size_t k = 0; k < passes_.size(); ++k) {
+    start = Clock::now();
+    passes_[k].run(model_, state_);
+    Record(k + 1, MsSince(start));
+    if (k == sort_pass_ && !AfterSort(start_time)) return false;
+  }
+  start = Clock::now();
+  DropGhosts();
+  Record(profile_.size() - 1, MsSince(start));
+  double diverged = StateIsFinite(state_.particles) ? 0 : 1;
+  comm_.MaxInPlace({&diverged, 1});
+  finite = diverged == 0;
+  return true;
 }
 
 void DistributedSimulation::Exchange() {

@@ -147,7 +147,10 @@ void SortByKey(LocalParticles& mine) {
   if (p.pressure.size() == order.size()) Permute<Real>(order, p.pressure);
   Permute<uint64_t>(order, mine.key);
   if (mine.ghost.size() == order.size()) Permute<uint8_t>(order, mine.ghost);
-  for (SolverArray& a : mine.arrays) Permute<Real>(order, a.values);
+  // An array no process holds yet (wcsph's carried density before the first step) is empty.
+  for (SolverArray& a : mine.arrays) {
+    if (a.values.size() == order.size()) Permute<Real>(order, a.values);
+  }
 }
 
 void KeepParticles(std::span<const uint8_t> keep, ParticleArrays& particles,

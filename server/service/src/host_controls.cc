@@ -196,7 +196,7 @@ ControlResult SimulationHost::Apply(Control& control) {
             try {
               // On a GPU, a solver without a GPU backend fails here (ConfigError "device"):
               // the old scene runs on.
-              auto next = std::make_unique<Simulation>(std::move(c.scene), options_.device);
+              auto next = MakeSimulation(std::move(c.scene));
               sim_ = std::move(next);
             } catch (const ConfigError& e) {
               return ControlError(ControlCode::kInvalidArgument, e.what());

@@ -46,7 +46,7 @@ SimulationHost::SimulationHost(Scene scene, HostOptions options)
   if (const std::string over = CheckParticleLimit(scene, scene.params); !over.empty()) {
     throw ConfigError("max_particles", over);
   }
-  sim_ = std::make_unique<Simulation>(std::move(scene), options_.device);
+  sim_ = MakeSimulation(std::move(scene));
   running_ = !options_.start_paused;
   DescribeScene();
   StartScene();
@@ -256,6 +256,13 @@ std::string SimulationHost::CheckParticleLimit(const Scene& scene, const Params&
   return "the scene would have " + std::to_string(total) +
          " particles; this server allows at most " + std::to_string(options_.max_particles) +
          " (dysa-server --max-particles)";
+}
+
+std::unique_ptr<Simulation> SimulationHost::MakeSimulation(Scene scene) const {
+  if (options_.backend) {
+    return std::make_unique<Simulation>(std::move(scene), options_.device, options_.backend);
+  }
+  return std::make_unique<Simulation>(std::move(scene), options_.device);
 }
 
 void SimulationHost::StartScene() {

@@ -123,6 +123,9 @@ struct Scene {
   double end_time = 5.0;                 // s, default length of an offline run
   std::optional<double> probe_interval;  // s; default: one output per frame
   std::vector<ProbeSpec> probes;
+  // The JSON text ParseScene read this scene from (empty for a scene built in code): what the
+  // server sends its other ranks to build the same scene (docs/distributed.md).
+  std::string source_json;
 };
 
 // Parses a scene from JSON text. Every field is optional and has a default; malformed JSON, an

@@ -14,10 +14,9 @@
 #include "dysa/core/scene.h"
 #include "dysa/core/solver.h"
 #include "dysa/core/state.h"
+#include "dysa/core/step_backend.h"
 
 namespace dysa {
-
-class GpuBackend;
 
 // Time spent in one pass, in milliseconds: wall time on the CPU, the time between CUDA events
 // around the pass's kernels on a GPU.
@@ -52,6 +51,11 @@ class Simulation {
   // particles live in GPU memory and every step runs there; throws ConfigError("device", ...)
   // when the device cannot run (naming what is missing) or the solver has no GPU backend.
   explicit Simulation(Scene scene, const Device& device = {});
+  // Makes the backend a simulation steps on, for its scene (validated when it is called).
+  using BackendFactory = std::function<std::unique_ptr<StepBackend>(const Scene&)>;
+  // Steps on the backend `make` returns (the ranks of several processes: ranks_backend.h)
+  // instead of the CPU's passes or the device's; `device` stays what device() says.
+  Simulation(Scene scene, const Device& device, const BackendFactory& make);
   ~Simulation();
   Simulation(Simulation&&) noexcept;
   Simulation& operator=(Simulation&&) noexcept;
@@ -73,8 +77,8 @@ class Simulation {
   // device.
   SolverStats solver_stats() const;
   // The CPU's solver and, through its type (solvers/*), its own data: for tests and
-  // diagnostics. Null on a GPU, whose backend keeps that data in device memory.
-  const Solver* solver() const { return gpu_ ? nullptr : solver_.get(); }
+  // diagnostics. Null on a GPU (or another backend), whose backend keeps that data.
+  const Solver* solver() const { return backend_ ? nullptr : solver_.get(); }
 
   // Per-particle arrays in particle-id order (id k at index k): each span is empty (not read),
   // or 3 * particle_count() floats (positions, velocities: x, y, z interleaved), or
@@ -179,8 +183,8 @@ class Simulation {
   size_t particle_count_ = 0;
   const SolverInfo* solver_info_ = nullptr;  // the scene's solver, looked up once
   std::unique_ptr<Solver> solver_;
-  std::unique_ptr<GpuBackend> gpu_;  // null on the CPU
-  std::vector<Pass> passes_;         // the CPU's passes (empty on a GPU)
+  std::unique_ptr<StepBackend> backend_;  // null on the CPU
+  std::vector<Pass> passes_;              // the CPU's passes (empty on a GPU)
   // The neighbour sort among passes_ (after it the step checks the cells' occupancy), or
   // passes_.size() when there is none.
   size_t sort_pass_ = 0;

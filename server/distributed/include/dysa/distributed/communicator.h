@@ -26,6 +26,9 @@ class Communicator {
   virtual std::vector<Bytes> AllToAll(const std::vector<Bytes>& to) const = 0;
   // Process 0 gets every process's `mine`, by rank; the others get nothing.
   virtual std::vector<Bytes> GatherToRoot(std::span<const std::byte> mine) const = 0;
+  // Process 0's `bytes` become every process's (any size). The others may wait here long (the
+  // server's ranks between commands), so they wait without spinning a core.
+  virtual void Broadcast(Bytes& bytes) const = 0;
 };
 
 // The group of this process alone.
@@ -39,6 +42,7 @@ class SingleProcess final : public Communicator {
   std::vector<Bytes> GatherToRoot(std::span<const std::byte> mine) const override {
     return {Bytes(mine.begin(), mine.end())};
   }
+  void Broadcast(Bytes&) const override {}
 };
 
 }  // namespace dysa::distributed

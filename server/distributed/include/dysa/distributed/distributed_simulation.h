@@ -64,9 +64,28 @@ class DistributedSimulation {
   const std::vector<PassProfile>& profile() const { return profile_; }
   // As Simulation::alarm; the same on every process.
   const std::string& alarm() const { return alarm_; }
+  // What the latest StepAt's passes warned of (State::warning; empty: nothing). A physical
+  // solver's warnings come from the maxima over the processes: the same on every process.
+  const std::string& warning() const { return state_.warning; }
 
   // Collective. One step, as Simulation::Step(until).
   void Step(double until = std::numeric_limits<double>::infinity());
+  // Collective. One step for a driver that keeps the clock (dysa::Simulation on process 0 with
+  // the ranks' backend, which sends every process its time, step counter and cap): from `time`
+  // and `step`, a physical solver's step capped at `max_dt`, a fixed step of the model's dt.
+  // What Step(until) computes for the same state when Simulation::Step(until) passes that cap.
+  struct StepOutcome {
+    bool completed = true;  // false: stopped after the neighbour sort, alarm() says why
+    bool finite = true;     // every particle finite afterwards (on every process)
+    double dt = 0;          // the step taken
+  };
+  StepOutcome StepAt(double time, uint64_t step, double max_dt);
+  // Collective in effect (every process must apply the same): new parameters, validated as by
+  // the constructor, keeping the particles (Simulation::SetParams without a reset).
+  void SetParams(const Params& params);
+  // Throws ConfigError naming the field ("solver", "time_integration") when `scene` with
+  // `params` cannot run across processes yet.
+  static void CheckSupported(const Scene& scene, const Params& params);
   // Collective. The particles of all processes.
   uint64_t TotalParticles() const;
   // Collective. Every process's particles on process 0, in the storage order one process would
@@ -87,6 +106,9 @@ class DistributedSimulation {
   uint64_t GlobalStateHash() const;
 
  private:
+  // The exchange, the passes and the dropping of the ghosts of one step from state_.time (cap
+  // and dt set); false when the sort found the state unfit to go on (alarm_ set).
+  bool RunStep(double start_time, bool& finite);
   void Exchange();
   // After the neighbour sort: the ghost flags in sorted order and the cells' occupancy.
   bool AfterSort(double start_time);

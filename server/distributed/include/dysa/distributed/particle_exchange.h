@@ -56,8 +56,9 @@ LocalParticles ExchangeParticles(const Communicator& comm, const Slabs& slabs,
                                  std::span<const int> layer, const LocalParticles& owned,
                                  ExchangeCounts& counts);
 
-// Puts every array of `particles` (density and pressure too, where they hold one value per
-// particle) into key order. Keys must be unique: throws std::logic_error otherwise.
+// Puts every array of `particles` that holds one value per particle (density, pressure and the
+// solver's arrays; an empty one stays empty) into key order. Keys must be unique: throws
+// std::logic_error otherwise.
 void SortByKey(LocalParticles& particles);
 
 // Keeps the particles whose `keep` flag is set, in order (all arrays of `arrays` that hold one

@@ -63,6 +63,10 @@ struct HostOptions {
   // Where every simulation of the host steps, including the scenes LoadScene brings: the CPU, or
   // a CUDA GPU (dysa-server --device). Scenes whose solver has no GPU backend are refused there.
   Device device;
+  // Where every simulation of the host steps instead, when set: the backend this makes for
+  // each scene (dysa-server under mpirun: the ranks, ranks_backend.h). Its ConfigErrors refuse
+  // a scene or parameters as the device's do.
+  Simulation::BackendFactory backend;
   // How long a frame interrupted by a pause may take to land on a frame boundary, beyond the
   // step in flight: it is finished when its remaining steps fit, otherwise rolled back to its
   // start (frame_stepper.h).
@@ -140,6 +144,8 @@ class SimulationHost {
   // A scene or parameter set over the particle limit: the message, or "" when it fits.
   std::string CheckParticleLimit(const Scene& scene, const Params& params) const;
   void StartScene();
+  // A simulation of `scene` on options_.device, or on options_.backend when set.
+  std::unique_ptr<Simulation> MakeSimulation(Scene scene) const;
   // The scene or its spawn changed: describes it anew under a new scene_version.
   void DescribeScene();
   void Publish(bool force, bool discontinuity);

@@ -1,0 +1,80 @@
+// Where a Simulation's steps run when not in its own CPU passes, behind the narrow interface
+// Simulation uses: the particles live elsewhere between steps (GPU memory, or the slabs of
+// several processes) and cross to this process's host arrays only when read (frames,
+// checkpoints, probes, status) or replaced (reset, restore). The GPU's backends implement it
+// in core (gpu_backend.h); the ranks' one in server/distributed (ranks_backend.h).
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "dysa/core/device.h"
+#include "dysa/core/model.h"
+#include "dysa/core/params.h"
+#include "dysa/core/solver.h"
+#include "dysa/core/state.h"
+
+namespace dysa {
+
+struct ProbeGatherPlan;
+struct ProbeGather;
+
+class StepBackend {
+ public:
+  virtual ~StepBackend() = default;
+
+  // "cuda:0 NVIDIA H200, ...", "cpu, 3 ranks": Simulation::DeviceDescription.
+  virtual std::string Describe(const Device& device) const = 0;
+  // Throws ConfigError, naming the field, for parameters this backend cannot run with, before
+  // Simulation applies any of them (the ranks run only some solvers). Accepts all by default.
+  virtual void CheckParams(const Params&) const {}
+
+  // Sets up the passes of `model` (rebuilt whenever parameters change) and returns their
+  // names, the CPU solver's.
+  virtual std::vector<std::string> Configure(const Model& model) = 0;
+  // Replaces the backend's particles with `particles` (ids, positions, velocities) and the
+  // solver's carried arrays with `solver_arrays` (Solver::SaveArrays's; a missing one starts
+  // cold).
+  virtual void Upload(const ParticleArrays& particles,
+                      std::span<const SolverArray> solver_arrays) = 0;
+  // Copies every shared per-particle array (ParticleArrays) back into `particles` (resized).
+  virtual void Download(ParticleArrays& particles) const = 0;
+  // Only what a checkpoint holds: ids, positions, velocities and the solver's carried arrays,
+  // named as the CPU solver's SaveArrays names them.
+  virtual void DownloadCheckpointArrays(ParticleArrays& particles,
+                                        std::vector<SolverArray>& solver_arrays) const = 0;
+  // Positions, velocities (xyz triples) and densities in particle-id order; null: not copied.
+  virtual void DownloadById(float* position, float* velocity, float* density) const = 0;
+  // Whether GatherProbes runs where the particles are; otherwise Simulation downloads them and
+  // gathers on the host.
+  virtual bool gathers_probes() const { return true; }
+  // The probes' gather (probe_gather.h) over the backend's particles (gathers_probes()).
+  virtual void GatherProbes(const ProbeGatherPlan& plan, ProbeGather& out) const = 0;
+
+  struct StepReport {
+    std::vector<double> pass_ms;  // per pass, from CUDA events
+    bool finite = true;           // every position and velocity finite afterwards
+    uint64_t limited = 0;         // particles slowed by the velocity limiter
+    // The most particles one grid cell held at the step's neighbour sort. Beyond
+    // NeighborGrid::kMaxParticlesPerCell the physical solvers stop the step after the sort and
+    // its first neighbour pass, before they integrate (stopped); the seed's step completes.
+    uint32_t max_cell_count = 0;
+    bool stopped = false;  // the step stopped before it changed the particles' motion
+    // Non-empty: the backend stopped the step itself, before it changed the particles' motion,
+    // and says why (the ranks: a particle without an owner, a crowded cell). Simulation raises
+    // it as its alarm.
+    std::string alarm{};
+  };
+  // One step of state.dt (set by the caller for a fixed-step solver); a physical solver's step
+  // is capped at state.max_dt and sets state.dt. state.time and state.step are those before the
+  // step (the caller advances them).
+  virtual StepReport Step(const Model& model, State& state) = 0;
+  // Device memory held, bytes.
+  virtual uint64_t DeviceBytes() const = 0;
+  // The latest step's solver diagnostics.
+  virtual SolverStats stats() const { return {}; }
+};
+
+}  // namespace dysa

@@ -1,0 +1,68 @@
+// The server's simulation on ranks (docs/distributed.md): process 0's dysa::Simulation steps on
+// the ranks' backend (ranks_backend.h), which turns each thing it needs of the particles (a
+// scene, parameters, new particles, a step, a gather) into one small command, broadcasts it,
+// and then performs it like every other process: RankRunner::Run on each process, so that all
+// take part in the same collectives in the same order. The other processes wait for the next
+// command (ServeRanks) until process 0 sends Stop.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <span>
+
+#include "dysa/core/params.h"
+#include "dysa/core/scene.h"
+#include "dysa/core/simulation.h"
+#include "dysa/core/solver.h"
+#include "dysa/core/state.h"
+#include "dysa/distributed/communicator.h"
+#include "dysa/distributed/distributed_simulation.h"
+
+namespace dysa::distributed {
+
+// The commands, encoded (rank_runner.cc has their layout).
+Bytes SceneCommand(const Scene& scene);  // a new DistributedSimulation of this scene
+Bytes ConfigureCommand(const Params& params);
+// The particles (and solver arrays) that replace every process's: each keeps its slab.
+Bytes UploadCommand(const ParticleArrays& particles, std::span<const SolverArray> arrays);
+Bytes StepCommand(double time, uint64_t step, double max_dt);
+Bytes GatherCommand();      // every particle on process 0, in one process's storage order
+Bytes CheckpointCommand();  // a checkpoint on process 0
+Bytes StopCommand();
+
+// What a command gave on process 0 (empty elsewhere).
+struct RankResult {
+  DistributedSimulation::StepOutcome outcome;  // a step's
+  ParticleArrays particles;                    // a gather's
+  Checkpoint checkpoint;                       // a checkpoint's
+  bool stop = false;                           // Stop: the processes are done
+};
+
+class RankRunner {
+ public:
+  // `comm` must outlive this.
+  explicit RankRunner(const Communicator& comm) : comm_(comm) {}
+
+  const Communicator& comm() const { return comm_; }
+  // The simulation of the latest scene; null before the first.
+  const DistributedSimulation* simulation() const { return sim_.get(); }
+
+  // Process 0: broadcasts `command` and performs it. A ConfigError (a scene or parameters that
+  // cannot run across processes) is thrown on every process alike, nothing applied.
+  RankResult Send(Bytes command);
+  // The other processes: receives and performs one command; false once it was Stop. A
+  // ConfigError is process 0's to report: here it is skipped (nothing applied here either).
+  bool ServeOne();
+
+ private:
+  RankResult Run(const Bytes& command);
+
+  const Communicator& comm_;
+  std::unique_ptr<DistributedSimulation> sim_;
+};
+
+// The other processes' loop: serves commands until Stop. Exceptions other than ConfigError
+// propagate (the caller aborts the job: process 0 would wait for this one forever).
+void ServeRanks(RankRunner& runner);
+
+}  // namespace dysa::distributed

@@ -1,0 +1,28 @@
+// dysa::Simulation stepping on the ranks: the StepBackend of process 0 (the server's
+// simulation thread), which sends every process each command through a RankRunner
+// (rank_runner.h) and performs it there too. The particles live in the processes' slabs; a
+// frame, a checkpoint or the status's hash gathers them to process 0 in one process's storage
+// order, so that everything process 0 shows or keeps is, bit for bit, what one process's
+// Simulation would have. Step back works unchanged: its checkpoints gather, its restores
+// upload.
+#pragma once
+
+#include <memory>
+
+#include "dysa/core/simulation.h"
+#include "dysa/distributed/rank_runner.h"
+
+namespace dysa::distributed {
+
+// The factory that makes a Simulation step on `runner`'s processes (Simulation's constructor
+// with a BackendFactory). Each simulation it makes sends its scene to every process first; a
+// scene or parameters the ranks cannot run (a solver other than wcsph and seed, the
+// predictor-corrector, fewer grid layers than ranks, a scene without JSON text) are refused
+// with a ConfigError naming the field, before any process is told.
+Simulation::BackendFactory RanksBackendFactory(std::shared_ptr<RankRunner> runner);
+
+// Throws ConfigError as the factory refuses: "solver", "time_integration", "processes" or
+// "scene".
+void CheckRunsOnRanks(const Scene& scene, const Params& params, int processes);
+
+}  // namespace dysa::distributed

@@ -1,0 +1,128 @@
+#include "dysa/distributed/ranks_backend.h"
+
+#include <stdexcept>
+#include <string>
+#include <utility>
+
+#include "dysa/core/neighbor_grid.h"
+
+namespace dysa::distributed {
+namespace {
+
+class RanksBackend final : public StepBackend {
+ public:
+  RanksBackend(std::shared_ptr<RankRunner> runner, const Scene& scene)
+      : runner_(std::move(runner)), scene_(scene) {
+    CheckRunsOnRanks(scene_, scene_.params, runner_->comm().size());
+    runner_->Send(SceneCommand(scene_));
+  }
+
+  std::string Describe(const Device&) const override {
+    const int n = runner_->comm().size();
+    return "cpu, " + std::to_string(n) + (n == 1 ? " rank" : " ranks");
+  }
+
+  void CheckParams(const Params& params) const override {
+    CheckRunsOnRanks(scene_, params, runner_->comm().size());
+  }
+
+  std::vector<std::string> Configure(const Model& model) override {
+    runner_->Send(ConfigureCommand(model.params));
+    std::vector<std::string> names;
+    for (const PassProfile& p : sim().profile()) names.push_back(p.name);
+    return names;
+  }
+
+  void Upload(const ParticleArrays& particles, std::span<const SolverArray> arrays) override {
+    runner_->Send(UploadCommand(particles, arrays));
+  }
+
+  void Download(ParticleArrays& particles) const override {
+    particles = std::move(runner_->Send(GatherCommand()).particles);
+  }
+
+  void DownloadCheckpointArrays(ParticleArrays& p,
+                                std::vector<SolverArray>& arrays) const override {
+    Checkpoint c = std::move(runner_->Send(CheckpointCommand()).checkpoint);
+    p.id = std::move(c.id);
+    p.position = std::move(c.position);
+    p.velocity = std::move(c.velocity);
+    arrays = std::move(c.solver_arrays);
+  }
+
+  void DownloadById(float* position, float* velocity, float* density) const override {
+    const ParticleArrays p = std::move(runner_->Send(GatherCommand()).particles);
+#pragma omp parallel for schedule(static)
+    for (size_t i = 0; i < p.size(); ++i) {
+      const size_t k = p.id[i];
+      for (int a = 0; a < 3; ++a) {
+        if (position) position[3 * k + a] = p.position[i][a];
+        if (velocity) velocity[3 * k + a] = p.velocity[i][a];
+      }
+      if (density) density[k] = p.density[i];
+    }
+  }
+
+  bool gathers_probes() const override { return false; }
+  void GatherProbes(const ProbeGatherPlan&, ProbeGather&) const override {
+    throw std::logic_error("the ranks' backend gathers no probes (gathers_probes)");
+  }
+
+  StepReport Step(const Model& model, State& state) override {
+    const double cap = model.physical ? state.max_dt : model.dt;
+    const DistributedSimulation::StepOutcome outcome =
+        runner_->Send(StepCommand(state.time, state.step, cap)).outcome;
+    StepReport report;
+    for (const PassProfile& p : sim().profile()) report.pass_ms.push_back(p.last_ms);
+    if (!outcome.completed) {
+      report.alarm = sim().alarm();
+      report.stopped = true;
+      return report;
+    }
+    state.dt = outcome.dt;
+    report.finite = outcome.finite;
+    // A physical solver's warnings (the flow past the speed of sound) come from the maxima over
+    // the ranks; the seed's velocity limiter counts each rank's ghosts too, so its count is not
+    // one process's: not reported.
+    if (model.physical && !sim().warning().empty()) state.warning = sim().warning();
+    return report;
+  }
+
+  uint64_t DeviceBytes() const override { return 0; }
+
+ private:
+  const DistributedSimulation& sim() const { return *runner_->simulation(); }
+
+  std::shared_ptr<RankRunner> runner_;
+  Scene scene_;
+};
+
+}  // namespace
+
+void CheckRunsOnRanks(const Scene& scene, const Params& params, int processes) {
+  DistributedSimulation::CheckSupported(scene, params);
+  if (scene.source_json.empty()) {
+    throw ConfigError("scene", "'" + scene.name +
+                                   "' was built in code, not read from JSON text: the ranks "
+                                   "build their scene from its text");
+  }
+  const Model model = MakeModel(scene, params);
+  NeighborGrid layout;
+  layout.Configure(model.domain, Real(model.kernel_support), model.periodic);
+  const int layers = layout.dims().maxCoeff();
+  if (layers < processes) {
+    throw ConfigError("processes", "the neighbour grid has " + std::to_string(layers) +
+                                       " cell layers along its longest axis, fewer than the " +
+                                       std::to_string(processes) +
+                                       " ranks that must each own one: run on at most " +
+                                       std::to_string(layers) + " ranks");
+  }
+}
+
+Simulation::BackendFactory RanksBackendFactory(std::shared_ptr<RankRunner> runner) {
+  return [runner](const Scene& scene) -> std::unique_ptr<StepBackend> {
+    return std::make_unique<RanksBackend>(runner, scene);
+  };
+}
+
+}  // namespace dysa::distributed

@@ -1,0 +1,61 @@
+#!/bin/bash
+# ctest -L mpi: a rank that dies under a running dysa-server on 3 ranks ends the server. Starts
+# the server running (rank 0 serving, every rank stepping), lets it step a while,
+# kills one of the other ranks (SIGKILL) and asserts that mpirun exits non-zero within 30 s and
+# that no rank, rank 0 included, outlives it by more than 10 s: rank 0 must not wait in a
+# collective forever.
+# Usage: mpi_server_killed_rank_test.sh DYSA_SERVER MPIEXEC SCENE. Exits 77 (skipped, saying why)
+# when mpirun cannot be found.
+set -u
+server=$1
+mpiexec=$2
+scene=$3
+if ! command -v "$mpiexec" > /dev/null 2>&1; then
+  echo "SKIP: no mpirun ('$mpiexec' not found): install openmpi-bin (scripts/setup.sh)"
+  exit 77
+fi
+export OMP_WAIT_POLICY=PASSIVE
+export ASAN_OPTIONS="${ASAN_OPTIONS:+$ASAN_OPTIONS:}detect_leaks=0"
+out=$(mktemp -d)
+fail() {
+  echo "FAIL: $*"
+  cat "$out/log"
+  [ -n "${job:-}" ] && kill -9 "$job" 2> /dev/null
+  rm -rf "$out"
+  exit 1
+}
+
+"$mpiexec" --oversubscribe --allow-run-as-root -np 3 "$server" --scene "$scene" --threads 1 \
+  --listen 127.0.0.1:0 --port-file "$out/port" > "$out/log" 2>&1 &
+job=$!
+for _ in $(seq 150); do
+  [ -f "$out/port" ] && break
+  sleep 0.2
+done
+[ -f "$out/port" ] || fail "the server did not start"
+mapfile -t ranks < <(pgrep -P "$job" -x dysa-server)
+[ ${#ranks[@]} -eq 3 ] || fail "3 ranks did not start: ${ranks[*]}"
+# Let them step a while: the other ranks are then in the step's collectives or waiting for the
+# next command.
+sleep 2
+kill -9 "${ranks[2]}"
+echo "killed rank pid ${ranks[2]} of ${ranks[*]}"
+start=$SECONDS
+for _ in $(seq 150); do
+  kill -0 "$job" 2> /dev/null || break
+  sleep 0.2
+done
+kill -0 "$job" 2> /dev/null && fail "mpirun still runs 30 s after a rank was killed"
+wait "$job"
+status=$?
+echo "mpirun exited with status $status after $((SECONDS - start)) s"
+[ $status -ne 0 ] || fail "mpirun exited 0 after a rank was killed"
+for pid in "${ranks[@]}"; do
+  for _ in $(seq 50); do
+    kill -0 "$pid" 2> /dev/null || break
+    sleep 0.2
+  done
+  kill -0 "$pid" 2> /dev/null && fail "rank pid $pid still runs 10 s after mpirun exited"
+done
+rm -rf "$out"
+echo "PASS: a killed rank ends the server"

@@ -1,0 +1,135 @@
+#!/bin/bash
+# ctest -L mpi: dysa-server on 3 ranks (mpirun) is the same simulation as dysa-server on one
+# process, driven through the `dysa` client: after the same controls (step, a parameter change,
+# step back, reset, resume and pause) both report the same frame, step and state hash, and a
+# streamed frame (dysa record, npz) is byte-identical; solvers the ranks cannot run are refused
+# naming the field, the old scene running on.
+# Usage: mpi_server_test.sh DYSA DYSA_SERVER MPIEXEC SCENE. Exits 77 (skipped, saying why) when
+# mpirun cannot be found.
+set -u
+dysa=$1
+server=$2
+mpiexec=$3
+scene=$4
+if ! command -v "$mpiexec" > /dev/null 2>&1; then
+  echo "SKIP: no mpirun ('$mpiexec' not found): install openmpi-bin (scripts/setup.sh)"
+  exit 77
+fi
+export OMP_WAIT_POLICY=PASSIVE
+export ASAN_OPTIONS="${ASAN_OPTIONS:+$ASAN_OPTIONS:}detect_leaks=0"
+out=$(mktemp -d)
+pids=()
+cleanup() {
+  for pid in "${pids[@]}"; do kill -9 "$pid" 2> /dev/null; done
+  rm -rf "$out"
+}
+trap cleanup EXIT
+fail() {
+  echo "FAIL: $*"
+  for log in "$out"/*.log; do
+    echo "--- $log"
+    cat "$log"
+  done
+  exit 1
+}
+
+# start NAME [mpirun args...]: a paused server on the scene, its address in $out/NAME.addr.
+start() {
+  local name=$1
+  shift
+  "$@" "$server" --scene "$scene" --paused --threads 1 --frame-rate 0 --listen 127.0.0.1:0 \
+    --port-file "$out/$name.port" > "$out/$name.log" 2>&1 &
+  pids+=($!)
+  for _ in $(seq 150); do
+    [ -f "$out/$name.port" ] && break
+    sleep 0.2
+  done
+  [ -f "$out/$name.port" ] || fail "$name: the server did not start"
+  echo "127.0.0.1:$(cat "$out/$name.port")" > "$out/$name.addr"
+}
+# on NAME ARGS...: the dysa client against server NAME.
+on() {
+  local name=$1
+  shift
+  "$dysa" --server "$(cat "$out/$name.addr")" "$@"
+}
+# state NAME: "frame step hash" of server NAME (paused: the hash is the frame's).
+state() {
+  on "$1" --json status | /usr/bin/python3 -c 'import json, sys
+s = json.load(sys.stdin)
+print(s.get("frame", 0), s.get("step", 0), s.get("state_hash", 0), s.get("running", False))'
+}
+# same WHAT: both servers are in the same state.
+same() {
+  local a b
+  a=$(state one) || fail "$1: status of the one-process server"
+  b=$(state ranks) || fail "$1: status of the ranks' server"
+  [ "$a" = "$b" ] || fail "$1: one process '$a', 3 ranks '$b' (frame step hash running)"
+  echo "$1: frame step hash running = $a on both"
+}
+both() {
+  on one "$@" > "$out/one.out" 2>&1 || fail "one process: dysa $*: $(cat "$out/one.out")"
+  on ranks "$@" > "$out/ranks.out" 2>&1 || fail "3 ranks: dysa $*: $(cat "$out/ranks.out")"
+}
+
+start_time=$SECONDS
+start one
+start ranks "$mpiexec" --oversubscribe --allow-run-as-root -np 3
+on ranks status | grep -q "3 ranks" || fail "the ranks' server does not say it runs on 3 ranks"
+same "start"
+both step 8
+same "step 8"
+both set kinematic_viscosity=2e-6
+both step 4
+same "viscosity changed, step 4"
+both back 3
+same "back 3"
+both step 2
+same "step 2 after back"
+on one record --frames 1 --fields velocity density --out "$out/one.npz" > /dev/null ||
+  fail "record on one process"
+on ranks record --frames 1 --fields velocity density --out "$out/ranks.npz" > /dev/null ||
+  fail "record on 3 ranks"
+cmp "$out/one.npz" "$out/ranks.npz" || fail "the streamed frames differ"
+echo "a streamed frame (positions, velocity, density): $(stat -c %s "$out/ranks.npz") bytes, identical"
+both reset
+same "reset"
+# Running, then paused: the pause lands on a frame, wherever the ranks' server was.
+on ranks resume > /dev/null || fail "resume on 3 ranks"
+for _ in $(seq 100); do
+  read -r frame _ <<< "$(state ranks)"
+  [ "${frame:-0}" -ge 2 ] && break
+  sleep 0.2
+done
+on ranks pause > /dev/null || fail "pause on 3 ranks"
+read -r frame _ hash running <<< "$(state ranks)"
+[ "$running" = "False" ] || fail "the ranks' server still runs after pause"
+[ "$frame" -gt 0 ] || fail "the ranks' server did not run while resumed"
+on one step "$frame" > /dev/null || fail "one process: step $frame"
+same "resumed, paused at frame $frame"
+
+# Refused, naming the field; the scene runs on.
+if on ranks load "$scene" --solver dfsph > "$out/refused" 2>&1; then
+  fail "a dfsph scene was loaded on 3 ranks"
+fi
+grep -q "solver" "$out/refused" || fail "dfsph refused without naming the solver: $(cat "$out/refused")"
+echo "refused: $(cat "$out/refused")"
+if on ranks set time_integration=1 > "$out/refused" 2>&1; then
+  fail "the predictor-corrector was accepted on 3 ranks"
+fi
+grep -q "time_integration" "$out/refused" ||
+  fail "time_integration refused without naming it: $(cat "$out/refused")"
+echo "refused: $(cat "$out/refused")"
+on ranks step 1 > /dev/null || fail "step after the refusals"
+on one step 1 > /dev/null || fail "one process: step 1"
+same "after the refusals, step 1"
+
+# SIGTERM to mpirun ends every rank.
+kill -TERM "${pids[1]}"
+for _ in $(seq 50); do
+  kill -0 "${pids[1]}" 2> /dev/null || break
+  sleep 0.2
+done
+kill -0 "${pids[1]}" 2> /dev/null && fail "mpirun still runs 10 s after SIGTERM"
+pgrep -f "$out/ranks.port" > /dev/null && fail "a rank outlived mpirun"
+echo "PASS: the server on 3 ranks matches one process ($((SECONDS - start_time)) s)"

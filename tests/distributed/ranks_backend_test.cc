@@ -1,0 +1,139 @@
+// Tests of the server's simulation on ranks (server/distributed/src/ranks_backend.cc,
+// rank_runner.cc) on one process (SingleProcess): a Simulation stepping on the ranks' backend
+// gives the bits of a plain Simulation through frames, parameter changes, checkpoints and
+// resets, and what the ranks cannot run is refused by field, nothing applied. On 3 MPI ranks
+// under dysa-server: mpi_server_test.sh (ctest -L mpi).
+#include "dysa/distributed/ranks_backend.h"
+
+#include <gtest/gtest.h>
+
+#include <memory>
+#include <vector>
+
+#include "dysa/core/scene.h"
+#include "dysa/core/simulation.h"
+#include "dysa/core/types.h"
+
+#if !defined(DYSA_RANKS_SCENE) || !defined(DYSA_RANKS_SEED_SCENE)
+#error "tests/CMakeLists.txt defines DYSA_RANKS_SCENE and DYSA_RANKS_SEED_SCENE (tests/distributed)"
+#endif
+
+namespace dysa::distributed {
+namespace {
+
+struct OnRanks {
+  SingleProcess one;
+  std::shared_ptr<RankRunner> runner = std::make_shared<RankRunner>(one);
+  Simulation::BackendFactory factory() { return RanksBackendFactory(runner); }
+};
+
+std::vector<float> PositionsById(const Simulation& sim) {
+  std::vector<float> p(3 * sim.particle_count());
+  sim.ReadParticlesById({p, {}, {}});
+  return p;
+}
+
+void ExpectSameState(const Simulation& ranks, const Simulation& plain, const char* where) {
+  ASSERT_EQ(ranks.step(), plain.step()) << where;
+  ASSERT_EQ(ranks.frame(), plain.frame()) << where;
+  ASSERT_EQ(ranks.time(), plain.time()) << where;
+  ASSERT_EQ(StateHash(ranks.state()), StateHash(plain.state())) << where;
+  ASSERT_EQ(PositionsById(ranks), PositionsById(plain)) << where;
+}
+
+void ExpectSameBits(const Scene& scene) {
+  OnRanks ranks;
+  Simulation spread(scene, Device{}, ranks.factory());
+  Simulation plain(scene);
+  EXPECT_EQ(spread.DeviceDescription(), "cpu, 1 rank");
+  ExpectSameState(spread, plain, "start");
+  for (int f = 0; f < 3; ++f) {
+    spread.StepFrame();
+    plain.StepFrame();
+  }
+  ExpectSameState(spread, plain, "3 frames");
+  // A frame in pieces, a checkpoint taken inside it and restored.
+  const Checkpoint a = spread.SaveCheckpoint();
+  const Checkpoint b = plain.SaveCheckpoint();
+  EXPECT_EQ(a.id, b.id);
+  EXPECT_EQ(a.position, b.position);
+  EXPECT_EQ(a.velocity, b.velocity);
+  ASSERT_EQ(a.solver_arrays.size(), b.solver_arrays.size());
+  for (size_t k = 0; k < a.solver_arrays.size(); ++k) {
+    EXPECT_EQ(a.solver_arrays[k].values, b.solver_arrays[k].values);
+  }
+  // One step of the next frame (the seed's has 3, wcsph's more).
+  EXPECT_FALSE(spread.StepFrame([] { return true; }));
+  spread.RestoreCheckpoint(a);
+  Params p = plain.params();
+  p.iterations_per_frame = 4;    // the seed's frame
+  p.kinematic_viscosity = 2e-6;  // wcsph's
+  ASSERT_FALSE(spread.SetParams(p));
+  ASSERT_FALSE(plain.SetParams(p));
+  for (int f = 0; f < 2; ++f) {
+    spread.StepFrame();
+    plain.StepFrame();
+  }
+  ExpectSameState(spread, plain, "restored, parameters changed, 2 frames");
+  spread.Reset();
+  plain.Reset();
+  spread.StepFrame();
+  plain.StepFrame();
+  ExpectSameState(spread, plain, "reset, 1 frame");
+}
+
+TEST(RanksBackendTest, SteppingOnTheRanksGivesTheBitsOfOneProcess) {
+  ExpectSameBits(LoadScene(DYSA_RANKS_SCENE));
+}
+
+TEST(RanksBackendTest, TheSeedToo) { ExpectSameBits(LoadScene(DYSA_RANKS_SEED_SCENE)); }
+
+TEST(RanksBackendTest, APhysicalSolversWarningIsOneProcesss) {
+  Scene scene = LoadScene(DYSA_RANKS_SCENE);
+  scene.params.speed_of_sound = 1;  // the fluid is thrown at 1.5 m/s
+  OnRanks ranks;
+  Simulation spread(scene, Device{}, ranks.factory());
+  Simulation plain(scene);
+  spread.StepFrame();
+  plain.StepFrame();
+  EXPECT_NE(plain.warning(), "");
+  EXPECT_EQ(spread.warning(), plain.warning());
+}
+
+TEST(RanksBackendTest, WhatTheRanksCannotRunIsRefusedByField) {
+  OnRanks ranks;
+  Scene scene = LoadScene(DYSA_RANKS_SCENE);
+  Scene dfsph = scene;
+  dfsph.solver = "dfsph";
+  try {
+    Simulation refused(dfsph, Device{}, ranks.factory());
+    FAIL() << "dfsph ran on the ranks";
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.field(), "solver");
+  }
+  Scene in_code = scene;
+  in_code.source_json.clear();
+  try {
+    Simulation refused(in_code, Device{}, ranks.factory());
+    FAIL() << "a scene without JSON text ran on the ranks";
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.field(), "scene");
+  }
+  Simulation sim(scene, Device{}, ranks.factory());
+  Params p = sim.params();
+  p.time_integration = 1;
+  try {
+    sim.SetParams(p);
+    FAIL() << "the predictor-corrector ran on the ranks";
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.field(), "time_integration");
+  }
+  EXPECT_EQ(sim.params().time_integration, 0);
+  Simulation plain(scene);
+  sim.StepFrame();
+  plain.StepFrame();
+  ExpectSameState(sim, plain, "after the refusal");
+}
+
+}  // namespace
+}  // namespace dysa::distributed
