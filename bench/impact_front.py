@@ -3,11 +3,12 @@
 the front is that strikes a pressure sensor (docs/validation.md, "What is wrong at impact").
 
   bench/impact_front.py OUT_DIR --dp DP [--face-x 0.8245] [--z 0.471] [--half-width 0.02]
-                        [--reach 0.2] [--csv FILE]
+                        [--reach 0.2] [--top 0.161] [--csv FILE]
 
 Reads OUT_DIR/frames.pvd and its .vtp files (`dysa run --vtk-every N --vtk-from T0 --vtk-to T1
 --out OUT_DIR`). The fluid comes from +x towards the face at x = face-x (SPHERIC Test 2's box).
-In the slab |z - z_sensor| <= half-width, the particles within `reach` of the face are binned by
+In the slab |z - z_sensor| <= half-width and below the face's top (`top`: the water above it
+flows over the box, it does not strike the face), the particles within `reach` of the face are binned by
 their distance to it, one spacing per bin; per bin: the depth the particles' rest volume makes
 (count dp^3 / (dp 2 half-width): spray counts for its water only), the top particle's height,
 the mean velocity towards the face and the largest pressure. Per frame it prints the tip (the
@@ -40,13 +41,13 @@ def frames_of(out_dir):
     return sorted(found)
 
 
-def profile(frame, dp, face_x, z, half_width, reach):
+def profile(frame, dp, face_x, z, half_width, reach, top=float("inf")):
     """Per bin of one spacing from the face: [count, top y, sum of vx towards the face, max p]."""
     bins = [[0, 0.0, 0.0, 0.0] for _ in range(int(round(reach / dp)))]
     x, v, p = frame["position"], frame["velocity"], frame["pressure"]
     for k in range(len(frame["id"])):
         d = x[3 * k] - face_x
-        if d < 0 or d >= reach or abs(x[3 * k + 2] - z) > half_width:
+        if d < 0 or d >= reach or abs(x[3 * k + 2] - z) > half_width or x[3 * k + 1] > top:
             continue
         b = bins[min(int(d / dp), len(bins) - 1)]
         b[0] += 1
@@ -64,6 +65,7 @@ def main(argv=None):
     parser.add_argument("--z", type=float, default=0.471, help="the sensor's z, m")
     parser.add_argument("--half-width", type=float, default=0.02, help="slab half-width, m")
     parser.add_argument("--reach", type=float, default=0.2, help="distance from the face, m")
+    parser.add_argument("--top", type=float, default=0.161, help="the face's top, m")
     parser.add_argument("--csv", help="write every bin of every frame here")
     args = parser.parse_args(argv)
     if args.dp <= 0 or args.half_width <= 0 or args.reach < args.dp:
@@ -72,7 +74,8 @@ def main(argv=None):
     rows = []
     print("t_s  tip_m  depth at tip / +2 / +4 / +8 dp (m)  speed at tip (m/s)  max p (kPa)")
     for t, path in frames_of(args.out_dir):
-        bins = profile(read_vtp(path), args.dp, args.face_x, args.z, args.half_width, args.reach)
+        bins = profile(read_vtp(path), args.dp, args.face_x, args.z, args.half_width, args.reach,
+                       args.top)
         depth = [b[0] * args.dp ** 3 / area for b in bins]
         for n, b in enumerate(bins):
             rows.append((t, (n + 0.5) * args.dp, depth[n], b[1], b[2] / b[0] if b[0] else 0.0,

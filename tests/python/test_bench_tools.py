@@ -106,7 +106,7 @@ class ImpactFrontTest(unittest.TestCase):
             os.makedirs(os.path.join(root, "frames"))
             # A wedge: one layer at the tip (3 dp from the face), one more per spacing behind it,
             # 4 particles across the slab; moving at 3 m/s towards -x. One particle outside the
-            # slab (z) and one behind the face (x < face) must not count.
+            # slab (z), one behind the face (x < face) and one above its top must not count.
             ids, pos, vel, p = [], [], [], []
             for n in range(5):
                 for layer in range(n + 1):
@@ -116,9 +116,10 @@ class ImpactFrontTest(unittest.TestCase):
                                 0.5 - half + (across + 0.5) * dp]
                         vel += [-3.0, 0.0, 0.0]
                         p.append(1000.0 * n)
-            for x, z in ((face + 0.035, 0.7), (face - 0.01, 0.5)):
+            for x, y, z in ((face + 0.035, 0.005, 0.7), (face - 0.01, 0.005, 0.5),
+                            (face + 0.035, 0.2, 0.5)):
                 ids.append(len(ids))
-                pos += [x, 0.005, z]
+                pos += [x, y, z]
                 vel += [-9.0, 0.0, 0.0]
                 p.append(1e6)
             write_vtp(os.path.join(root, "frames", "frame_000000.vtp"), ids, pos, vel,
@@ -129,7 +130,7 @@ class ImpactFrontTest(unittest.TestCase):
             with open(os.path.join(root, "frames.pvd"), "w") as f:
                 f.write('<VTKFile><Collection>\n<DataSet timestep="0.41" group="" part="0" '
                         'file="frames/frame_000000.vtp"/>\n</Collection></VTKFile>\n')
-            bins = impact_front.profile(frame, dp, face, 0.5, half, 0.1)
+            bins = impact_front.profile(frame, dp, face, 0.5, half, 0.1, top=0.1)
             self.assertEqual([b[0] for b in bins[:9]], [0, 0, 0, 4, 8, 12, 16, 20, 0])
             self.assertAlmostEqual(bins[3][2] / bins[3][0], 3.0)
             self.assertEqual(bins[7][3], 4000.0)
@@ -138,7 +139,8 @@ class ImpactFrontTest(unittest.TestCase):
             csv_path = os.path.join(root, "front.csv")
             with redirect_stdout(out):
                 impact_front.main([root, "--dp", str(dp), "--face-x", str(face), "--z", "0.5",
-                                   "--half-width", str(half), "--reach", "0.1", "--csv",
+                                   "--half-width", str(half), "--reach", "0.1", "--top", "0.1",
+                                   "--csv",
                                    csv_path])
             row = out.getvalue().splitlines()[1].split()
             self.assertEqual(row[0], "0.4100")
