@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstring>
 #include <stdexcept>
+#include <thread>
 #include <utility>
 
 namespace dysa::distributed {
@@ -40,7 +41,11 @@ DistributedSimulation::DistributedSimulation(Scene scene, const Communicator& co
   ParticleArrays all;
   SpawnParticles(scene_, model_.params, all);
   Adopt(std::move(all), {});
-  state_.share.max_over_processes = [this](std::span<double> v) { comm_.MaxInPlace(v); };
+  state_.share.max_over_processes = [this](std::span<double> v) {
+    const auto start = Clock::now();
+    comm_.MaxInPlace(v);
+    collective_ms_ += MsSince(start);
+  };
 }
 
 void DistributedSimulation::CheckSupported(const Scene& scene, const Params& params) {
@@ -83,6 +88,12 @@ void DistributedSimulation::Configure(const Params& params) {
   }
   slabs_ = std::make_unique<Slabs>(dims[axis_], comm_.size(), model_.periodic[axis_],
                                    GhostDepth(scene_.solver));
+  // The boundary particles weigh in the cost estimate of each layer (balancer.h).
+  boundary_per_layer_.assign(size_t(slabs_->layers()), 0);
+  for (const Vec3& x : solver_->BoundaryPositions())
+    ++boundary_per_layer_[layout_.CellOf(x)[axis_]];
+  balancer_.Restart();
+  last_compute_ms_ = -1;
 }
 
 DistributedSimulation::~DistributedSimulation() = default;
@@ -95,6 +106,8 @@ void DistributedSimulation::Adopt(ParticleArrays all, std::vector<SolverArray> a
     ++counts[layer[i]];
   }
   slabs_->Balance(counts);
+  balancer_.Restart();
+  last_compute_ms_ = -1;
   std::vector<uint8_t> keep(all.size());
   keys_.clear();
   for (size_t i = 0; i < all.size(); ++i) {
@@ -169,15 +182,29 @@ bool DistributedSimulation::RunStep(double start_time, bool& finite) {
   auto start = Clock::now();
   Exchange();
   Record(0, MsSince(start));
+  // The compute time: the passes without the waits in their collectives (the CFL maxima).
+  collective_ms_ = 0;
+  double compute_ms = 0;
   for (size_t k = 0; k < passes_.size(); ++k) {
     start = Clock::now();
     passes_[k].run(model_, state_);
-    Record(k + 1, MsSince(start));
+    const double ms = MsSince(start);
+    Record(k + 1, ms);
+    compute_ms += ms;
     if (k == sort_pass_ && !AfterSort(start_time)) return false;
   }
   start = Clock::now();
   DropGhosts();
+  const BalanceSettings& balance = balancer_.settings();
+  if (balance.slow_rank == comm_.rank() && balance.slow_us_per_particle > 0) {
+    // Test-only: a deliberately slow process (BalanceSettings).
+    std::this_thread::sleep_for(std::chrono::duration<double, std::micro>(
+        balance.slow_us_per_particle * double(state_.particles.size())));
+  }
   Record(profile_.size() - 1, MsSince(start));
+  compute_ms += profile_.back().last_ms - collective_ms_;
+  last_compute_ms_ = compute_ms;
+  totals_.compute_ms += compute_ms;
   double diverged = StateIsFinite(state_.particles) ? 0 : 1;
   comm_.MaxInPlace({&diverged, 1});
   finite = diverged == 0;
@@ -193,12 +220,18 @@ void DistributedSimulation::Exchange() {
     layer[i] = layout_.CellOf(p.position[i])[axis_];
     ++counts[layer[i]];
   }
-  // Re-balanced every step: the cuts follow the particles, and since the order keys do not
-  // depend on where a particle lives, a re-cut changes no bit of the result.
-  comm_.SumInPlace(counts);
-  const std::vector<int> before(slabs_->cuts().begin(), slabs_->cuts().end());
-  slabs_->Balance(counts);
-  if (!std::equal(before.begin(), before.end(), slabs_->cuts().begin())) ++totals_.recuts;
+  // Re-balanced by the measured step times (balancer.h) when they drift apart: the latest
+  // step's time spread over this slab's layers by their particles, fluid and boundary. Since the
+  // order keys do not depend on where a particle lives, a re-cut changes no bit of the result.
+  if (last_compute_ms_ >= 0) {
+    // A layer's work: its fluid particles and, at an eighth of their weight, its boundary
+    // particles (most are dry walls, read only where fluid is near: measured on the dam break,
+    // a boundary particle costs a tenth of a fluid one or less).
+    std::vector<int64_t> work(counts.size());
+    for (size_t l = 0; l < counts.size(); ++l) work[l] = 8 * counts[l] + boundary_per_layer_[l];
+    balancer_.Record(last_compute_ms_, *slabs_, comm_.rank(), work);
+    if (balancer_.Rebalance(comm_, *slabs_)) ++totals_.recuts;
+  }
   // The boundary particles this slab's particles read: within a cell of it.
   state_.share.layer_axis = axis_;
   state_.share.boundary_layers.resize(size_t(slabs_->layers()));
@@ -239,7 +272,9 @@ bool DistributedSimulation::AfterSort(double start_time) {
   ghost.assign(n, 0);
   int64_t owned = 0;
   for (size_t k = 0; k < n; ++k) {
-    ghost[k] = slabs_->OwnerOf(grid.SortedCell(uint32_t(k))[axis_]) != comm_.rank();
+    // 0: owned; a ghost: its distance in layers from this slab (ProcessShare::ghost).
+    ghost[k] =
+        uint8_t(std::min(255, slabs_->Distance(grid.SortedCell(uint32_t(k))[axis_], comm_.rank())));
     owned += ghost[k] ? 0 : 1;
   }
   comm_.SumInPlace({&owned, 1});

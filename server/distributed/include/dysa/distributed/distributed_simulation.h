@@ -1,14 +1,14 @@
 // One simulation spread over the processes of a Communicator by slabs of whole grid cells
 // (slabs.h), giving the same bits at any process count as dysa::Simulation on one.
 //
-// A step on each process: re-cut the slabs for the particle counts of the layers (summed over
-// the processes), send each owned particle to the owner of its layer (migration) and a copy to
-// the processes that hold its layer as ghosts, sort by order key (particle_exchange.h), then
-// run the solver's own passes unchanged over owned particles and ghosts alike; the CFL step's
-// maxima skip the ghosts and combine over the processes (State::share). Ghosts reach deep
-// enough (2 layers for wcsph, 5 for the seed) that every value an owned particle reads is
-// computed locally from exact inputs and one exchange per step suffices. After the passes the
-// ghosts are dropped.
+// A step on each process: re-cut the slabs when the processes' measured step times drift apart
+// (balancer.h; the first cuts balance the particle counts), send each owned particle to the owner
+// of its layer (migration) and a copy to the processes that hold its layer as ghosts, sort by order
+// key (particle_exchange.h), then run the solver's own passes unchanged over owned particles and
+// ghosts alike; the CFL step's maxima skip the ghosts and combine over the processes
+// (State::share). Ghosts reach deep enough (2 layers for wcsph, 5 for the seed) that every value an
+// owned particle reads is computed locally from exact inputs and one exchange per step suffices.
+// After the passes the ghosts are dropped.
 //
 // Supported so far: wcsph with symplectic Euler (time_integration 0), with walls, static and
 // moving obstacles, periodic axes, viscosity, density diffusion and particle shifting; seed.
@@ -26,6 +26,7 @@
 #include "dysa/core/simulation.h"
 #include "dysa/core/solver.h"
 #include "dysa/core/state.h"
+#include "dysa/distributed/balancer.h"
 #include "dysa/distributed/communicator.h"
 #include "dysa/distributed/particle_exchange.h"
 #include "dysa/distributed/slabs.h"
@@ -37,7 +38,8 @@ struct ExchangeTotals {
   uint64_t migrated = 0;  // particles that left this process for another
   uint64_t ghosts = 0;    // ghosts received, summed over steps
   uint64_t bytes_sent = 0;
-  uint64_t recuts = 0;  // steps whose re-balance moved a cut (the same on every process)
+  uint64_t recuts = 0;    // steps whose re-balance moved a cut (the same on every process)
+  double compute_ms = 0;  // this process's compute time in its steps (no waits in collectives)
 };
 
 class DistributedSimulation {
@@ -60,6 +62,9 @@ class DistributedSimulation {
   // The particles this process owns between steps.
   const ParticleArrays& particles() const { return state_.particles; }
   const ExchangeTotals& totals() const { return totals_; }
+  // The step-time balance (balancer.h): its settings (the same on every process) and what it saw.
+  void set_balance(const BalanceSettings& settings) { balancer_.set_settings(settings); }
+  const BalanceReport& balance() const { return balancer_.report(); }
   // Per pass, with "exchange" first and "drop_ghosts" last: this process's time.
   const std::vector<PassProfile>& profile() const { return profile_; }
   // As Simulation::alarm; the same on every process.
@@ -137,6 +142,10 @@ class DistributedSimulation {
   int axis_ = 0;
   std::unique_ptr<Slabs> slabs_;
   ExchangeTotals totals_;
+  Balancer balancer_;
+  std::vector<int64_t> boundary_per_layer_;  // the solver's boundary particles per layer
+  double last_compute_ms_ = -1;              // the latest step's compute time; < 0: none yet
+  double collective_ms_ = 0;                 // time in collectives inside the passes
   std::vector<PassProfile> profile_;
   std::string alarm_;
 };

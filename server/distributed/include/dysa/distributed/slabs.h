@@ -24,6 +24,9 @@ class Slabs {
 
   // Re-cuts for `counts[l]` particles in layer l (layers() values), balancing the counts.
   void Balance(std::span<const int64_t> counts);
+  // Takes `cuts` (processes() + 1 ascending entries from 0 to layers(), each slab at least one
+  // layer: std::invalid_argument otherwise), as the step-time balancer chooses (balancer.h).
+  void SetCuts(std::span<const int> cuts);
 
   int layers() const { return layers_; }
   int processes() const { return int(cuts_.size()) - 1; }
