@@ -116,7 +116,8 @@ class DistributedSimulation {
   bool RunStep(double start_time, bool& finite);
   void Exchange();
   // After the neighbour sort: the ghost flags in sorted order and the cells' occupancy.
-  bool AfterSort(double start_time);
+  // `second`: the predictor-corrector's second sort (by the positions at t + dt/2).
+  bool AfterSort(double start_time, bool second);
   // After the passes: order keys for the next step, then the ghosts dropped.
   void DropGhosts();
   void Record(size_t pass, double ms);
@@ -135,6 +136,10 @@ class DistributedSimulation {
   std::unique_ptr<Solver> solver_;
   std::vector<Pass> passes_;
   size_t sort_pass_ = 0;
+  size_t corrector_sort_pass_ = 0;  // passes_.size(): none (symplectic Euler, seed)
+  int ghost_depth_ = 2;
+  std::vector<int> first_layer_;  // per particle, its layer at the first sort (predictor)
+  std::vector<int> index_scratch_;
   State state_;
   uint64_t total_ = 0;          // particles over all processes
   std::vector<uint64_t> keys_;  // order keys of the owned particles, storage order
