@@ -10,9 +10,10 @@
 // owned particle reads is computed locally from exact inputs and one exchange per step suffices.
 // After the passes the ghosts are dropped.
 //
-// Supported so far: wcsph with symplectic Euler (time_integration 0), with walls, static and
-// moving obstacles, periodic axes, viscosity, density diffusion and particle shifting; seed.
-// Not yet: dfsph, the predictor-corrector (docs/distributed.md).
+// Supported so far: wcsph with symplectic Euler (time_integration 0) and the predictor-corrector
+// (1: ghosts 5 layers deep, those within 3 computing the predictor's interactions, flagged again
+// after the second sort), with walls, static and moving obstacles, periodic axes, viscosity,
+// density diffusion and particle shifting; seed. Not yet: dfsph (docs/distributed.md).
 #pragma once
 
 #include <cstdint>
@@ -45,7 +46,7 @@ struct ExchangeTotals {
 class DistributedSimulation {
  public:
   // Collective. Validates the scene (ConfigError) and what runs across processes so far
-  // (wcsph, seed: ConfigError naming "solver" or "time_integration"), spawns its particles and
+  // (wcsph, seed: ConfigError naming "solver"), spawns its particles and
   // keeps those of this process's slab. `comm` must outlive this.
   DistributedSimulation(Scene scene, const Communicator& comm);
   ~DistributedSimulation();
@@ -88,7 +89,7 @@ class DistributedSimulation {
   // Collective in effect (every process must apply the same): new parameters, validated as by
   // the constructor, keeping the particles (Simulation::SetParams without a reset).
   void SetParams(const Params& params);
-  // Throws ConfigError naming the field ("solver", "time_integration") when `scene` with
+  // Throws ConfigError naming the field ("solver") when `scene` with
   // `params` cannot run across processes yet.
   static void CheckSupported(const Scene& scene, const Params& params);
   // Collective. The particles of all processes.
