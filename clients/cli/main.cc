@@ -435,6 +435,12 @@ int main(int argc, char** argv) {
                        "Simulated seconds after which no ParaView frame is written (default: the "
                        "end)")
           ->check(CLI::Range(0.0, 1e6));
+  run_cmd
+      ->add_option("--balance-threshold", run.balance_threshold,
+                   "Under mpirun: move the slab cuts when max/mean of the ranks' step times, "
+                   "over 5 steps, exceeds this")
+      ->capture_default_str()
+      ->check(CLI::Range(1.0, 1e6));
   run_cmd->add_flag("--hash", run.print_hash,
                     "Print the final state hash (equal hashes: bit-identical states; the same "
                     "under mpirun at any rank count)");

@@ -24,6 +24,9 @@ struct RunOptions {
   std::optional<double> vtk_to;  // s: none after it (default: until the end)
   bool progress = false;         // a live progress line on stderr
   bool print_hash = false;       // print the final StateHash (--hash)
+  // Under mpirun: re-cut the slabs when max/mean of the ranks' step times exceeds this
+  // (--balance-threshold; distributed::BalanceSettings).
+  double balance_threshold = 1.1;
 };
 
 // Runs the scene and writes OUT/probes.csv (and VTK frames); prints the per-pass timing table

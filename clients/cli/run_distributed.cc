@@ -4,7 +4,9 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <iomanip>
 #include <optional>
@@ -50,6 +52,16 @@ void RunDistributed(const RunOptions& options, const distributed::Communicator& 
   const int threads = options.threads > 0 ? options.threads : omp_get_max_threads();
 
   distributed::DistributedSimulation sim(std::move(scene), comm);
+  distributed::BalanceSettings balance;
+  balance.threshold = options.balance_threshold;
+  // Test-only (mpi_balance_test): DYSA_TEST_SLOW_RANK=RANK:MICROSECONDS slows that rank by as
+  // much per owned particle and step.
+  if (const char* slow = std::getenv("DYSA_TEST_SLOW_RANK")) {
+    if (std::sscanf(slow, "%d:%lf", &balance.slow_rank, &balance.slow_us_per_particle) != 2) {
+      throw std::invalid_argument("DYSA_TEST_SLOW_RANK: expected RANK:MICROSECONDS");
+    }
+  }
+  sim.set_balance(balance);
   const Model& model = sim.model();
   const Scene& sc = sim.scene();
   const uint64_t particles = sim.TotalParticles();
@@ -150,6 +162,7 @@ void RunDistributed(const RunOptions& options, const distributed::Communicator& 
   const distributed::ExchangeTotals& t = sim.totals();
   std::vector<int64_t> moved = {int64_t(t.migrated), int64_t(t.ghosts), int64_t(t.bytes_sent)};
   comm.SumInPlace(moved);
+  const distributed::BalanceReport& balanced = sim.balance();
   const uint64_t hash = options.print_hash ? sim.GlobalStateHash() : 0;
   if (!root) return;
 
@@ -176,7 +189,14 @@ void RunDistributed(const RunOptions& options, const distributed::Communicator& 
   out << "\nmigrated: " << moved[0]
       << " particles; ghosts per step: " << (steps ? double(moved[1]) / double(steps) : 0.0)
       << "; bytes sent per step: " << (steps ? double(moved[2]) / double(steps) : 0.0) << "\n"
-      << "re-balanced: " << t.recuts << " of " << steps << " steps moved a slab cut\n";
+      << "re-balanced: " << t.recuts << " of " << steps << " steps moved a slab cut\n"
+      << "step time max/mean: " << std::fixed << std::setprecision(2) << balanced.first_ratio
+      << " over the first " << balance.window << " steps, " << balanced.last_ratio
+      << " over the last " << balance.window << ", "
+      << (balanced.windows ? balanced.ratio_sum / double(balanced.windows) : 1.0)
+      << " in the mean of the " << balanced.windows << " windows (threshold " << balance.threshold
+      << ")\n";
+  out.unsetf(std::ios::floatfield);
   if (!sim.alarm().empty()) out << "stopped: " << sim.alarm() << "\n";
   out << "probes: " << (dir / "probes.csv").string();
   if (vtk) {

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstring>
 #include <stdexcept>
+#include <thread>
 #include <utility>
 
 namespace dysa::distributed {
@@ -21,7 +22,16 @@ namespace {
 // layers more. With these depths every value an owned particle reads is computed here from exact
 // inputs, as on one process; the values of the ghosts themselves may be wrong (their
 // neighbourhoods are cut) but nothing owned reads them, and they are dropped after the step.
-int GhostDepth(const std::string& solver) { return solver == "seed" ? 3 + 2 : 2; }
+// wcsph's predictor-corrector: after its second sort (by the positions at t + dt/2) an owned
+// particle reads, as above, what lies within two cells of it at t + dt/2: predicted states,
+// which need the first evaluation's rates, exact where their own reads (two cells more) are.
+// With the half step's move of at most one layer (checked) that is 1 + 2 + 2 = 5 layers, and the
+// ghosts within kPredictorReach layers compute their rates too.
+constexpr int kPredictorReach = 3;
+int GhostDepth(const std::string& solver, int time_integration) {
+  if (solver == "seed") return 3 + 2;
+  return time_integration == 1 ? kPredictorReach + 2 : 2;
+}
 
 using Clock = std::chrono::steady_clock;
 
@@ -40,7 +50,11 @@ DistributedSimulation::DistributedSimulation(Scene scene, const Communicator& co
   ParticleArrays all;
   SpawnParticles(scene_, model_.params, all);
   Adopt(std::move(all), {});
-  state_.share.max_over_processes = [this](std::span<double> v) { comm_.MaxInPlace(v); };
+  state_.share.max_over_processes = [this](std::span<double> v) {
+    const auto start = Clock::now();
+    comm_.MaxInPlace(v);
+    collective_ms_ += MsSince(start);
+  };
 }
 
 void DistributedSimulation::CheckSupported(const Scene& scene, const Params& params) {
@@ -49,12 +63,9 @@ void DistributedSimulation::CheckSupported(const Scene& scene, const Params& par
                                     "' does not run across processes yet; allowed: wcsph, seed "
                                     "(run other solvers without mpirun)");
   }
-  if (params.time_integration != 0) {
-    throw ConfigError("time_integration",
-                      "must be 0 (symplectic Euler) across processes, not " +
-                          std::to_string(params.time_integration) +
-                          ": the predictor-corrector's second neighbour sort is not exchanged yet");
-  }
+  // Every parameter runs across processes, wcsph's predictor-corrector (time_integration 1)
+  // included.
+  (void)params;
 }
 
 void DistributedSimulation::SetParams(const Params& params) { Configure(params); }
@@ -66,9 +77,12 @@ void DistributedSimulation::Configure(const Params& params) {
   model_ = MakeModel(scene_, params, info);
   passes_ = solver_->BuildPasses(model_);
   sort_pass_ = passes_.size();
+  corrector_sort_pass_ = passes_.size();
   profile_.assign(1, {"exchange"});
   for (size_t k = 0; k < passes_.size(); ++k) {
     if (passes_[k].name == kNeighbourSortPass) sort_pass_ = k;
+    // The predictor-corrector's second sort (wcsph's symplectic.h names it so).
+    if (passes_[k].name == std::string(kNeighbourSortPass) + "_corrector") corrector_sort_pass_ = k;
     profile_.push_back({passes_[k].name});
   }
   profile_.push_back({"drop_ghosts"});
@@ -81,8 +95,14 @@ void DistributedSimulation::Configure(const Params& params) {
   for (int a = 1; a < 3; ++a) {
     if (dims[a] > dims[axis_]) axis_ = a;
   }
-  slabs_ = std::make_unique<Slabs>(dims[axis_], comm_.size(), model_.periodic[axis_],
-                                   GhostDepth(scene_.solver));
+  ghost_depth_ = GhostDepth(scene_.solver, params.time_integration);
+  slabs_ = std::make_unique<Slabs>(dims[axis_], comm_.size(), model_.periodic[axis_], ghost_depth_);
+  // The boundary particles weigh in the cost estimate of each layer (balancer.h).
+  boundary_per_layer_.assign(size_t(slabs_->layers()), 0);
+  for (const Vec3& x : solver_->BoundaryPositions())
+    ++boundary_per_layer_[layout_.CellOf(x)[axis_]];
+  balancer_.Restart();
+  last_compute_ms_ = -1;
 }
 
 DistributedSimulation::~DistributedSimulation() = default;
@@ -95,6 +115,8 @@ void DistributedSimulation::Adopt(ParticleArrays all, std::vector<SolverArray> a
     ++counts[layer[i]];
   }
   slabs_->Balance(counts);
+  balancer_.Restart();
+  last_compute_ms_ = -1;
   std::vector<uint8_t> keep(all.size());
   keys_.clear();
   for (size_t i = 0; i < all.size(); ++i) {
@@ -169,15 +191,32 @@ bool DistributedSimulation::RunStep(double start_time, bool& finite) {
   auto start = Clock::now();
   Exchange();
   Record(0, MsSince(start));
+  // The compute time: the passes without the waits in their collectives (the CFL maxima).
+  collective_ms_ = 0;
+  double compute_ms = 0;
   for (size_t k = 0; k < passes_.size(); ++k) {
     start = Clock::now();
     passes_[k].run(model_, state_);
-    Record(k + 1, MsSince(start));
-    if (k == sort_pass_ && !AfterSort(start_time)) return false;
+    const double ms = MsSince(start);
+    Record(k + 1, ms);
+    compute_ms += ms;
+    if ((k == sort_pass_ || k == corrector_sort_pass_) &&
+        !AfterSort(start_time, k == corrector_sort_pass_)) {
+      return false;
+    }
   }
   start = Clock::now();
   DropGhosts();
+  const BalanceSettings& balance = balancer_.settings();
+  if (balance.slow_rank == comm_.rank() && balance.slow_us_per_particle > 0) {
+    // Test-only: a deliberately slow process (BalanceSettings).
+    std::this_thread::sleep_for(std::chrono::duration<double, std::micro>(
+        balance.slow_us_per_particle * double(state_.particles.size())));
+  }
   Record(profile_.size() - 1, MsSince(start));
+  compute_ms += profile_.back().last_ms - collective_ms_;
+  last_compute_ms_ = compute_ms;
+  totals_.compute_ms += compute_ms;
   double diverged = StateIsFinite(state_.particles) ? 0 : 1;
   comm_.MaxInPlace({&diverged, 1});
   finite = diverged == 0;
@@ -193,19 +232,18 @@ void DistributedSimulation::Exchange() {
     layer[i] = layout_.CellOf(p.position[i])[axis_];
     ++counts[layer[i]];
   }
-  // Re-balanced every step: the cuts follow the particles, and since the order keys do not
-  // depend on where a particle lives, a re-cut changes no bit of the result.
-  comm_.SumInPlace(counts);
-  const std::vector<int> before(slabs_->cuts().begin(), slabs_->cuts().end());
-  slabs_->Balance(counts);
-  if (!std::equal(before.begin(), before.end(), slabs_->cuts().begin())) ++totals_.recuts;
-  // The boundary particles this slab's particles read: within a cell of it.
-  state_.share.layer_axis = axis_;
-  state_.share.boundary_layers.resize(size_t(slabs_->layers()));
-  for (int l = 0; l < slabs_->layers(); ++l) {
-    state_.share.boundary_layers[l] = slabs_->Distance(l, comm_.rank()) <= 1 ? 1 : 0;
+  // Re-balanced by the measured step times (balancer.h) when they drift apart: the latest
+  // step's time spread over this slab's layers by their particles, fluid and boundary. Since the
+  // order keys do not depend on where a particle lives, a re-cut changes no bit of the result.
+  if (last_compute_ms_ >= 0) {
+    // A layer's work: its fluid particles and, at an eighth of their weight, its boundary
+    // particles (most are dry walls, read only where fluid is near: measured on the dam break,
+    // a boundary particle costs a tenth of a fluid one or less).
+    std::vector<int64_t> work(counts.size());
+    for (size_t l = 0; l < counts.size(); ++l) work[l] = 8 * counts[l] + boundary_per_layer_[l];
+    balancer_.Record(last_compute_ms_, *slabs_, comm_.rank(), work);
+    if (balancer_.Rebalance(comm_, *slabs_)) ++totals_.recuts;
   }
-
   LocalParticles owned;
   owned.particles = std::move(state_.particles);
   owned.key = std::move(keys_);
@@ -228,9 +266,26 @@ void DistributedSimulation::Exchange() {
   solver_->RestoreArrays(mine.arrays, state_.particles.size());
 }
 
-bool DistributedSimulation::AfterSort(double start_time) {
+bool DistributedSimulation::AfterSort(double start_time, bool second) {
   const NeighborGrid& grid = state_.grid;
   const size_t n = state_.particles.size();
+  const bool predictor = corrector_sort_pass_ < passes_.size();
+  // The predictor-corrector's half step must move no particle more than one layer (the ghosts'
+  // slack): compared between the two sorts, on every particle this process holds (each is held
+  // where it was owned at t, so every particle is checked somewhere).
+  double moved = 0;
+  if (predictor && second) {
+    PermuteInPlace(grid.order(), first_layer_, index_scratch_);
+    const int layers = slabs_->layers();
+    for (size_t k = 0; k < n; ++k) {
+      int d = std::abs(grid.SortedCell(uint32_t(k))[axis_] - first_layer_[k]);
+      if (model_.periodic[axis_]) d = std::min(d, layers - d);
+      moved = std::max(moved, double(d));
+    }
+  } else if (predictor) {
+    first_layer_.resize(n);
+    for (size_t k = 0; k < n; ++k) first_layer_[k] = grid.SortedCell(uint32_t(k))[axis_];
+  }
   // The sort reordered the particles, by the positions the solver sorts with (the seed's
   // predicted ones): a particle is owned where its sorted cell lies, a ghost elsewhere. Each
   // must be owned by exactly one process, which holds when the sort's positions stay within
@@ -239,18 +294,36 @@ bool DistributedSimulation::AfterSort(double start_time) {
   ghost.assign(n, 0);
   int64_t owned = 0;
   for (size_t k = 0; k < n; ++k) {
-    ghost[k] = slabs_->OwnerOf(grid.SortedCell(uint32_t(k))[axis_]) != comm_.rank();
+    // 0: owned; a ghost: its distance in layers from this slab (ProcessShare::ghost).
+    ghost[k] =
+        uint8_t(std::min(255, slabs_->Distance(grid.SortedCell(uint32_t(k))[axis_], comm_.rank())));
     owned += ghost[k] ? 0 : 1;
   }
   comm_.SumInPlace({&owned, 1});
-  double crowded = grid.max_cell_count();
-  comm_.MaxInPlace({&crowded, 1});
-  if (uint64_t(owned) != total_) {
+  double maxima[2] = {double(grid.max_cell_count()), moved};
+  comm_.MaxInPlace(maxima);
+  const double crowded = maxima[0];
+  // Between the predictor-corrector's sorts, the ghosts within kPredictorReach compute their
+  // rates (their predicted state is read after the second sort), and the boundary particles
+  // within a layer of those; after it, as after the only sort of the other schemes.
+  const int reach = predictor && !second ? kPredictorReach : 0;
+  state_.share.rate_reach = uint8_t(reach);
+  state_.share.layer_axis = axis_;
+  state_.share.boundary_layers.resize(size_t(slabs_->layers()));
+  for (int l = 0; l < slabs_->layers(); ++l) {
+    state_.share.boundary_layers[l] = slabs_->Distance(l, comm_.rank()) <= reach + 1 ? 1 : 0;
+  }
+  if (maxima[1] > 1) {
+    alarm_ = "a particle moved " + std::to_string(int(maxima[1])) +
+             " cell layers in the predictor's half step at step " +
+             std::to_string(state_.step + 1) + " (t = " + std::to_string(start_time) +
+             " s), past the ghost layers' slack of one: reduce the time step";
+  } else if (uint64_t(owned) != total_) {
     alarm_ = std::to_string(owned) + " of " + std::to_string(total_) +
              " particles found an owner at step " + std::to_string(state_.step + 1) +
              " (t = " + std::to_string(start_time) +
              " s): a particle's sorted position moved past the ghost layers (" +
-             std::to_string(GhostDepth(scene_.solver)) + " cells) from where it was exchanged";
+             std::to_string(ghost_depth_) + " cells) from where it was exchanged";
   } else if (crowded > NeighborGrid::kMaxParticlesPerCell) {
     alarm_ = std::to_string(uint64_t(crowded)) +
              " particles crowd one neighbour-grid cell at step " + std::to_string(state_.step + 1) +

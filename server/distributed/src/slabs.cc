@@ -39,6 +39,14 @@ void Slabs::Balance(std::span<const int64_t> counts) {
   Index();
 }
 
+void Slabs::SetCuts(std::span<const int> cuts) {
+  bool valid = cuts.size() == cuts_.size() && cuts.front() == 0 && cuts.back() == layers_;
+  for (size_t k = 1; valid && k < cuts.size(); ++k) valid = cuts[k] > cuts[k - 1];
+  if (!valid) throw std::invalid_argument("slab cuts must ascend from 0 to the layer count");
+  cuts_.assign(cuts.begin(), cuts.end());
+  Index();
+}
+
 int Slabs::Distance(int layer, int p) const {
   const int b = cuts_[p];
   const int e = cuts_[p + 1] - 1;

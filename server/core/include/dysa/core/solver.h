@@ -76,6 +76,9 @@ class Solver {
     Reset(particles);
   }
   virtual SolverStats stats() const { return {}; }
+  // The positions of the boundary particles it samples (walls, obstacles), for a cost estimate
+  // (the step-time balance of server/distributed); none for a solver without them.
+  virtual std::vector<Vec3> BoundaryPositions() const { return {}; }
 };
 
 // The array named `name` of `arrays` when it holds `size` values, else null.

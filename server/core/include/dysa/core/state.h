@@ -34,9 +34,13 @@ struct ParticleArrays {
 // combine over the processes.
 // Default: one process, no ghosts.
 struct ProcessShare {
-  // Per particle in storage order (the order after the neighbour sort): 1 for a ghost. Empty
+  // Per particle in storage order (the order after the neighbour sort): 0 for an owned
+  // particle, else a ghost's distance in cell layers from this process's slab (1-255). Empty
   // when there are none.
   std::vector<uint8_t> ghost;
+  // Ghosts up to this distance have their rates computed too (wcsph's interactions): the
+  // predictor-corrector reads their predicted state after its second sort. 0: none.
+  uint8_t rate_reach = 0;
   // Replaces each value by its maximum over all processes (exact, so order-free); null on one
   // process.
   std::function<void(std::span<double>)> max_over_processes;
@@ -47,6 +51,8 @@ struct ProcessShare {
   std::vector<uint8_t> boundary_layers;
 
   bool IsGhost(size_t i) const { return !ghost.empty() && ghost[i] != 0; }
+  // Whether a pass whose results only neighbours within rate_reach read skips particle i.
+  bool SkipsRates(size_t i) const { return !ghost.empty() && ghost[i] > rate_reach; }
   bool NeedsBoundaryCell(const Eigen::Vector3i& cell) const {
     return boundary_layers.empty() || boundary_layers[size_t(cell[layer_axis])] != 0;
   }

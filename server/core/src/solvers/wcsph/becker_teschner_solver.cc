@@ -176,11 +176,12 @@ void ComputeInteractions(const Model& model, BeckerTeschnerData& data, State& st
   const int64_t n = int64_t(p.size());
   data.density_rate.resize(p.size());
   data.acceleration.resize(p.size());
-  // A ghost's rates are read by no one (ProcessShare): left as they were.
-  const uint8_t* ghost = state.share.ghost.empty() ? nullptr : state.share.ghost.data();
+  // A ghost's rates are read by no one (ProcessShare) unless within rate_reach: left as they
+  // were.
+  const ProcessShare& share = state.share;
 #pragma omp parallel for schedule(static)
   for (int64_t i = 0; i < n; ++i) {
-    if (ghost && ghost[i]) continue;
+    if (share.SkipsRates(size_t(i))) continue;
     const Eigen::Vector3i cell = state.grid.SortedCell(uint32_t(i));
     const Vec3& x = p.position[i];
     const Vec3& v = p.velocity[i];
@@ -270,6 +271,17 @@ void BeckerTeschnerSolver::RestoreArrays(std::span<const SolverArray> arrays, si
   if (const auto* saved = FindSolverArray(arrays, kCarriedDensity, particles)) {
     data_.density = *saved;
   }
+}
+
+std::vector<Vec3> BeckerTeschnerSolver::BoundaryPositions() const {
+  std::vector<Vec3> positions;
+  if (!data_.boundary) return positions;
+  const NeighborGrid& grid = data_.boundary->grid();
+  positions.reserve(data_.boundary->size());
+  for (size_t b = 0; b < data_.boundary->size(); ++b) {
+    positions.emplace_back(grid.xs()[b], grid.ys()[b], grid.zs()[b]);
+  }
+  return positions;
 }
 
 std::vector<Pass> BeckerTeschnerSolver::BuildPasses(const Model& model) {

@@ -148,6 +148,7 @@ class BeckerTeschnerSolver final : public Solver {
   void Reset(size_t particles) override;
   std::vector<SolverArray> SaveArrays() const override;
   void RestoreArrays(std::span<const SolverArray> arrays, size_t particles) override;
+  std::vector<Vec3> BoundaryPositions() const override;
   const BeckerTeschnerData& data() const { return data_; }
 
  private:

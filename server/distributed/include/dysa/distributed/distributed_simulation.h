@@ -1,18 +1,19 @@
 // One simulation spread over the processes of a Communicator by slabs of whole grid cells
 // (slabs.h), giving the same bits at any process count as dysa::Simulation on one.
 //
-// A step on each process: re-cut the slabs for the particle counts of the layers (summed over
-// the processes), send each owned particle to the owner of its layer (migration) and a copy to
-// the processes that hold its layer as ghosts, sort by order key (particle_exchange.h), then
-// run the solver's own passes unchanged over owned particles and ghosts alike; the CFL step's
-// maxima skip the ghosts and combine over the processes (State::share). Ghosts reach deep
-// enough (2 layers for wcsph, 5 for the seed) that every value an owned particle reads is
-// computed locally from exact inputs and one exchange per step suffices. After the passes the
-// ghosts are dropped.
+// A step on each process: re-cut the slabs when the processes' measured step times drift apart
+// (balancer.h; the first cuts balance the particle counts), send each owned particle to the owner
+// of its layer (migration) and a copy to the processes that hold its layer as ghosts, sort by order
+// key (particle_exchange.h), then run the solver's own passes unchanged over owned particles and
+// ghosts alike; the CFL step's maxima skip the ghosts and combine over the processes
+// (State::share). Ghosts reach deep enough (2 layers for wcsph, 5 for the seed) that every value an
+// owned particle reads is computed locally from exact inputs and one exchange per step suffices.
+// After the passes the ghosts are dropped.
 //
-// Supported so far: wcsph with symplectic Euler (time_integration 0), with walls, static and
-// moving obstacles, periodic axes, viscosity, density diffusion and particle shifting; seed.
-// Not yet: dfsph, the predictor-corrector (docs/distributed.md).
+// Supported so far: wcsph with symplectic Euler (time_integration 0) and the predictor-corrector
+// (1: ghosts 5 layers deep, those within 3 computing the predictor's interactions, flagged again
+// after the second sort), with walls, static and moving obstacles, periodic axes, viscosity,
+// density diffusion and particle shifting; seed. Not yet: dfsph (docs/distributed.md).
 #pragma once
 
 #include <cstdint>
@@ -26,6 +27,7 @@
 #include "dysa/core/simulation.h"
 #include "dysa/core/solver.h"
 #include "dysa/core/state.h"
+#include "dysa/distributed/balancer.h"
 #include "dysa/distributed/communicator.h"
 #include "dysa/distributed/particle_exchange.h"
 #include "dysa/distributed/slabs.h"
@@ -37,13 +39,14 @@ struct ExchangeTotals {
   uint64_t migrated = 0;  // particles that left this process for another
   uint64_t ghosts = 0;    // ghosts received, summed over steps
   uint64_t bytes_sent = 0;
-  uint64_t recuts = 0;  // steps whose re-balance moved a cut (the same on every process)
+  uint64_t recuts = 0;    // steps whose re-balance moved a cut (the same on every process)
+  double compute_ms = 0;  // this process's compute time in its steps (no waits in collectives)
 };
 
 class DistributedSimulation {
  public:
   // Collective. Validates the scene (ConfigError) and what runs across processes so far
-  // (wcsph, seed: ConfigError naming "solver" or "time_integration"), spawns its particles and
+  // (wcsph, seed: ConfigError naming "solver"), spawns its particles and
   // keeps those of this process's slab. `comm` must outlive this.
   DistributedSimulation(Scene scene, const Communicator& comm);
   ~DistributedSimulation();
@@ -60,6 +63,9 @@ class DistributedSimulation {
   // The particles this process owns between steps.
   const ParticleArrays& particles() const { return state_.particles; }
   const ExchangeTotals& totals() const { return totals_; }
+  // The step-time balance (balancer.h): its settings (the same on every process) and what it saw.
+  void set_balance(const BalanceSettings& settings) { balancer_.set_settings(settings); }
+  const BalanceReport& balance() const { return balancer_.report(); }
   // Per pass, with "exchange" first and "drop_ghosts" last: this process's time.
   const std::vector<PassProfile>& profile() const { return profile_; }
   // As Simulation::alarm; the same on every process.
@@ -83,7 +89,7 @@ class DistributedSimulation {
   // Collective in effect (every process must apply the same): new parameters, validated as by
   // the constructor, keeping the particles (Simulation::SetParams without a reset).
   void SetParams(const Params& params);
-  // Throws ConfigError naming the field ("solver", "time_integration") when `scene` with
+  // Throws ConfigError naming the field ("solver") when `scene` with
   // `params` cannot run across processes yet.
   static void CheckSupported(const Scene& scene, const Params& params);
   // Collective. The particles of all processes.
@@ -111,7 +117,8 @@ class DistributedSimulation {
   bool RunStep(double start_time, bool& finite);
   void Exchange();
   // After the neighbour sort: the ghost flags in sorted order and the cells' occupancy.
-  bool AfterSort(double start_time);
+  // `second`: the predictor-corrector's second sort (by the positions at t + dt/2).
+  bool AfterSort(double start_time, bool second);
   // After the passes: order keys for the next step, then the ghosts dropped.
   void DropGhosts();
   void Record(size_t pass, double ms);
@@ -130,6 +137,10 @@ class DistributedSimulation {
   std::unique_ptr<Solver> solver_;
   std::vector<Pass> passes_;
   size_t sort_pass_ = 0;
+  size_t corrector_sort_pass_ = 0;  // passes_.size(): none (symplectic Euler, seed)
+  int ghost_depth_ = 2;
+  std::vector<int> first_layer_;  // per particle, its layer at the first sort (predictor)
+  std::vector<int> index_scratch_;
   State state_;
   uint64_t total_ = 0;          // particles over all processes
   std::vector<uint64_t> keys_;  // order keys of the owned particles, storage order
@@ -137,6 +148,10 @@ class DistributedSimulation {
   int axis_ = 0;
   std::unique_ptr<Slabs> slabs_;
   ExchangeTotals totals_;
+  Balancer balancer_;
+  std::vector<int64_t> boundary_per_layer_;  // the solver's boundary particles per layer
+  double last_compute_ms_ = -1;              // the latest step's compute time; < 0: none yet
+  double collective_ms_ = 0;                 // time in collectives inside the passes
   std::vector<PassProfile> profile_;
   std::string alarm_;
 };

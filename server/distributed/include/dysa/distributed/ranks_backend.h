@@ -21,8 +21,7 @@ namespace dysa::distributed {
 // with a ConfigError naming the field, before any process is told.
 Simulation::BackendFactory RanksBackendFactory(std::shared_ptr<RankRunner> runner);
 
-// Throws ConfigError as the factory refuses: "solver", "time_integration", "processes" or
-// "scene".
+// Throws ConfigError as the factory refuses: "solver", "processes" or "scene".
 void CheckRunsOnRanks(const Scene& scene, const Params& params, int processes);
 
 }  // namespace dysa::distributed

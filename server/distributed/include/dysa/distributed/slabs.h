@@ -1,13 +1,14 @@
 // The decomposition of the neighbour grid into slabs: each process owns a contiguous range of
 // the grid's cell planes (layers) along one axis, so it owns whole cells.
 //
-// The cuts balance the particle count: process k's slab starts at the first layer whose
+// Balance cuts for the particle count: process k's slab starts at the first layer whose
 // prefix count reaches k N / P (integers, so every process computes the same cuts from the same
 // histogram). A process also holds, as ghosts, the particles of the layers within `depth`
 // layers of its slab that other processes own (across the seam of a periodic axis too).
 //
-// depth is 2 for wcsph (GhostDepth in distributed_simulation.cc says why): a process then
-// computes every value its own particles read, and needs one exchange per step.
+// depth is 2 for wcsph, 5 for its predictor-corrector and the seed (GhostDepth in
+// distributed_simulation.cc says why): a process then computes every value its own particles
+// read, and needs one exchange per step.
 #pragma once
 
 #include <cstdint>
@@ -24,6 +25,9 @@ class Slabs {
 
   // Re-cuts for `counts[l]` particles in layer l (layers() values), balancing the counts.
   void Balance(std::span<const int64_t> counts);
+  // Takes `cuts` (processes() + 1 ascending entries from 0 to layers(), each slab at least one
+  // layer: std::invalid_argument otherwise), as the step-time balancer chooses (balancer.h).
+  void SetCuts(std::span<const int> cuts);
 
   int layers() const { return layers_; }
   int processes() const { return int(cuts_.size()) - 1; }

@@ -1,0 +1,153 @@
+#include "dysa/distributed/balancer.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+
+namespace dysa::distributed {
+
+namespace {
+
+// Whether slabs of cost at most `limit` each (process p's cost: speed[p] times its layers'
+// work) cover every layer, each process keeping at least one; fills `cuts` when they do.
+bool CoverWithin(std::span<const int64_t> work, std::span<const double> speed, double limit,
+                 std::vector<int>& cuts) {
+  const int layers = int(work.size());
+  const int processes = int(speed.size());
+  int layer = 0;
+  for (int p = 0; p < processes; ++p) {
+    cuts[p] = layer;
+    const int last = layers - (processes - 1 - p);  // leave a layer to each later process
+    double cost = speed[p] * double(work[layer++]);
+    if (cost > limit) return false;
+    while (layer < last && (p + 1 == processes || cost + speed[p] * double(work[layer]) <= limit)) {
+      cost += speed[p] * double(work[layer++]);
+    }
+    if (cost > limit) return false;
+  }
+  cuts[processes] = layers;
+  return layer == layers;
+}
+
+}  // namespace
+
+std::vector<int> CutsForCosts(std::span<const int64_t> work, std::span<const double> speed) {
+  const int processes = int(speed.size());
+  std::vector<int> cuts(size_t(processes) + 1, 0);
+  double hi = 0;
+  for (size_t l = 0; l < work.size(); ++l) hi += double(work[l]);
+  double fastest = 0;
+  for (double s : speed) fastest = std::max(fastest, s);
+  hi *= fastest;
+  if (!(hi > 0)) {
+    // No work (or no speed) to balance: equal layer counts.
+    for (int p = 0; p <= processes; ++p) cuts[p] = int(int64_t(work.size()) * p / processes);
+    return cuts;
+  }
+  // The least limit whose greedy cover succeeds, by bisection (the same on every process: the
+  // same inputs, the same operations); then the cover at that limit.
+  double lo = 0;
+  for (int k = 0; k < 100 && hi - lo > 1e-9 * hi; ++k) {
+    const double mid = 0.5 * (lo + hi);
+    if (CoverWithin(work, speed, mid, cuts)) {
+      hi = mid;
+    } else {
+      lo = mid;
+    }
+  }
+  if (!CoverWithin(work, speed, hi, cuts)) {
+    // Only when the bisection hit its cap: equal layer counts.
+    for (int p = 0; p <= processes; ++p) cuts[p] = int(int64_t(work.size()) * p / processes);
+  }
+  return cuts;
+}
+
+double CostRatio(std::span<const int64_t> work, std::span<const double> speed,
+                 std::span<const int> cuts) {
+  const int processes = int(speed.size());
+  double total = 0;
+  double most = 0;
+  for (int p = 0; p < processes; ++p) {
+    double slab = 0;
+    for (int l = cuts[p]; l < cuts[p + 1]; ++l) slab += double(work[l]);
+    slab *= speed[p];
+    total += slab;
+    most = std::max(most, slab);
+  }
+  return total > 0 ? most * processes / total : 1.0;
+}
+
+void Balancer::Record(double ms, const Slabs& slabs, int rank, std::span<const int64_t> weights) {
+  work_.resize(size_t(slabs.layers()), 0);
+  time_ms_ += ms;
+  for (int l = slabs.begin(rank); l < slabs.begin(rank + 1); ++l) {
+    work_[l] += weights[l];
+    own_work_ += weights[l];
+  }
+}
+
+bool Balancer::Rebalance(const Communicator& comm, Slabs& slabs) {
+  if (++steps_ < std::max(settings_.window, 1)) return false;
+  const int processes = comm.size();
+  const int layers = slabs.layers();
+  work_.resize(size_t(layers), 0);
+  // Summed as integers (the times in nanoseconds): every process gets the same values and so
+  // computes the same cuts. The layers' work, then each process's time, then its work.
+  std::vector<int64_t> sums(size_t(layers + 2 * processes), 0);
+  std::copy(work_.begin(), work_.end(), sums.begin());
+  sums[size_t(layers + comm.rank())] = std::llround(time_ms_ * 1e6);
+  sums[size_t(layers + processes + comm.rank())] = own_work_;
+  comm.SumInPlace(sums);
+  Restart();
+  const std::span<const int64_t> work(sums.data(), size_t(layers));
+  const std::span<const int64_t> time(sums.data() + layers, size_t(processes));
+  const std::span<const int64_t> done(sums.data() + layers + processes, size_t(processes));
+  int64_t most = 0;
+  int64_t total = 0;
+  int64_t time_worked = 0;
+  int64_t work_timed = 0;
+  for (int p = 0; p < processes; ++p) {
+    most = std::max(most, time[p]);
+    total += time[p];
+    if (done[p] > 0) {
+      time_worked += time[p];
+      work_timed += done[p];
+    }
+  }
+  const double ratio = total > 0 ? double(most) * processes / double(total) : 1.0;
+  if (report_.windows++ == 0) report_.first_ratio = ratio;
+  report_.last_ratio = ratio;
+  report_.ratio_sum += ratio;
+  if (ratio <= settings_.threshold || work_timed == 0) return false;
+  // Each process's speed: its time per unit of work, re-measured where it did at least half the
+  // mean work (a process with little or no work times mostly its fixed costs, and would seem
+  // fast); otherwise its previous estimate, or the mean speed before it has one.
+  const double mean_speed = double(time_worked) / double(work_timed);
+  speed_.resize(size_t(processes), 0.0);
+  for (int p = 0; p < processes; ++p) {
+    if (2 * done[p] * processes >= work_timed) {
+      speed_[p] = double(time[p]) / double(done[p]);
+    } else if (!(speed_[p] > 0)) {
+      speed_[p] = mean_speed;
+    }
+  }
+  const std::span<const double> speed = speed_;
+  const std::vector<int> cuts = CutsForCosts(work, speed);
+  if (std::equal(cuts.begin(), cuts.end(), slabs.cuts().begin())) return false;
+  if (CostRatio(work, speed, cuts) * (1 + settings_.margin) >
+      CostRatio(work, speed, slabs.cuts())) {
+    return false;
+  }
+  slabs.SetCuts(cuts);
+  ++report_.recuts;
+  return true;
+}
+
+void Balancer::Restart() {
+  steps_ = 0;
+  time_ms_ = 0;
+  own_work_ = 0;
+  std::fill(work_.begin(), work_.end(), 0);
+}
+
+}  // namespace dysa::distributed
