@@ -13,6 +13,7 @@
 #include "dysa/client/frame_assembler.h"
 #include "dysa/service/server.h"
 #include "dysa/service/simulation_host.h"
+#include "support/wait_for.h"
 
 namespace dysa::remote {
 namespace {
@@ -79,6 +80,11 @@ TEST(ViewStreamTest, ThePausedServerCompletesTheShownFrameBitExactly) {
     ASSERT_EQ(full.count, kParticles);
     stream->Cancel();
   }
+  // A client's cancel ends its call at once, but the server hears of it asynchronously: the
+  // stream stays open there (and in GetStatus) until its reactor is done. Wait for that, so the
+  // status below shows only the view stream.
+  ASSERT_TRUE(dysa::testing::WaitFor([&] { return f.client().GetStatus().streams.empty(); }, 30))
+      << "the cancelled stream is closed on the server";
 
   StreamOptions options;
   options.particle_budget = 256;
