@@ -10,12 +10,9 @@ dysa=$1
 mpiexec=$2
 scene=$3
 steps=150
-if ! command -v "$mpiexec" > /dev/null 2>&1; then
-  echo "SKIP: no mpirun ('$mpiexec' not found): install openmpi-bin (scripts/setup.sh)"
-  exit 77
-fi
-export OMP_WAIT_POLICY=PASSIVE
-export ASAN_OPTIONS="${ASAN_OPTIONS:+$ASAN_OPTIONS:}detect_leaks=0"
+# shellcheck source=mpi_common.sh
+source "$(dirname "${BASH_SOURCE[0]}")/mpi_common.sh"
+mpi_require "$mpiexec"
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
 fail() {

@@ -5,10 +5,7 @@ set -u
 mpiexec=$1
 ranks=$2
 shift 2
-if ! command -v "$mpiexec" > /dev/null 2>&1; then
-  echo "SKIP: no mpirun ('$mpiexec' not found): install openmpi-bin (scripts/setup.sh)"
-  exit 77
-fi
-# In an ASan build, LeakSanitizer would report Open MPI's own allocations left at exit.
-export ASAN_OPTIONS="${ASAN_OPTIONS:+$ASAN_OPTIONS:}detect_leaks=0"
+# shellcheck source=mpi_common.sh
+source "$(dirname "${BASH_SOURCE[0]}")/mpi_common.sh"
+mpi_require "$mpiexec"
 exec "$mpiexec" --oversubscribe --allow-run-as-root -np "$ranks" "$@"

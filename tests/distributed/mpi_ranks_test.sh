@@ -13,14 +13,9 @@ dysa=$1
 mpiexec=$2
 shift 2
 steps=150
-if ! command -v "$mpiexec" > /dev/null 2>&1; then
-  echo "SKIP: no mpirun ('$mpiexec' not found): install openmpi-bin (scripts/setup.sh)"
-  exit 77
-fi
-export OMP_WAIT_POLICY=PASSIVE
-# In an ASan build, LeakSanitizer would report Open MPI's own allocations left at exit; our
-# code's leaks are checked by the in-process tests (distributed_simulation_test).
-export ASAN_OPTIONS="${ASAN_OPTIONS:+$ASAN_OPTIONS:}detect_leaks=0"
+# shellcheck source=mpi_common.sh
+source "$(dirname "${BASH_SOURCE[0]}")/mpi_common.sh"
+mpi_require "$mpiexec"
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
 fail() {

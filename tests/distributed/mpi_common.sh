@@ -1,0 +1,40 @@
+# Sourced by the mpi tests' scripts (bash): what each needs around its mpirun.
+
+# mpi_require MPIEXEC: exits 77 (ctest's skip), saying why, when mpirun cannot be found; then
+# sets the environment the ranks run in.
+mpi_require() {
+  if ! command -v "$1" > /dev/null 2>&1; then
+    echo "SKIP: no mpirun ('$1' not found): install openmpi-bin (scripts/setup.sh)"
+    exit 77
+  fi
+  # Waiting OpenMP threads sleep rather than spin: the ranks share CI's 2 cores.
+  export OMP_WAIT_POLICY=PASSIVE
+  # In an ASan build, LeakSanitizer would report Open MPI's own allocations left at exit; our
+  # code's leaks are checked by the in-process tests (distributed_simulation_test).
+  export ASAN_OPTIONS="${ASAN_OPTIONS:+$ASAN_OPTIONS:}detect_leaks=0"
+}
+
+# mpi_expect_the_job_ends JOB RANK_PID...: after a rank was killed, mpirun (JOB, a child of this
+# shell) must exit non-zero within 30 s and no rank outlive it by 10 s (mpirun's teardown of the
+# other ranks may finish just after it exits); otherwise calls the script's `fail`.
+mpi_expect_the_job_ends() {
+  local job=$1 pid status start=$SECONDS
+  shift
+  for _ in $(seq 150); do
+    kill -0 "$job" 2> /dev/null || break
+    sleep 0.2
+  done
+  kill -0 "$job" 2> /dev/null && fail "mpirun still runs 30 s after a rank was killed"
+  wait "$job"
+  status=$?
+  echo "mpirun exited with status $status after $((SECONDS - start)) s"
+  [ $status -ne 0 ] || fail "mpirun exited 0 after a rank was killed"
+  for pid in "$@"; do
+    for _ in $(seq 50); do
+      kill -0 "$pid" 2> /dev/null || break
+      sleep 0.2
+    done
+    kill -0 "$pid" 2> /dev/null && fail "rank pid $pid still runs 10 s after mpirun exited"
+  done
+  return 0
+}
