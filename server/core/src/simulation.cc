@@ -223,14 +223,21 @@ std::string Simulation::CrowdedAlarm(uint32_t count, double start_time) const {
 }
 
 void Simulation::CheckStep(bool finite, double start_time) {
+  std::string alarm = DivergedStepAlarm(finite, state_, start_time);
+  if (!alarm.empty()) alarm_ = std::move(alarm);
+}
+
+std::string DivergedStepAlarm(bool finite, const State& state, double start_time) {
   if (!finite) {
-    alarm_ = "non-finite particle state after step " + std::to_string(state_.step) +
-             " (t = " + std::to_string(start_time) + " s, dt = " + std::to_string(state_.dt) +
-             " s): the step diverged; reduce the time step or stiffness, or reset";
-  } else if (!(state_.dt > 0) || !std::isfinite(state_.dt)) {
-    alarm_ = "the time step collapsed to " + std::to_string(state_.dt) + " s at step " +
-             std::to_string(state_.step) + " (t = " + std::to_string(start_time) + " s)";
+    return "non-finite particle state after step " + std::to_string(state.step) +
+           " (t = " + std::to_string(start_time) + " s, dt = " + std::to_string(state.dt) +
+           " s): the step diverged; reduce the time step or stiffness, or reset";
   }
+  if (!(state.dt > 0) || !std::isfinite(state.dt)) {
+    return "the time step collapsed to " + std::to_string(state.dt) + " s at step " +
+           std::to_string(state.step) + " (t = " + std::to_string(start_time) + " s)";
+  }
+  return {};
 }
 
 void Simulation::UploadParticles(std::span<const SolverArray> solver_arrays) {

@@ -153,14 +153,8 @@ void DistributedSimulation::Step(double until) {
   // As Simulation::Step: a step clamped to the cap lands on `until` itself.
   state_.time = model_.physical && state_.dt >= state_.max_dt ? until : start_time + state_.dt;
   ++state_.step;
-  if (!finite) {
-    alarm_ = "non-finite particle state after step " + std::to_string(state_.step) +
-             " (t = " + std::to_string(start_time) + " s, dt = " + std::to_string(state_.dt) +
-             " s): the step diverged; reduce the time step or stiffness, or reset";
-  } else if (!(state_.dt > 0) || !std::isfinite(state_.dt)) {
-    alarm_ = "the time step collapsed to " + std::to_string(state_.dt) + " s at step " +
-             std::to_string(state_.step) + " (t = " + std::to_string(start_time) + " s)";
-  }
+  std::string alarm = DivergedStepAlarm(finite, state_, start_time);
+  if (!alarm.empty()) alarm_ = std::move(alarm);
 }
 
 DistributedSimulation::StepOutcome DistributedSimulation::StepAt(double time, uint64_t step,

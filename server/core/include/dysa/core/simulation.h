@@ -207,4 +207,9 @@ void SpawnParticles(const Scene& scene, const Params& params, ParticleArrays& pa
 // smoothing radius. Throws ConfigError as BlockParticleCounts.
 double SpawnParticleRadius(const Scene& scene, const Params& params);
 
+// The alarm of a step that began at `start_time` and left `state` (its step counter advanced):
+// it diverged (`finite` false) or its time step collapsed; empty when neither. Simulation and
+// the ranks' driver raise the same text.
+std::string DivergedStepAlarm(bool finite, const State& state, double start_time);
+
 }  // namespace dysa
