@@ -2,7 +2,7 @@
 """The water's tongue in front of a wall face, frame by frame: how thick, how fast and how blunt
 the front is that strikes a pressure sensor (docs/validation.md, "What is wrong at impact").
 
-  bench/impact_front.py OUT_DIR --dp DP [--face-x 0.8245] [--z 0.471] [--half-width 0.02]
+  bench/impact_front.py OUT_DIR --dp DP [--face-x 0.8245] [--z 0.471] [--half-width 2dp]
                         [--reach 0.2] [--top 0.161] [--csv FILE]
 
 Reads OUT_DIR/frames.pvd and its .vtp files (`dysa run --vtk-every N --vtk-from T0 --vtk-to T1
@@ -63,11 +63,14 @@ def main(argv=None):
     parser.add_argument("--dp", type=float, required=True, help="particle spacing, m")
     parser.add_argument("--face-x", type=float, default=0.8245, help="the face's x, m")
     parser.add_argument("--z", type=float, default=0.471, help="the sensor's z, m")
-    parser.add_argument("--half-width", type=float, default=0.02, help="slab half-width, m")
+    parser.add_argument("--half-width", type=float,
+                        help="slab half-width, m (default 2 dp: four spacings across)")
     parser.add_argument("--reach", type=float, default=0.2, help="distance from the face, m")
     parser.add_argument("--top", type=float, default=0.161, help="the face's top, m")
     parser.add_argument("--csv", help="write every bin of every frame here")
     args = parser.parse_args(argv)
+    if args.half_width is None:
+        args.half_width = 2 * args.dp
     if args.dp <= 0 or args.half_width <= 0 or args.reach < args.dp:
         sys.exit("--dp and --half-width must be > 0 and --reach at least --dp")
     area = args.dp * 2 * args.half_width  # a bin's footprint across the slab
