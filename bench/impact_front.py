@@ -11,7 +11,9 @@ In the slab |z - z_sensor| <= half-width and below the face's top (`top`: the wa
 flows over the box, it does not strike the face), the particles within `reach` of the face are binned by
 their distance to it, one spacing per bin; per bin: the depth the particles' rest volume makes
 (count dp^3 / (dp 2 half-width): spray counts for its water only), the top particle's height,
-the mean velocity towards the face and the largest pressure. Per frame it prints the tip (the
+the mean velocity towards the face, the largest pressure, and how many particles the wall
+contact holds (docs/solvers.md: none comes nearer than 0.2 dp to a surface, its velocity towards
+it cut to 0: an inelastic stop). Per frame it prints the tip (the
 particle nearest the face) and the depth at the tip and 2, 4 and 8 spacings behind it: a tongue
 whose depth at its tip is already that of its body strikes with all of it at once. Plain Python
 (no numpy), so that it runs on the GPU box next to the frames.
@@ -42,8 +44,9 @@ def frames_of(out_dir):
 
 
 def profile(frame, dp, face_x, z, half_width, reach, top=float("inf")):
-    """Per bin of one spacing from the face: [count, top y, sum of vx towards the face, max p]."""
-    bins = [[0, 0.0, 0.0, 0.0] for _ in range(int(round(reach / dp)))]
+    """Per bin of one spacing from the face: [count, top y, sum of vx towards the face, max p,
+    count held by the wall contact (at 0.2 dp from the face, not moving towards it)]."""
+    bins = [[0, 0.0, 0.0, 0.0, 0] for _ in range(int(round(reach / dp)))]
     x, v, p = frame["position"], frame["velocity"], frame["pressure"]
     for k in range(len(frame["id"])):
         d = x[3 * k] - face_x
@@ -54,6 +57,8 @@ def profile(frame, dp, face_x, z, half_width, reach, top=float("inf")):
         b[1] = max(b[1], x[3 * k + 1])
         b[2] += -v[3 * k]
         b[3] = max(b[3], p[k])
+        if abs(d - 0.2 * dp) < 1e-3 * dp and v[3 * k] == 0:
+            b[4] += 1
     return bins
 
 
@@ -75,14 +80,15 @@ def main(argv=None):
         sys.exit("--dp and --half-width must be > 0 and --reach at least --dp")
     area = args.dp * 2 * args.half_width  # a bin's footprint across the slab
     rows = []
-    print("t_s  tip_m  depth at tip / +2 / +4 / +8 dp (m)  speed at tip (m/s)  max p (kPa)")
+    print("t_s  tip_m  depth at tip / +2 / +4 / +8 dp (m)  speed at tip (m/s)  max p (kPa)  "
+          "held / in the first dp")
     for t, path in frames_of(args.out_dir):
         bins = profile(read_vtp(path), args.dp, args.face_x, args.z, args.half_width, args.reach,
                        args.top)
         depth = [b[0] * args.dp ** 3 / area for b in bins]
         for n, b in enumerate(bins):
             rows.append((t, (n + 0.5) * args.dp, depth[n], b[1], b[2] / b[0] if b[0] else 0.0,
-                         b[3]))
+                         b[3], b[4]))
         wet = [n for n, b in enumerate(bins) if b[0] > 0]
         if not wet:
             print(f"{t:.4f}  dry")
@@ -94,12 +100,12 @@ def main(argv=None):
 
         print(f"{t:.4f}  {tip * args.dp:.4f}  {at(tip):.4f} {at(tip + 2):.4f} {at(tip + 4):.4f} "
               f"{at(tip + 8):.4f}  {bins[tip][2] / bins[tip][0]:.2f}  "
-              f"{max(b[3] for b in bins) / 1000:.1f}")
+              f"{max(b[3] for b in bins) / 1000:.1f}  {bins[0][4]}/{bins[0][0]}")
     if args.csv:
         with open(args.csv, "w", newline="") as f:
             w = csv.writer(f)
             w.writerow(["t_s", "distance_m", "depth_m", "top_y_m", "speed_to_face_m_s",
-                        "max_pressure_pa"])
+                        "max_pressure_pa", "held_by_contact"])
             w.writerows(rows)
 
 

@@ -132,6 +132,7 @@ class ImpactFrontTest(unittest.TestCase):
                         'file="frames/frame_000000.vtp"/>\n</Collection></VTKFile>\n')
             bins = impact_front.profile(frame, dp, face, 0.5, half, 0.1, top=0.1)
             self.assertEqual([b[0] for b in bins[:9]], [0, 0, 0, 4, 8, 12, 16, 20, 0])
+            self.assertEqual(sum(b[4] for b in bins), 0)  # the wedge moves: none is held
             self.assertAlmostEqual(bins[3][2] / bins[3][0], 3.0)
             self.assertEqual(bins[7][3], 4000.0)
             self.assertAlmostEqual(bins[5][1], 2.5 * dp, places=6)
@@ -149,6 +150,19 @@ class ImpactFrontTest(unittest.TestCase):
             self.assertEqual(row[2:5], ["0.0100", "0.0300", "0.0500"])
             with open(csv_path) as f:
                 self.assertEqual(len(f.read().splitlines()), 1 + 10)
+
+    def test_counts_the_particles_the_wall_contact_holds(self):
+        # Two particles at the contact's limit, 0.2 dp from the face, not moving towards it
+        # (held); one there moving towards it and one a little farther, still (not held).
+        dp, face = 0.01, 0.8
+        frame = {"id": [0, 1, 2, 3],
+                 "position": [face + 0.2 * dp, 0.01, 0.5, face + 0.2 * dp, 0.02, 0.5,
+                              face + 0.2 * dp, 0.03, 0.5, face + 0.5 * dp, 0.04, 0.5],
+                 "velocity": [0.0, 0.5, 0.0, 0.0, 1.0, 0.0, -1.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+                 "pressure": [500.0, 600.0, 700.0, 800.0]}
+        bins = impact_front.profile(frame, dp, face, 0.5, 0.02, 0.05)
+        self.assertEqual(bins[0][0], 4)
+        self.assertEqual(bins[0][4], 2)
 
     def test_no_series_names_the_directory(self):
         with tempfile.TemporaryDirectory() as root:
