@@ -99,6 +99,10 @@ const std::array kParamTable = {
                "Particle shifting dr = -A h |v| dt grad C (Lind et al. 2012, Skillen et al. "
                "2013): A, 0 off, 2 the usual; free-surface particles are not shifted; above 2 "
                "take time_integration 1 (a dam break at A = 4 took 26 times the steps with 0)"),
+    DYSA_PARAM(wall_contact_range, "", 0.0, 1.0, kLive, kPhysical,
+               "The wall contact's range r0 in particle spacings: no particle comes nearer than "
+               "r0 / 2 to a wall or obstacle (its velocity towards it is cut, an inelastic stop; "
+               "0: only at the surface itself)"),
     DYSA_PARAM(gravity_ramp_time, "s", 0.0, 100.0, kLive, kPhysical,
                "Gravity grows smoothly from 0 to its value over this time (0: at once)"),
 };

@@ -206,7 +206,7 @@ cuda::SphConstants PhysicalConstants(const Model& model) {
   c.eps = Real(0.01) * h * h;
   c.rest_density = rho0;
   c.stiffness = rho0 * prm.speed_of_sound * prm.speed_of_sound / physical::kTaitExponent;
-  c.contact_range = Real(physical::kContactRange * prm.particle_spacing);
+  c.contact_range = Real(prm.wall_contact_range * prm.particle_spacing);
   c.density_min = Real(rho0 * wcsph::kCarriedDensityMin);
   c.density_max = Real(rho0 * wcsph::kCarriedDensityMax);
   for (int a = 0; a < 3; ++a) {

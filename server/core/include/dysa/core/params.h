@@ -51,6 +51,9 @@ struct Params {
   double kinematic_viscosity = 1e-6;  // m^2/s, nu of the laminar viscosity term (water: 1e-6)
   double cfl_factor = 0.25;           // dt <= cfl_factor d / (c0 + v_max)
   double max_time_step = 0.005;       // s, upper bound of the adaptive step
+  // wcsph and dfsph: the wall contact's range r0 in particle spacings: no particle comes nearer
+  // than r0 / 2 to a wall or obstacle, its velocity towards the surface cut (an inelastic stop).
+  double wall_contact_range = 0.4;
   double gravity_ramp_time = 0.0;     // s, gravity grows smoothly from 0 over this time (0: none)
   // wcsph only: delta of the continuity equation's density diffusion (Fourtakas et al. 2019's
   // form of delta-SPH; 0: the continuity equation without it).

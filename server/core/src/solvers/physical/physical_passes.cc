@@ -200,7 +200,7 @@ void ForEachSurfaceWithin(const Model& model, std::span<const ObstacleFrame> fra
 
 void LimitApproachToSurfaces(const Model& model, std::span<const ObstacleFrame> frames, Real dt,
                              const Vec3& x, Vec3& v) {
-  const Real r0 = Real(kContactRange * model.params.particle_spacing);
+  const Real r0 = Real(model.params.wall_contact_range * model.params.particle_spacing);
   // The surfaces this step could bring it to: a moving one closes in at up to its own speed.
   Real approach = v.norm();
   for (const ObstacleFrame& f : frames) approach = std::max(approach, v.norm() + f.velocity.norm());

@@ -17,9 +17,6 @@ namespace dysa::physical {
 // gamma of the Tait equation of state, p = B ((rho / rho0)^gamma - 1) (Becker & Teschner 2007,
 // eq. 7): wcsph's pressure, and the speed of sound of the CFL step (cfl_time_step.h).
 inline constexpr double kTaitExponent = 7;
-// r0 / d of the wall contact: no particle comes closer than r0 / 2 to a wall or an obstacle.
-inline constexpr double kContactRange = 0.4;
-
 // m/s^2 along y at simulated time `time`: params.gravity, ramped in over gravity_ramp_time,
 // g(t) = g (1 - cos(pi t / T)) / 2 for t < T, g after (T = 0: no ramp).
 double GravityAt(const Params& params, double time);
@@ -50,7 +47,7 @@ std::vector<ObstacleFrame> ObstacleFramesOverStep(const Model& model, double t, 
 void MoveBoundary(const Model& model, PhysicalData& data, State& state);
 
 // The wall contact: limits v so that a step of dt from x brings the particle no closer than
-// r0 / 2 (kContactRange) to any wall or obstacle, cutting only its velocity towards the surface
+// r0 / 2 (r0 = Params::wall_contact_range spacings) to any wall or obstacle, cutting only its velocity towards the surface
 // (an inelastic contact: energy is only taken away). With `frames` (ObstacleFramesOverStep;
 // empty: every obstacle static) an obstacle is taken at its displacement and only the velocity
 // relative to it is cut: a moving obstacle pushes the fluid ahead of it.
