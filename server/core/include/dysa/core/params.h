@@ -54,7 +54,7 @@ struct Params {
   // wcsph and dfsph: the wall contact's range r0 in particle spacings: no particle comes nearer
   // than r0 / 2 to a wall or obstacle, its velocity towards the surface cut (an inelastic stop).
   double wall_contact_range = 0.4;
-  double gravity_ramp_time = 0.0;     // s, gravity grows smoothly from 0 over this time (0: none)
+  double gravity_ramp_time = 0.0;  // s, gravity grows smoothly from 0 over this time (0: none)
   // wcsph only: delta of the continuity equation's density diffusion (Fourtakas et al. 2019's
   // form of delta-SPH; 0: the continuity equation without it).
   double density_diffusion = 0.1;

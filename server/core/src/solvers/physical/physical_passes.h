@@ -47,10 +47,10 @@ std::vector<ObstacleFrame> ObstacleFramesOverStep(const Model& model, double t, 
 void MoveBoundary(const Model& model, PhysicalData& data, State& state);
 
 // The wall contact: limits v so that a step of dt from x brings the particle no closer than
-// r0 / 2 (r0 = Params::wall_contact_range spacings) to any wall or obstacle, cutting only its velocity towards the surface
-// (an inelastic contact: energy is only taken away). With `frames` (ObstacleFramesOverStep;
-// empty: every obstacle static) an obstacle is taken at its displacement and only the velocity
-// relative to it is cut: a moving obstacle pushes the fluid ahead of it.
+// r0 / 2 (r0 = Params::wall_contact_range spacings) to any wall or obstacle, cutting only its
+// velocity towards the surface (an inelastic contact: energy is only taken away). With `frames`
+// (ObstacleFramesOverStep; empty: every obstacle static) an obstacle is taken at its displacement
+// and only the velocity relative to it is cut: a moving obstacle pushes the fluid ahead of it.
 void LimitApproachToSurfaces(const Model& model, std::span<const ObstacleFrame> frames, Real dt,
                              const Vec3& x, Vec3& v);
 
