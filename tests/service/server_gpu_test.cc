@@ -30,6 +30,7 @@
 #include "dysa/service/simulation_host.h"
 #include "dysa/v1/simulation.grpc.pb.h"
 #include "support/gpu_test.h"
+#include "support/in_process_server.h"
 
 namespace dysa::service {
 namespace {
@@ -225,16 +226,8 @@ TEST(ServerGpuTest, FramesStreamTheGpuStateInIdOrder) {
   request.set_velocity_bits(16);
   auto context = Context();
   auto reader = fx.stub().StreamFrames(context.get(), request);
-  codec::FrameDecoder decoder;
-  std::optional<codec::Frame> frame;
-  v1::FrameMessage message;
-  while (!frame && reader->Read(&message)) {  // a late joiner of a paused host: frame 5
-    for (const std::string& chunk : message.chunks()) {
-      auto decoded =
-          decoder.AddChunk({reinterpret_cast<const uint8_t*>(chunk.data()), chunk.size()});
-      if (decoded) frame = std::move(*decoded);
-    }
-  }
+  // A late joiner of a paused host: frame 5.
+  const std::optional<codec::Frame> frame = dysa::testing::FirstFrame(*reader);
   context->TryCancel();
   ASSERT_TRUE(frame.has_value());
   EXPECT_EQ(frame->step, cpu.step());
@@ -322,16 +315,7 @@ TEST(ServerGpuTest, BudgetedFramesStreamTheGpuSubset) {
   request.set_position_bits(24);
   auto context = Context();
   auto reader = fx.stub().StreamFrames(context.get(), request);
-  codec::FrameDecoder decoder;
-  std::optional<codec::Frame> frame;
-  v1::FrameMessage message;
-  while (!frame && reader->Read(&message)) {
-    for (const std::string& chunk : message.chunks()) {
-      auto decoded =
-          decoder.AddChunk({reinterpret_cast<const uint8_t*>(chunk.data()), chunk.size()});
-      if (decoded) frame = std::move(*decoded);
-    }
-  }
+  const std::optional<codec::Frame> frame = dysa::testing::FirstFrame(*reader);
   context->TryCancel();
   ASSERT_TRUE(frame.has_value());
   EXPECT_EQ(frame->step, cpu.step());
