@@ -109,6 +109,17 @@ ServerOptions Loopback() {
 
 std::string Address(const Server& server) { return "127.0.0.1:" + std::to_string(server.port()); }
 
+std::unique_ptr<dysa::v1::Simulation::Stub> StubTo(const Server& server) {
+  return dysa::v1::Simulation::NewStub(
+      grpc::CreateChannel(Address(server), grpc::InsecureChannelCredentials()));
+}
+
+void StepFrames(dysa::v1::Simulation::Stub& stub, int frames) {
+  dysa::v1::StepRequest step;
+  step.set_count(frames);
+  Control(stub, &dysa::v1::Simulation::Stub::Step, step);
+}
+
 // The thesis scene's fluid as a block of n^3 particles: the same spacing (5 m / 44) and
 // parameters, in a box scaled to match (as codec_bench does).
 dysa::Scene LargeBlock(int n) {

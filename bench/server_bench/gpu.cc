@@ -38,11 +38,8 @@ void Gpu(const std::vector<uint64_t>& sizes, const std::vector<int>& counts, dou
       const auto setup = Clock::now();
       SimulationHost host(scene, AsFastAsItRuns(solver_threads, device));
       Server server(host, Loopback());
-      auto stub = dysa::v1::Simulation::NewStub(
-          grpc::CreateChannel(Address(server), grpc::InsecureChannelCredentials()));
-      dysa::v1::StepRequest warmup;
-      warmup.set_count(warmup_frames);
-      Control(*stub, &dysa::v1::Simulation::Stub::Step, warmup);
+      auto stub = StubTo(server);
+      StepFrames(*stub, warmup_frames);
       std::vector<std::unique_ptr<Client>> clients;
       for (int i = 0; i < n; ++i) {
         clients.push_back(std::make_unique<Client>(Address(server), i, Mode::kDecode));

@@ -74,11 +74,8 @@ void GpuWatch(const std::vector<uint64_t>& sizes, double watch_percent, int roun
     const dysa::Scene scene = LargeBlockOf(requested);
     SimulationHost host(scene, AsFastAsItRuns(solver_threads, device));
     Server server(host, Loopback());
-    auto stub = dysa::v1::Simulation::NewStub(
-        grpc::CreateChannel(Address(server), grpc::InsecureChannelCredentials()));
-    dysa::v1::StepRequest warmup;
-    warmup.set_count(warmup_frames);
-    Control(*stub, &dysa::v1::Simulation::Stub::Step, warmup);
+    auto stub = StubTo(server);
+    StepFrames(*stub, warmup_frames);
     const uint64_t particles = host.Status().particles;
     dysa::v1::StreamFramesRequest watch;
     const double budget = std::clamp(double(particles) * watch_percent / 100, 1.0, 20e6);

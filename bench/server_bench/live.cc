@@ -16,15 +16,8 @@ void Live(const std::vector<int>& counts, double seconds, int warmup_frames, int
   for (int n : counts) {
     SimulationHost host(scene, AsFastAsItRuns(solver_threads, device));
     Server server(host, Loopback());
-    auto stub = dysa::v1::Simulation::NewStub(
-        grpc::CreateChannel(Address(server), grpc::InsecureChannelCredentials()));
-    {
-      grpc::ClientContext context;
-      dysa::v1::StepRequest step;
-      step.set_count(warmup_frames);  // into the splash: the same state for every count
-      dysa::v1::ControlReply reply;
-      stub->Step(&context, step, &reply);
-    }
+    auto stub = StubTo(server);
+    StepFrames(*stub, warmup_frames);  // into the splash: the same state for every count
     std::vector<std::unique_ptr<Client>> clients;
     for (int i = 0; i < n; ++i) {
       clients.push_back(std::make_unique<Client>(Address(server), i, Mode::kReceive));

@@ -69,6 +69,10 @@ Delivery Measure(std::vector<std::unique_ptr<Client>>& clients, double seconds);
 
 ServerOptions Loopback();
 std::string Address(const Server& server);
+// A stub to `server` (Loopback: an insecure channel).
+std::unique_ptr<dysa::v1::Simulation::Stub> StubTo(const Server& server);
+// Steps the paused host `frames` frames; throws std::runtime_error when the RPC fails.
+void StepFrames(dysa::v1::Simulation::Stub& stub, int frames);
 
 // The thesis scene's fluid as a block of n^3 particles: the same spacing (5 m / 44) and
 // parameters, in a box scaled to match (as codec_bench does).

@@ -22,11 +22,8 @@ void Slowdown(int subscribers, int pairs, double seconds, int warmup_frames, int
   const dysa::Scene scene = dysa::LoadScene("seed_test_scene");
   SimulationHost host(scene, AsFastAsItRuns(solver_threads, device));
   Server server(host, Loopback());
-  auto stub =
-      Simulation::NewStub(grpc::CreateChannel(Address(server), grpc::InsecureChannelCredentials()));
-  dysa::v1::StepRequest warmup;
-  warmup.set_count(warmup_frames);
-  Control(*stub, &Simulation::Stub::Step, warmup);
+  auto stub = StubTo(server);
+  StepFrames(*stub, warmup_frames);
   const uint64_t start_frame = host.Status().frame;
 
   std::ofstream csv(out);
