@@ -11,11 +11,14 @@ In the slab |z - z_sensor| <= half-width and below the face's top (`top`: the wa
 flows over the box, it does not strike the face), the particles within `reach` of the face are binned by
 their distance to it, one spacing per bin; per bin: the depth the particles' rest volume makes
 (count dp^3 / (dp 2 half-width): spray counts for its water only), the top particle's height,
-the mean velocity towards the face, the largest pressure, and how many particles the wall
-contact holds (docs/solvers.md: none comes nearer than 0.2 dp to a surface, its velocity towards
+the mean velocity towards the face, the largest pressure, the mean density (a thin tongue
+whose particles all lack neighbours carries less than rho0, and the Tait equation gives it no
+pressure at all: docs/validation.md), and how many particles the wall contact holds (docs/solvers.md: none comes nearer than 0.2 dp to a surface, its velocity towards
 it cut to 0: an inelastic stop). Per frame it prints the tip (the
 particle nearest the face) and the depth at the tip and 2, 4 and 8 spacings behind it: a tongue
-whose depth at its tip is already that of its body strikes with all of it at once. Plain Python
+whose depth at its tip is already that of its body strikes with all of it at once. Last, the
+first frame with water within one spacing of the face, and the first whose water there carries
+pressure: the water's arrival and the pressure's. Plain Python
 (no numpy), so that it runs on the GPU box next to the frames.
 """
 
@@ -45,9 +48,10 @@ def frames_of(out_dir):
 
 def profile(frame, dp, face_x, z, half_width, reach, top=float("inf")):
     """Per bin of one spacing from the face: [count, top y, sum of vx towards the face, max p,
-    count held by the wall contact (at 0.2 dp from the face, not moving towards it)]."""
-    bins = [[0, 0.0, 0.0, 0.0, 0] for _ in range(int(round(reach / dp)))]
-    x, v, p = frame["position"], frame["velocity"], frame["pressure"]
+    count held by the wall contact (at 0.2 dp from the face, not moving towards it), sum of
+    the density]."""
+    bins = [[0, 0.0, 0.0, 0.0, 0, 0.0] for _ in range(int(round(reach / dp)))]
+    x, v, p, rho = frame["position"], frame["velocity"], frame["pressure"], frame["density"]
     for k in range(len(frame["id"])):
         d = x[3 * k] - face_x
         if d < 0 or d >= reach or abs(x[3 * k + 2] - z) > half_width or x[3 * k + 1] > top:
@@ -59,6 +63,7 @@ def profile(frame, dp, face_x, z, half_width, reach, top=float("inf")):
         b[3] = max(b[3], p[k])
         if abs(d - 0.2 * dp) < 1e-3 * dp and v[3 * k] == 0:
             b[4] += 1
+        b[5] += rho[k]
     return bins
 
 
@@ -72,6 +77,7 @@ def main(argv=None):
                         help="slab half-width, m (default 2 dp: four spacings across)")
     parser.add_argument("--reach", type=float, default=0.2, help="distance from the face, m")
     parser.add_argument("--top", type=float, default=0.161, help="the face's top, m")
+    parser.add_argument("--rho0", type=float, default=1000.0, help="rest density, kg/m^3")
     parser.add_argument("--csv", help="write every bin of every frame here")
     args = parser.parse_args(argv)
     if args.half_width is None:
@@ -80,15 +86,21 @@ def main(argv=None):
         sys.exit("--dp and --half-width must be > 0 and --reach at least --dp")
     area = args.dp * 2 * args.half_width  # a bin's footprint across the slab
     rows = []
+    wet_at = pressed_at = None  # (t, mean rho / rho0 in the first spacing)
     print("t_s  tip_m  depth at tip / +2 / +4 / +8 dp (m)  speed at tip (m/s)  max p (kPa)  "
-          "held / in the first dp")
+          "rho/rho0 at tip  held / in the first dp")
     for t, path in frames_of(args.out_dir):
         bins = profile(read_vtp(path), args.dp, args.face_x, args.z, args.half_width, args.reach,
                        args.top)
         depth = [b[0] * args.dp ** 3 / area for b in bins]
         for n, b in enumerate(bins):
             rows.append((t, (n + 0.5) * args.dp, depth[n], b[1], b[2] / b[0] if b[0] else 0.0,
-                         b[3], b[4]))
+                         b[3], b[4], b[5] / b[0] / args.rho0 if b[0] else 0.0))
+        first = bins[0]
+        if first[0] and wet_at is None:
+            wet_at = (t, first[5] / first[0] / args.rho0)
+        if first[0] and first[3] > 0 and pressed_at is None:
+            pressed_at = (t, first[5] / first[0] / args.rho0)
         wet = [n for n, b in enumerate(bins) if b[0] > 0]
         if not wet:
             print(f"{t:.4f}  dry")
@@ -100,12 +112,19 @@ def main(argv=None):
 
         print(f"{t:.4f}  {tip * args.dp:.4f}  {at(tip):.4f} {at(tip + 2):.4f} {at(tip + 4):.4f} "
               f"{at(tip + 8):.4f}  {bins[tip][2] / bins[tip][0]:.2f}  "
-              f"{max(b[3] for b in bins) / 1000:.1f}  {bins[0][4]}/{bins[0][0]}")
+              f"{max(b[3] for b in bins) / 1000:.1f}  {bins[tip][5] / bins[tip][0] / args.rho0:.3f}  "
+              f"{bins[0][4]}/{bins[0][0]}")
+    for what, at_t in (("water within one spacing of the face", wet_at),
+                       ("pressure there", pressed_at)):
+        if at_t is None:
+            print(f"first {what}: none")
+        else:
+            print(f"first {what}: t = {at_t[0]:.4f} s, mean rho/rho0 there {at_t[1]:.3f}")
     if args.csv:
         with open(args.csv, "w", newline="") as f:
             w = csv.writer(f)
             w.writerow(["t_s", "distance_m", "depth_m", "top_y_m", "speed_to_face_m_s",
-                        "max_pressure_pa", "held_by_contact"])
+                        "max_pressure_pa", "held_by_contact", "density_over_rho0"])
             w.writerows(rows)
 
 

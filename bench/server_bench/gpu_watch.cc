@@ -7,7 +7,10 @@
 // ones. The subscriber only receives (a remote viewer: its decoding costs the server's cores
 // nothing). Each watched window's step rate is compared with the mean of the two unwatched
 // windows around it, which cancels a linear drift of the step's cost as the block falls; the
-// median of those ratios is the slowdown. Per window: frames, steps, the rates, and the host's
+// median of those ratios is the slowdown. That comparison carries the flow's own changes of
+// step cost between windows; beside it, the share of the stepping thread's time the subset
+// read took in each watched window (gather ms x frames/s: the read runs on the thread that
+// steps, the encoding on the publisher's), whose median is the watching's direct cost. Per window: frames, steps, the rates, and the host's
 // gather (a subset read: on a GPU only the kept particles cross to the host) and publish times.
 #include <algorithm>
 #include <cstdio>
@@ -114,10 +117,11 @@ void GpuWatch(const std::vector<uint64_t>& sizes, double watch_percent, int roun
       csv.flush();
     }
     server.Shutdown();
-    std::vector<double> slowdowns;
+    std::vector<double> slowdowns, gather_shares;
     for (size_t k = 1; k + 1 < windows.size(); k += 2) {
       const double unwatched = 0.5 * (windows[k - 1].steps_per_s + windows[k + 1].steps_per_s);
       if (unwatched > 0) slowdowns.push_back(1 - windows[k].steps_per_s / unwatched);
+      gather_shares.push_back(windows[k].gather_ms * windows[k].fps / 1000);
     }
     const double median = Median(slowdowns);
     std::printf(
@@ -125,6 +129,10 @@ void GpuWatch(const std::vector<uint64_t>& sizes, double watch_percent, int roun
         "slowed by %.1f%% (median of %zu watched windows; target at most 5%%: %s)\n",
         (unsigned long long)particles, watch_percent, uint32_t(budget), 100 * median,
         slowdowns.size(), median <= 0.05 ? "met" : "NOT met");
+    std::printf(
+        "gpu_watch %9llu particles: the subset read took %.1f%% of the stepping thread's time "
+        "(median of the watched windows' gather ms x frames/s)\n",
+        (unsigned long long)particles, 100 * Median(gather_shares));
     std::fflush(stdout);
   }
 }

@@ -148,6 +148,9 @@ class ImpactFrontTest(unittest.TestCase):
             self.assertEqual(row[1], "0.0300")  # the tip, 3 spacings from the face
             # Depth = count dp^3 / (dp 2 half): one layer at the tip, 3 and 5 behind it.
             self.assertEqual(row[2:5], ["0.0100", "0.0300", "0.0500"])
+            self.assertEqual(row[8], "1.000")  # rho / rho0 at the tip: write_vtp's 1000 kg/m^3
+            # The wedge's tip is 3 spacings away: no water within one spacing of the face.
+            self.assertIn("first water within one spacing of the face: none", out.getvalue())
             with open(csv_path) as f:
                 self.assertEqual(len(f.read().splitlines()), 1 + 10)
 
@@ -159,10 +162,12 @@ class ImpactFrontTest(unittest.TestCase):
                  "position": [face + 0.2 * dp, 0.01, 0.5, face + 0.2 * dp, 0.02, 0.5,
                               face + 0.2 * dp, 0.03, 0.5, face + 0.5 * dp, 0.04, 0.5],
                  "velocity": [0.0, 0.5, 0.0, 0.0, 1.0, 0.0, -1.0, 0.0, 0.0, 0.0, 0.0, 0.0],
-                 "pressure": [500.0, 600.0, 700.0, 800.0]}
+                 "pressure": [500.0, 600.0, 700.0, 800.0],
+                 "density": [800.0, 900.0, 1000.0, 1100.0]}
         bins = impact_front.profile(frame, dp, face, 0.5, 0.02, 0.05)
         self.assertEqual(bins[0][0], 4)
         self.assertEqual(bins[0][4], 2)
+        self.assertAlmostEqual(bins[0][5] / bins[0][0], 950.0)  # the mean density
 
     def test_no_series_names_the_directory(self):
         with tempfile.TemporaryDirectory() as root:
