@@ -21,6 +21,8 @@
 #   contact_0  the wall contact only at the surface (wall_contact_range 0; default 0.4: held at
 #              0.2 d): what the inelastic stop of the particles that reach the face adds
 #   contact_1  the wall contact at 0.5 d (wall_contact_range 1): a wider inelastic stop
+#   rho_min_1  the carried density held at rho0 or above (carried_density_min 1; default 0.7):
+#              a tongue whose particles lack neighbours then has pressure once compressed
 # Writes spheric2_causes_<device tag>.csv and each variant's step series under --out.
 set -euo pipefail
 
@@ -32,7 +34,7 @@ dp=0.02
 end=0.7
 threads=$(nproc)
 out=bench/results
-variants="base c0_100 cfl_0.1 no_diff cubic_1.73 wendland dfsph symplectic dualsph shifting contact_0 contact_1"
+variants="base c0_100 cfl_0.1 no_diff cubic_1.73 wendland dfsph symplectic dualsph shifting contact_0 contact_1 rho_min_1"
 
 usage() {
   sed -n '8,9p' "$0" | sed 's/^# *//' >&2
@@ -78,6 +80,7 @@ for v in $variants; do
     shifting) args=(--set particle_shifting=2) ;;
     contact_0) args=(--set wall_contact_range=0) ;;
     contact_1) args=(--set wall_contact_range=1) ;;
+    rho_min_1) args=(--set carried_density_min=1) ;;
     dualsph)
       args=(--set kernel=1 --set smoothing_length_ratio=1.732 --set time_integration=1
         --set cfl_factor=0.2) ;;

@@ -10,8 +10,9 @@
 // median of those ratios is the slowdown. That comparison carries the flow's own changes of
 // step cost between windows; beside it, the share of the stepping thread's time the subset
 // read took in each watched window (gather ms x frames/s: the read runs on the thread that
-// steps, the encoding on the publisher's), whose median is the watching's direct cost. Per window: frames, steps, the rates, and the host's
-// gather (a subset read: on a GPU only the kept particles cross to the host) and publish times.
+// steps, the encoding on the publisher's), whose median is the watching's direct cost. Per window:
+// frames, steps, the rates, and the host's gather (a subset read: on a GPU only the kept particles
+// cross to the host) and publish times.
 #include <algorithm>
 #include <cstdio>
 #include <string>

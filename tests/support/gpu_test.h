@@ -80,7 +80,7 @@ inline Scene PeriodicScene(const std::string& solver) {
 // Two blocks of water thrown apart at 8 m/s each, each towards a wall, with c0 = 4 m/s: where
 // they touch, the continuity equation drives the density down, and at the walls up, beyond
 // what any weakly compressible flow reaches (wcsph holds its carried density in
-// [0.7, 1.3] rho0: kCarriedDensityMin/Max).
+// [0.7, 1.3] rho0: carried_density_min, kCarriedDensityMax).
 inline Scene SplittingBlocksScene(const std::string& solver) {
   return ParseScene(R"({
     "domain": {"min": [0, 0, 0], "max": [0.4, 0.2, 0.08]},

@@ -99,6 +99,10 @@ const std::array kParamTable = {
                "Particle shifting dr = -A h |v| dt grad C (Lind et al. 2012, Skillen et al. "
                "2013): A, 0 off, 2 the usual; free-surface particles are not shifted; above 2 "
                "take time_integration 1 (a dam break at A = 4 took 26 times the steps with 0)"),
+    DYSA_PARAM(carried_density_min, "", 0.5, 1.0, kLive, kWcsph,
+               "The carried density's lower bound over rho0 (the upper is 1.3): 0.7 holds a splash "
+               "particle's density off zero; 1 keeps a thin tongue from carrying less than rho0, "
+               "so that it has pressure as soon as it is compressed"),
     DYSA_PARAM(wall_contact_range, "", 0.0, 1.0, kLive, kPhysical,
                "The wall contact's range r0 in particle spacings: no particle comes nearer than "
                "r0 / 2 to a wall or obstacle (its velocity towards it is cut, an inelastic stop; "

@@ -146,9 +146,9 @@ TEST(WcsphGpuTest, ParticleShiftingIsBitIdenticalToTheCpu) {
   }
 }
 
-// The carried density's range (kCarriedDensityMin/Max) on the device: two blocks thrown apart
-// reach both bounds and stay within them, on either integration, the first steps bit for bit
-// with the CPU.
+// The carried density's range (carried_density_min, kCarriedDensityMax) on the device: two
+// blocks thrown apart reach both bounds and stay within them, on either integration, the first
+// steps bit for bit with the CPU.
 TEST(WcsphGpuTest, HoldsTheCarriedDensityInItsRangeAsTheCpuDoes) {
   SKIP_WITHOUT_GPU();
   for (const int integration : {0, 1}) {
@@ -174,6 +174,22 @@ TEST(WcsphGpuTest, HoldsTheCarriedDensityInItsRangeAsTheCpuDoes) {
     EXPECT_EQ(lowest, 700.0f);
     EXPECT_EQ(highest, 1300.0f);
   }
+}
+
+// carried_density_min = 1 on the device: the same blocks never carry less than rho0, and 30
+// steps end bit for bit with the CPU's.
+TEST(WcsphGpuTest, HoldsTheCarriedDensityAtRho0AsTheCpuDoes) {
+  SKIP_WITHOUT_GPU();
+  Scene scene = SplittingBlocksScene(kSolver);
+  SetParam(scene.params, "carried_density_min", 1.0);
+  Simulation cpu(scene);
+  Simulation gpu(scene, kGpu);
+  for (int i = 0; i < 30; ++i) {
+    cpu.Step();
+    gpu.Step();
+  }
+  EXPECT_EQ(StateHash(gpu.state()), StateHash(cpu.state()));
+  for (const float rho : gpu.state().particles.density) ASSERT_GE(rho, 1000.0f);
 }
 
 TEST(WcsphGpuTest, EveryPassIsTimed) {

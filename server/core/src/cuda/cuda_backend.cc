@@ -207,7 +207,7 @@ cuda::SphConstants PhysicalConstants(const Model& model) {
   c.rest_density = rho0;
   c.stiffness = rho0 * prm.speed_of_sound * prm.speed_of_sound / physical::kTaitExponent;
   c.contact_range = Real(prm.wall_contact_range * prm.particle_spacing);
-  c.density_min = Real(rho0 * wcsph::kCarriedDensityMin);
+  c.density_min = Real(rho0 * prm.carried_density_min);
   c.density_max = Real(rho0 * wcsph::kCarriedDensityMax);
   for (int a = 0; a < 3; ++a) {
     c.domain_lo[a] = Real(model.domain.min[a]);

@@ -57,7 +57,7 @@ struct SphConstants {
   double stiffness = 0;            // Pa, B = rho0 c0^2 / gamma
   float contact_range = 0;         // m, r0 (LimitApproachToSurfaces)
   float diffusion = 0;             // m^2/s, wcsph's delta h c0 (density_diffusion)
-  float density_min = 0;           // kg/m^3, wcsph's carried density range (kCarriedDensityMin)
+  float density_min = 0;           // kg/m^3, wcsph's carried density range (carried_density_min)
   float density_max = 0;           // kg/m^3, (kCarriedDensityMax)
   float domain_lo[3] = {0, 0, 0};
   float domain_hi[3] = {0, 0, 0};

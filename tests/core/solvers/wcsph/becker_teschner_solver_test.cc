@@ -332,7 +332,7 @@ TEST(WcsphCarriedDensityTest, IsHeldWithinItsRangeWhereTheFlowWouldLeaveIt) {
     Scene scene = SplittingBlocksScene("wcsph");
     SetParam(scene.params, "time_integration", integration);
     Simulation sim(scene);
-    const Real lo = Real(1000 * wcsph::kCarriedDensityMin);
+    const Real lo = Real(1000 * scene.params.carried_density_min);
     const Real hi = Real(1000 * wcsph::kCarriedDensityMax);
     Real lowest = 1000, highest = 1000;
     double first_dt = 0, smallest_dt = 1;
@@ -350,6 +350,28 @@ TEST(WcsphCarriedDensityTest, IsHeldWithinItsRangeWhereTheFlowWouldLeaveIt) {
     EXPECT_EQ(highest, hi);
     EXPECT_GT(smallest_dt, 0.2 * first_dt);
   }
+}
+
+// carried_density_min = 1: the same blocks, whose splash carries 0.7 rho0 at the default bound
+// (above), never carry less than rho0, and the particles the flow would take below it are held
+// at rho0 exactly; the compressed ones are left as they are.
+TEST(WcsphCarriedDensityTest, ALowerBoundOfRho0KeepsEveryParticleAtOrAboveIt) {
+  Scene scene = SplittingBlocksScene("wcsph");
+  SetParam(scene.params, "carried_density_min", 1.0);
+  Simulation sim(scene);
+  size_t held = 0;
+  Real highest = 0;
+  for (int k = 0; k < 150; ++k) {
+    sim.Step();
+    held = 0;
+    for (const Real rho : sim.state().particles.density) {
+      ASSERT_GE(rho, Real(1000)) << "step " << k;
+      held += rho == Real(1000);
+      highest = std::max(highest, rho);
+    }
+  }
+  EXPECT_GT(held, 0u);
+  EXPECT_GT(highest, Real(1000));
 }
 
 }  // namespace

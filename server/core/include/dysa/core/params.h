@@ -63,6 +63,11 @@ struct Params {
   int time_integration = 0;
   // wcsph only: A of the particle shifting dr = -A h |v| dt grad C (Lind et al. 2012; 0: off).
   double particle_shifting = 0.0;
+  // wcsph only: the lower bound of the carried density over rho0 (the upper stays 1.3). 0.7 holds
+  // a splash particle's density off zero; 1 keeps a tongue whose particles lack neighbours from
+  // carrying less than rho0, so that it has pressure as soon as it is compressed
+  // (docs/validation.md, SPHERIC Test 2).
+  double carried_density_min = 0.7;
   // dfsph only: the solvers' tolerances (Bender & Koschier 2017 defaults) and iteration cap.
   double density_tolerance = 1e-4;     // mean (rho - rho0) / rho0 after the density solve
   double divergence_tolerance = 1e-3;  // mean (D rho / Dt) dt / rho0 after the divergence solve

@@ -232,7 +232,7 @@ void Integrate(const Model& model, BeckerTeschnerData& data, State& state) {
   const std::vector<physical::ObstacleFrame> frames =
       physical::ObstacleFramesOverStep(model, state.time, state.dt);
   const Vec3* shift = model.params.particle_shifting > 0 ? data.shift.data() : nullptr;
-  const Real rho_lo = Real(model.params.rest_density * kCarriedDensityMin);
+  const Real rho_lo = Real(model.params.rest_density * model.params.carried_density_min);
   const Real rho_hi = Real(model.params.rest_density * kCarriedDensityMax);
   // Ghosts are dropped after the step (ProcessShare) and their rates were not computed.
   const uint8_t* ghost = state.share.ghost.empty() ? nullptr : state.share.ghost.data();

@@ -131,7 +131,7 @@ inline constexpr std::string_view kCarriedDensity = "density";
 // 2 at dp 0.02 reached 7,371 kg/m^3 next to a particle at -268, and the CFL step collapsed).
 // DualSPHysics removes such particles; here they are held at the bound and stay in the flow. A
 // flow within the weakly compressible regime (|rho / rho0 - 1| ~ 1%) never reaches either bound.
-inline constexpr double kCarriedDensityMin = 0.7;
+// The lower bound is the scene's `carried_density_min` (0.7 by default, over rho0).
 inline constexpr double kCarriedDensityMax = 1.3;
 
 // rho held within [lo, hi] (kg/m^3); the CUDA kernels compare in the same order.

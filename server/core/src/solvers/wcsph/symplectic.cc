@@ -17,7 +17,7 @@ void PredictHalfStep(const Model& model, BeckerTeschnerData& data, State& state)
   start.position.resize(p.size());
   start.velocity.resize(p.size());
   start.density.resize(p.size());
-  const Real rho_lo = Real(model.params.rest_density * kCarriedDensityMin);
+  const Real rho_lo = Real(model.params.rest_density * model.params.carried_density_min);
   const Real rho_hi = Real(model.params.rest_density * kCarriedDensityMax);
 #pragma omp parallel for schedule(static)
   for (int64_t i = 0; i < n; ++i) {
@@ -47,7 +47,7 @@ void CorrectStep(const Model& model, BeckerTeschnerData& data, State& state) {
   const std::vector<physical::ObstacleFrame> frames =
       physical::ObstacleFramesOverStep(model, start.time, state.dt);
   const Vec3* shift = model.params.particle_shifting > 0 ? data.shift.data() : nullptr;
-  const Real rho_lo = Real(model.params.rest_density * kCarriedDensityMin);
+  const Real rho_lo = Real(model.params.rest_density * model.params.carried_density_min);
   const Real rho_hi = Real(model.params.rest_density * kCarriedDensityMax);
 #pragma omp parallel for schedule(static)
   for (int64_t i = 0; i < n; ++i) {
