@@ -33,15 +33,15 @@ namespace {
 // (the boundary's pressure, the wall velocity of the viscosity): two cells from the owned
 // particle, so an owned particle's velocity update is exact when the values it reads are exact
 // on the ghosts within 2 layers and their neighbours within 3. The pressure solves then iterate:
-// each Jacobi iteration reads the neighbours' velocities the previous one wrote, which a ghost
-// gets wrong one layer nearer each time (its update reads what lies 2 more layers out), up to
-// max_iterations (10,000) times a step. No fixed depth covers that (a ghost layer 3 x 100 deep
-// for a 100-iteration solve would hold the whole fluid), so instead every update of the
-// velocities (each iteration of both solves, their warm starts and predict_velocity) is followed
-// by a refresh of the ghosts' velocities from their owners (ghost_refresh.h: 12 bytes per ghost,
-// one MPI_Alltoallv, the pattern fixed for the step since positions stay put until integrate).
-// With every velocity exact again at the start of each iteration, 3 layers suffice, and dfsph
-// sorts by the positions the exchange used: no slack.
+// each Jacobi iteration reads the neighbours' velocities the previous one wrote, and the ghosts
+// whose velocities stay exact shrink by up to 3 layers an iteration (a rate reads a cell out, the
+// update the boundary's kappa two cells more), up to max_iterations (10,000) times a step. No fixed
+// depth covers that (a ghost layer 3 x 100 deep for a 100-iteration solve would hold the whole
+// fluid), so instead every update of the velocities (each iteration of both solves, their warm
+// starts and predict_velocity) is followed by a refresh of the ghosts' velocities from their owners
+// (ghost_refresh.h: 12 bytes per ghost, one MPI_Alltoallv, the pattern fixed for the step since
+// positions stay put until integrate). With every velocity exact again at the start of each
+// iteration, 3 layers suffice, and dfsph sorts by the positions the exchange used: no slack.
 constexpr int kPredictorReach = 3;
 int GhostDepth(const std::string& solver, int time_integration) {
   if (solver == "seed") return 3 + 2;
