@@ -2,7 +2,8 @@
 // single process's Simulation takes of the same state, bit for bit, and a single process's
 // checkpoint restores on the ranks and steps on to the bits of the single process. Together: a
 // checkpoint taken on N ranks restores on M. Every rank runs the plain Simulation too (the test
-// scene is small); rank 0 compares.
+// scene is small); rank 0 compares. For wcsph (ranks_dam_break.json: its carried density) and
+// dfsph (ranks_dfsph.json: its warm start, which the next steps read).
 #include <gtest/gtest.h>
 
 #include "dysa/core/scene.h"
@@ -10,8 +11,8 @@
 #include "dysa/distributed/distributed_simulation.h"
 #include "mpi_communicator.h"
 
-#ifndef DYSA_RANKS_SCENE
-#error "tests/CMakeLists.txt defines DYSA_RANKS_SCENE (tests/distributed/ranks_dam_break.json)"
+#if !defined(DYSA_RANKS_SCENE) || !defined(DYSA_RANKS_DFSPH_SCENE)
+#error "tests/CMakeLists.txt defines DYSA_RANKS_SCENE and DYSA_RANKS_DFSPH_SCENE"
 #endif
 
 namespace dysa::distributed {
@@ -27,8 +28,8 @@ void StepFrames(Sim& sim, double frame_time, int frames) {
   }
 }
 
-TEST(MpiCheckpointTest, ACheckpointOnRanksIsTheOneOfOneProcess) {
-  const Scene scene = LoadScene(DYSA_RANKS_SCENE);
+void ExpectACheckpointOnRanksIsTheOneOfOneProcess(const char* path) {
+  const Scene scene = LoadScene(path);
   DistributedSimulation spread(scene, *g_comm);
   Simulation plain(scene);
   const double frame = plain.model().FrameTime();
@@ -49,8 +50,8 @@ TEST(MpiCheckpointTest, ACheckpointOnRanksIsTheOneOfOneProcess) {
   }
 }
 
-TEST(MpiCheckpointTest, AOneProcessCheckpointRestoresOnRanks) {
-  const Scene scene = LoadScene(DYSA_RANKS_SCENE);
+void ExpectAOneProcessCheckpointRestoresOnRanks(const char* path) {
+  const Scene scene = LoadScene(path);
   Simulation plain(scene);
   const double frame = plain.model().FrameTime();
   StepFrames(plain, frame, 2);
@@ -63,6 +64,22 @@ TEST(MpiCheckpointTest, AOneProcessCheckpointRestoresOnRanks) {
   if (g_comm->rank() != 0) return;
   EXPECT_EQ(spread.step(), plain.step());
   EXPECT_EQ(hash, StateHash(plain.state()));
+}
+
+TEST(MpiCheckpointTest, ACheckpointOnRanksIsTheOneOfOneProcess) {
+  ExpectACheckpointOnRanksIsTheOneOfOneProcess(DYSA_RANKS_SCENE);
+}
+
+TEST(MpiCheckpointTest, AOneProcessCheckpointRestoresOnRanks) {
+  ExpectAOneProcessCheckpointRestoresOnRanks(DYSA_RANKS_SCENE);
+}
+
+TEST(MpiCheckpointTest, DfsphsCheckpointOnRanksIsTheOneOfOneProcess) {
+  ExpectACheckpointOnRanksIsTheOneOfOneProcess(DYSA_RANKS_DFSPH_SCENE);
+}
+
+TEST(MpiCheckpointTest, DfsphsOneProcessCheckpointRestoresOnRanks) {
+  ExpectAOneProcessCheckpointRestoresOnRanks(DYSA_RANKS_DFSPH_SCENE);
 }
 
 }  // namespace

@@ -1,18 +1,29 @@
 #!/bin/bash
 # ctest -L mpi: for each scene (tests/distributed/ranks_dam_break.json: wcsph;
 # ranks_seed.json: the seed model; ranks_periodic.json: wcsph across the periodic seam of the
-# slab axis), 150 steps with plain `dysa run` and under mpirun on 1, 2, 3 and 4 ranks must end in
-# the same state hash and write the same probes.csv and VTK frames, byte for byte; on 2, 3 and 4
-# ranks particles must have migrated between ranks and at least two ranks hold some. (Whether
-# the step-time balance moves a cut depends on the machine's timing: mpi_balance_test slows a
-# rank on purpose to check it.)
-# Usage: mpi_ranks_test.sh DYSA MPIEXEC SCENE... Exits 77 (skipped, with the reason printed)
-# when mpirun cannot be found.
+# slab axis; ranks_predictor_corrector.json; ranks_dfsph.json: dfsph, its solves refreshing the
+# ghosts every iteration), N steps with plain `dysa run` and under mpirun on each rank count must
+# end in the same state hash and write the same probes.csv and VTK frames, byte for byte; on more
+# than one rank particles must have migrated between ranks and at least two ranks hold some.
+# (Whether the step-time balance moves a cut depends on the machine's timing: mpi_balance_test
+# slows a rank on purpose to check it.)
+# Usage: mpi_ranks_test.sh [--steps N] [--ranks "R..."] DYSA MPIEXEC SCENE... (default: 150
+# steps on 1 2 3 4 ranks; ranks_dfsph.json runs 200 steps on 1, 2 and 3). Exits 77 (skipped,
+# with the reason printed) when mpirun cannot be found.
 set -u
+steps=150
+rank_counts="1 2 3 4"
+while [ $# -gt 0 ]; do
+  case $1 in
+    --steps) steps=$2 ;;
+    --ranks) rank_counts=$2 ;;
+    *) break ;;
+  esac
+  shift 2
+done
 dysa=$1
 mpiexec=$2
 shift 2
-steps=150
 # shellcheck source=mpi_common.sh
 source "$(dirname "${BASH_SOURCE[0]}")/mpi_common.sh"
 mpi_require "$mpiexec"
@@ -32,7 +43,7 @@ for scene in "$@"; do
   reference=$(field "state hash" "$plain")
   [ -n "$reference" ] || fail "$name: no state hash in: $plain"
   echo "$name, plain dysa run: state hash $reference"
-  for ranks in 1 2 3 4; do
+  for ranks in $rank_counts; do
     log=$("$mpiexec" --oversubscribe --allow-run-as-root -np $ranks \
       "$dysa" run "$scene" --steps $steps --threads 1 --hash --vtk-every 3 \
       --out "$out/$name/$ranks" 2>&1) ||
@@ -57,4 +68,5 @@ for scene in "$@"; do
     fi
   done
 done
-echo "PASS: the same state hash, probes and frames on 1, 2, 3 and 4 ranks as without mpirun"
+echo "PASS: the same state hash, probes and frames after $steps steps on ranks" \
+  "$(tr ' ' , <<< "$rank_counts") as without mpirun"

@@ -2,9 +2,9 @@
 # ctest -L mpi: dysa-server on 3 ranks (mpirun) is the same simulation as dysa-server on one
 # process, driven through the `dysa` client: after the same controls (step, a parameter change,
 # step back, reset, resume and pause) both report the same frame, step and state hash, and a
-# streamed frame (dysa record, npz) is byte-identical; solvers the ranks cannot run are refused
-# naming the field, the old scene running on; wcsph's predictor-corrector (time_integration 1)
-# runs on the ranks to the same hash.
+# streamed frame (dysa record, npz) is byte-identical; a scene the ranks cannot run (fewer cell
+# layers than ranks) is refused naming the field, the old scene running on; wcsph's
+# predictor-corrector (time_integration 1) and dfsph run on the ranks to the same hash.
 # Usage: mpi_server_test.sh DYSA DYSA_SERVER MPIEXEC SCENE. Exits 77 (skipped, saying why) when
 # mpirun cannot be found.
 set -u
@@ -106,11 +106,18 @@ read -r frame _ hash running <<< "$(state ranks)"
 on one step "$frame" > /dev/null || fail "one process: step $frame"
 same "resumed, paused at frame $frame"
 
-# Refused, naming the field; the scene runs on.
-if on ranks load "$scene" --solver dfsph > "$out/refused" 2>&1; then
-  fail "a dfsph scene was loaded on 3 ranks"
+# Refused, naming the field; the scene runs on: a tank 2 cell layers long cannot give each of 3
+# ranks a layer.
+cat > "$out/short.json" << 'EOF'
+{"name": "short", "domain": {"min": [0, 0, 0], "max": [0.02, 0.02, 0.02]},
+ "fluid_blocks": [{"center": [0.01, 0.005, 0.01], "size": [0.02, 0.01, 0.02]}],
+ "solver": "wcsph", "params": {"particle_spacing": 0.005}}
+EOF
+if on ranks load "$out/short.json" > "$out/refused" 2>&1; then
+  fail "a scene of 2 cell layers was loaded on 3 ranks"
 fi
-grep -q "solver" "$out/refused" || fail "dfsph refused without naming the solver: $(cat "$out/refused")"
+grep -q "processes" "$out/refused" ||
+  fail "2 layers on 3 ranks refused without naming the field: $(cat "$out/refused")"
 echo "refused: $(cat "$out/refused")"
 on ranks step 1 > /dev/null || fail "step after the refusal"
 on one step 1 > /dev/null || fail "one process: step 1"
@@ -123,6 +130,12 @@ on one set time_integration=1 > /dev/null || fail "one process: set time_integra
 on ranks step 2 > /dev/null || fail "step with the predictor-corrector"
 on one step 2 > /dev/null || fail "one process: step 2 with the predictor-corrector"
 same "time_integration=1, step 2"
+
+# dfsph runs on the ranks, to the same bits (its solves refresh the ghosts every iteration).
+both load "$scene" --solver dfsph
+same "dfsph loaded"
+both step 4
+same "dfsph, step 4"
 
 # SIGTERM to mpirun ends every rank.
 kill -TERM "${pids[1]}"

@@ -14,8 +14,9 @@
 #include "dysa/core/simulation.h"
 #include "dysa/core/types.h"
 
-#if !defined(DYSA_RANKS_SCENE) || !defined(DYSA_RANKS_SEED_SCENE)
-#error "tests/CMakeLists.txt defines DYSA_RANKS_SCENE and DYSA_RANKS_SEED_SCENE (tests/distributed)"
+#if !defined(DYSA_RANKS_SCENE) || !defined(DYSA_RANKS_SEED_SCENE) || \
+    !defined(DYSA_RANKS_DFSPH_SCENE)
+#error "tests/CMakeLists.txt defines DYSA_RANKS_SCENE, _SEED_SCENE and _DFSPH_SCENE"
 #endif
 
 namespace dysa::distributed {
@@ -88,6 +89,10 @@ TEST(RanksBackendTest, SteppingOnTheRanksGivesTheBitsOfOneProcess) {
 
 TEST(RanksBackendTest, TheSeedToo) { ExpectSameBits(LoadScene(DYSA_RANKS_SEED_SCENE)); }
 
+// dfsph's checkpoint holds its warm start (density_stiffness, divergence_stiffness), which the
+// restore sends back to the ranks.
+TEST(RanksBackendTest, DfsphToo) { ExpectSameBits(LoadScene(DYSA_RANKS_DFSPH_SCENE)); }
+
 TEST(RanksBackendTest, APhysicalSolversWarningIsOneProcesss) {
   Scene scene = LoadScene(DYSA_RANKS_SCENE);
   scene.params.speed_of_sound = 1;  // the fluid is thrown at 1.5 m/s
@@ -103,13 +108,20 @@ TEST(RanksBackendTest, APhysicalSolversWarningIsOneProcesss) {
 TEST(RanksBackendTest, WhatTheRanksCannotRunIsRefusedByField) {
   OnRanks ranks;
   Scene scene = LoadScene(DYSA_RANKS_SCENE);
-  Scene dfsph = scene;
-  dfsph.solver = "dfsph";
+  Scene unspread = scene;
+  unspread.solver = "mps";  // not a solver that runs across processes
   try {
-    Simulation refused(dfsph, Device{}, ranks.factory());
-    FAIL() << "dfsph ran on the ranks";
+    CheckRunsOnRanks(unspread, unspread.params, 1);
+    FAIL() << "mps ran on the ranks";
   } catch (const ConfigError& e) {
     EXPECT_EQ(e.field(), "solver");
+  }
+  // The tank is 40 cell layers long: each of 41 ranks could not own one.
+  try {
+    CheckRunsOnRanks(scene, scene.params, 41);
+    FAIL() << "41 ranks accepted for 40 layers";
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.field(), "processes");
   }
   Scene in_code = scene;
   in_code.source_json.clear();

@@ -27,9 +27,25 @@ namespace {
 // which need the first evaluation's rates, exact where their own reads (two cells more) are.
 // With the half step's move of at most one layer (checked) that is 1 + 2 + 2 = 5 layers, and the
 // ghosts within kPredictorReach layers compute their rates too.
+// dfsph: an owned particle reads its neighbours' density and factor alpha (exact on ghosts up to
+// depth - 1 layers: each sums over its own neighbours' positions), and the boundary particles'
+// hydrostatic pressure and extrapolated kappa, which each sums over the fluid within a cell of it
+// (the boundary's pressure, the wall velocity of the viscosity): two cells from the owned
+// particle, so an owned particle's velocity update is exact when the values it reads are exact
+// on the ghosts within 2 layers and their neighbours within 3. The pressure solves then iterate:
+// each Jacobi iteration reads the neighbours' velocities the previous one wrote, and the ghosts
+// whose velocities stay exact shrink by up to 3 layers an iteration (a rate reads a cell out, the
+// update the boundary's kappa two cells more), up to max_iterations (10,000) times a step. No fixed
+// depth covers that (a ghost layer 3 x 100 deep for a 100-iteration solve would hold the whole
+// fluid), so instead every update of the velocities (each iteration of both solves, their warm
+// starts and predict_velocity) is followed by a refresh of the ghosts' velocities from their owners
+// (ghost_refresh.h: 12 bytes per ghost, one MPI_Alltoallv, the pattern fixed for the step since
+// positions stay put until integrate). With every velocity exact again at the start of each
+// iteration, 3 layers suffice, and dfsph sorts by the positions the exchange used: no slack.
 constexpr int kPredictorReach = 3;
 int GhostDepth(const std::string& solver, int time_integration) {
   if (solver == "seed") return 3 + 2;
+  if (solver == "dfsph") return 3;
   return time_integration == 1 ? kPredictorReach + 2 : 2;
 }
 
@@ -42,7 +58,7 @@ double MsSince(Clock::time_point start) {
 }  // namespace
 
 DistributedSimulation::DistributedSimulation(Scene scene, const Communicator& comm)
-    : scene_(std::move(scene)), comm_(comm) {
+    : scene_(std::move(scene)), comm_(comm), refreshes_ghosts_(scene_.solver == "dfsph") {
   solver_ = FindSolver(scene_.solver).create();
   Configure(scene_.params);
   // Every process spawns the whole scene (deterministic) and keeps its slab's particles; the
@@ -55,13 +71,28 @@ DistributedSimulation::DistributedSimulation(Scene scene, const Communicator& co
     comm_.MaxInPlace(v);
     collective_ms_ += MsSince(start);
   };
+  state_.share.sum_over_processes = [this](std::span<int64_t> v) {
+    const auto start = Clock::now();
+    comm_.SumInPlace(v);
+    collective_ms_ += MsSince(start);
+  };
+  if (refreshes_ghosts_) {
+    state_.share.refresh_ghosts = [this](std::span<Vec3> v) {
+      const auto start = Clock::now();
+      totals_.bytes_sent += ghost_refresh_.Refresh(comm_, v);
+      collective_ms_ += MsSince(start);
+    };
+  }
 }
 
 void DistributedSimulation::CheckSupported(const Scene& scene, const Params& params) {
-  if (scene.solver != "wcsph" && scene.solver != "seed") {
+  // A solver runs across processes once its passes' reads are covered by the ghost layers or
+  // refreshed (GhostDepth) and the reductions that steer it are exact (ProcessShare): a new
+  // solver is refused until then.
+  if (scene.solver != "wcsph" && scene.solver != "seed" && scene.solver != "dfsph") {
     throw ConfigError("solver", "'" + scene.solver +
-                                    "' does not run across processes yet; allowed: wcsph, seed "
-                                    "(run other solvers without mpirun)");
+                                    "' does not run across processes yet; allowed: wcsph, seed, "
+                                    "dfsph (run other solvers without mpirun)");
   }
   // Every parameter runs across processes, wcsph's predictor-corrector (time_integration 1)
   // included.
@@ -209,6 +240,10 @@ bool DistributedSimulation::RunStep(double start_time, bool& finite) {
   }
   Record(profile_.size() - 1, MsSince(start));
   compute_ms += profile_.back().last_ms - collective_ms_;
+  // Never negative: a process that found its time < 0 would skip the balancer's step, and so
+  // its collective at the end of the window, and the processes' collectives would mismatch
+  // (collective_ms_ holds only waits timed inside the passes, so this is a guard).
+  compute_ms = std::max(compute_ms, 0.0);
   last_compute_ms_ = compute_ms;
   totals_.compute_ms += compute_ms;
   double diverged = StateIsFinite(state_.particles) ? 0 : 1;
@@ -325,6 +360,14 @@ bool DistributedSimulation::AfterSort(double start_time, bool second) {
              std::to_string(NeighborGrid::kMaxParticlesPerCell) +
              " can, or each step costs O(n^2)): the fluid collapsed";
   } else {
+    // Outside the passes' timing, as the collectives above: not in collective_ms_, which is
+    // taken off the passes' time.
+    if (refreshes_ghosts_) {
+      std::vector<int>& layer = index_scratch_;
+      layer.resize(n);
+      for (size_t k = 0; k < n; ++k) layer[k] = grid.SortedCell(uint32_t(k))[axis_];
+      ghost_refresh_.Plan(comm_, *slabs_, layer, ghost, state_.particles.id);
+    }
     return true;
   }
   DropGhosts();

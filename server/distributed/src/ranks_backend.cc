@@ -81,9 +81,9 @@ class RanksBackend final : public StepBackend {
     }
     state.dt = outcome.dt;
     report.finite = outcome.finite;
-    // A physical solver's warnings (the flow past the speed of sound) come from the maxima over
-    // the ranks; the seed's velocity limiter counts each rank's ghosts too, so its count is not
-    // one process's: not reported.
+    // A physical solver's warnings (the flow past the speed of sound; dfsph's iteration cap and
+    // speed limiter) come from the maxima and integer sums over the ranks; the seed's velocity
+    // limiter counts each rank's ghosts too, so its count is not one process's: not reported.
     if (model.physical && !sim().warning().empty()) state.warning = sim().warning();
     return report;
   }

@@ -459,7 +459,9 @@ struct DfsphPipeline::Impl {
     return m > 0 ? m : 0.0f;  // the CPU's maxima start from 0
   }
 
-  // The serial Mean of bender_koschier_solver.cc, in a fixed tree order.
+  // The mean error of bender_koschier_solver.cc's stopping tests, in double in a fixed tree
+  // order; the CPU sums fixed-point integers (fixed_point_sum.h), so the two may round a mean
+  // differently near a tolerance.
   double Mean(const float* values) {
     if (n == 0) return 0;
     const uint32_t chunk = (n + kSumBlocks - 1) / kSumBlocks;

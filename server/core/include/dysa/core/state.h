@@ -44,6 +44,15 @@ struct ProcessShare {
   // Replaces each value by its maximum over all processes (exact, so order-free); null on one
   // process.
   std::function<void(std::span<double>)> max_over_processes;
+  // Replaces each value by its sum over all processes (integers: exact, so order-free; a
+  // floating-point sum is made one by fixed_point_sum.h); null on one process.
+  std::function<void(std::span<int64_t>)> sum_over_processes;
+  // Replaces every ghost's entry of a per-particle array (storage order, one entry per particle
+  // held) by its owner's value: for a solver whose iterations read their neighbours' values of
+  // the previous iteration (dfsph's pressure solves), which no ghost layer of fixed depth could
+  // compute locally. Valid between the neighbour sort and the end of the step (the ghosts and
+  // their order stay put); null on one process and for solvers that do not need it.
+  std::function<void(std::span<Vec3>)> refresh_ghosts;
   // The grid's cell layers along axis `layer_axis` whose boundary particles this process's own
   // particles read (those within a cell of its slab), 1 per layer; empty: all. A pass over the
   // boundary particles may skip the others (their values are read only by other processes).
@@ -51,6 +60,19 @@ struct ProcessShare {
   std::vector<uint8_t> boundary_layers;
 
   bool IsGhost(size_t i) const { return !ghost.empty() && ghost[i] != 0; }
+  // Null when there are no ghosts: the skip flags of a reduction over the owned particles.
+  const uint8_t* GhostFlags() const { return ghost.empty() ? nullptr : ghost.data(); }
+  // The hooks above, doing nothing on one process (collective on several: every process must
+  // call them in the same order).
+  void MaxOverProcesses(std::span<double> values) const {
+    if (max_over_processes) max_over_processes(values);
+  }
+  void SumOverProcesses(std::span<int64_t> values) const {
+    if (sum_over_processes) sum_over_processes(values);
+  }
+  void RefreshGhosts(std::span<Vec3> values) const {
+    if (refresh_ghosts) refresh_ghosts(values);
+  }
   // Whether a pass whose results only neighbours within rate_reach read skips particle i.
   bool SkipsRates(size_t i) const { return !ghost.empty() && ghost[i] > rate_reach; }
   bool NeedsBoundaryCell(const Eigen::Vector3i& cell) const {

@@ -5,10 +5,10 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <cstdio>
 #include <string>
 #include <vector>
 
+#include "dysa/core/fixed_point_sum.h"
 #include "dysa/core/kernels.h"
 #include "solvers/dfsph/pressure_boundary.h"
 #include "solvers/domain_walls.h"
@@ -204,6 +204,10 @@ void ApplyKappa(const Model& model, BenderKoschierData& data, State& state, Real
     w.kappa_sum[i] += w.kappa[i] * dt;
     applied[i] += w.kappa[i];
   }
+  // Across processes the next iteration's rates read the neighbours' velocities, which a ghost's
+  // own update got wrong near the ghost layer's far edge (its neighbourhood is cut there): each
+  // ghost takes its owner's (ProcessShare::refresh_ghosts; distributed_simulation.cc says why).
+  state.share.RefreshGhosts(p.velocity);
 }
 
 // A solve's warm start: kappa_i = warm_start carried_i / dt^2 (density) or / dt (the previous
@@ -238,7 +242,10 @@ void StartWarmStart(const Model& model, BenderKoschierData& data, State& state, 
     carried[i] = 0;
     any = any || kappa > 0;
   }
-  if (any) ApplyKappa(model, data, state, dt, carried);
+  // Applied on every process or on none, as ApplyKappa refreshes the ghosts (a collective).
+  double applies = any ? 1 : 0;
+  state.share.MaxOverProcesses({&applies, 1});
+  if (applies > 0) ApplyKappa(model, data, state, dt, carried);
 }
 
 void FinishWarmStart(const State& state, Real dt, bool density_solve, Real* carried) {
@@ -248,18 +255,32 @@ void FinishWarmStart(const State& state, Real dt, bool density_solve, Real* carr
   for (int64_t i = 0; i < n; ++i) carried[i] *= scale;
 }
 
-// The serial mean of error[0, n), so the stopping test (and the iteration count) does not
-// depend on the thread count.
-double Mean(const Real* error, size_t n) {
-  double sum = 0;
-  for (size_t i = 0; i < n; ++i) sum += error[i];
-  return n ? sum / double(n) : 0;
+// The mean over the owned particles of error[i] times `factor` (the solve's error as a fraction
+// of rho0): the stopping test, which decides the iteration count. Summed as fixed-point integers
+// (fixed_point_sum.h), over the threads and then over the processes: the same bits for any
+// thread count and on any number of processes, so every process stops at the same iteration,
+// the one a single process stops at.
+double MeanError(const State& state, const Real* error, double factor) {
+  const ProcessShare& share = state.share;
+  const uint8_t* ghost = share.GhostFlags();
+  const size_t n = state.particles.size();
+  int64_t sums[2] = {FixedPointSum(error, n, factor, ghost), 0};
+  for (size_t i = 0; i < n; ++i) sums[1] += ghost && ghost[i] ? 0 : 1;
+  share.SumOverProcesses(sums);
+  return sums[1] > 0 ? FromFixedPoint(sums[0]) / double(sums[1]) : 0;
 }
 
-double MaxSpeed(const ParticleArrays& p) {
+// The fastest owned particle over the processes (a maximum: exact in any order).
+double MaxSpeed(const State& state) {
+  const uint8_t* ghost = state.share.GhostFlags();
+  const std::vector<Vec3>& velocity = state.particles.velocity;
   Real v2 = 0;
-  for (const Vec3& v : p.velocity) v2 = std::max(v2, v.squaredNorm());
-  return std::sqrt(double(v2));
+  for (size_t i = 0; i < velocity.size(); ++i) {
+    if (!(ghost && ghost[i])) v2 = std::max(v2, velocity[i].squaredNorm());
+  }
+  double max = double(v2);
+  state.share.MaxOverProcesses({&max, 1});
+  return std::sqrt(max);
 }
 
 void DivergenceSolve(const Model& model, BenderKoschierData& data, State& state) {
@@ -269,7 +290,7 @@ void DivergenceSolve(const Model& model, BenderKoschierData& data, State& state)
   const double rho0 = model.params.rest_density;
   // The step these velocities will be integrated with, as the time_step pass will choose it
   // (up to the frame's end): a function of the state, so nothing is carried between steps.
-  const double dt = std::min(CflLimits(model, std::max(MaxSpeed(p), data.max_obstacle_speed),
+  const double dt = std::min(CflLimits(model, std::max(MaxSpeed(state), data.max_obstacle_speed),
                                        std::abs(model.params.gravity), false)
                                  .Min(),
                              model.params.max_time_step);
@@ -292,7 +313,7 @@ void DivergenceSolve(const Model& model, BenderKoschierData& data, State& state)
       w.error[i] = rate;
       w.kappa[i] = rate * w.alpha[i] * inv_dt;
     }
-    stats.divergence_error = Mean(w.error, size_t(n)) * dt / rho0;
+    stats.divergence_error = MeanError(state, w.error, dt / rho0);
     if (iteration >= 2 && stats.divergence_error <= model.params.divergence_tolerance) break;
     if (iteration == model.params.max_iterations) {
       ++stats.capped_solves;
@@ -330,7 +351,7 @@ void DensitySolve(const Model& model, BenderKoschierData& data, State& state) {
       // velocities that blow the fluid apart.
       w.kappa[i] = std::min(excess, Real(kMaxCorrection) * rho0) * inv_dt2 * w.alpha[i];
     }
-    stats.density_error = Mean(w.error, size_t(n)) / rho0;
+    stats.density_error = MeanError(state, w.error, 1 / double(rho0));
     if (iteration >= 2 && stats.density_error <= model.params.density_tolerance) break;
     if (iteration == model.params.max_iterations) {
       ++stats.capped_solves;
@@ -364,6 +385,9 @@ void PredictVelocities(const Model&, BenderKoschierData& data, State& state) {
   const int64_t n = int64_t(p.size());
 #pragma omp parallel for schedule(static)
   for (int64_t i = 0; i < n; ++i) p.velocity[i] += data.acceleration[i] * dt;
+  // A ghost's acceleration misses what lies past the ghost layers; the density solve reads the
+  // neighbours' velocities.
+  state.share.RefreshGhosts(p.velocity);
 }
 
 // x += v dt, with the displacement of a step limited to one particle spacing: a particle that
@@ -379,18 +403,20 @@ void IntegratePositions(const Model& model, BenderKoschierData&, State& state) {
   const int64_t n = int64_t(p.size());
   const std::vector<physical::ObstacleFrame> frames =
       physical::ObstacleFramesOverStep(model, state.time, state.dt);
+  const uint8_t* ghost = state.share.GhostFlags();
   int64_t limited = 0;
 #pragma omp parallel for schedule(static) reduction(+ : limited)
   for (int64_t i = 0; i < n; ++i) {
     const Real speed2 = p.velocity[i].squaredNorm();
     if (speed2 > limit * limit) {
       p.velocity[i] *= limit / std::sqrt(speed2);
-      ++limited;
+      if (!(ghost && ghost[i])) ++limited;  // a ghost is counted by its owner
     }
     physical::LimitApproachToSurfaces(model, frames, dt, p.position[i], p.velocity[i]);
     p.position[i] += p.velocity[i] * dt;
     CollideWithDomainWalls(model.domain, model.periodic, Real(0), p.position[i], p.velocity[i]);
   }
+  state.share.SumOverProcesses({&limited, 1});
   if (limited > 0) state.warning = SpeedLimitWarning(uint64_t(limited), state.step + 1);
 }
 
@@ -408,26 +434,6 @@ void SortIntoGrid(const Model& model, BenderKoschierData& data, State& state) {
 }
 
 }  // namespace
-
-// The diagnostic of a solve that stopped at its iteration cap: the error it could not bring
-// under the tolerance is then carried into the step, instead of passing as converged.
-std::string CapWarning(const char* solve, int iterations, double error, double tolerance,
-                       uint64_t step) {
-  char text[320];
-  std::snprintf(text, sizeof text,
-                "dfsph: the %s solve stopped at max_iterations = %d with a mean error of %.3g%% "
-                "(tolerance %.3g%%) at step %llu; lower cfl_factor or max_time_step, or raise "
-                "max_iterations",
-                solve, iterations, 100 * error, 100 * tolerance, (unsigned long long)step);
-  return text;
-}
-
-std::string SpeedLimitWarning(uint64_t limited, uint64_t step) {
-  return "dfsph: " + std::to_string(limited) +
-         " particles would have moved more than particle_spacing in step " + std::to_string(step) +
-         " and were slowed to it; the step is beyond the solver's stability limit (lower "
-         "cfl_factor or max_time_step, or raise max_iterations)";
-}
 
 void BenderKoschierSolver::Reset(size_t particles) {
   data_.density_stiffness.assign(particles, Real(0));

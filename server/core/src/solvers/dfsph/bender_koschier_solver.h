@@ -41,8 +41,11 @@
 // (SaveArrays). Without it (0) every step rebuilds the hydrostatic pressure from zero: twice the
 // iterations for a column at rest (tests/core). The divergence solve's stopping test uses the CFL
 // step of the current velocities (a function of the state), so a checkpoint reproduces the
-// following steps bit for bit. Errors are summed serially in particle order, so the iteration
-// counts do not depend on the thread count.
+// following steps bit for bit. The mean errors of the stopping tests are sums of fixed-point
+// integers (fixed_point_sum.h), exact in any order, so the iteration counts do not depend on the
+// thread count nor on the number of processes a run is spread over (State::share: across
+// processes the solves skip the ghosts in their sums and maxima, combine them over the processes,
+// and refresh the ghosts' velocities after every update of the velocities).
 #pragma once
 
 #include <cstdint>

@@ -7,13 +7,17 @@
 // key (particle_exchange.h), then run the solver's own passes unchanged over owned particles and
 // ghosts alike; the CFL step's maxima skip the ghosts and combine over the processes
 // (State::share). Ghosts reach deep enough (2 layers for wcsph, 5 for the seed) that every value an
-// owned particle reads is computed locally from exact inputs and one exchange per step suffices.
-// After the passes the ghosts are dropped.
+// owned particle reads is computed locally from exact inputs and one exchange per step suffices;
+// dfsph's solves iterate on their neighbours' velocities, so its ghosts (3 layers) take their
+// owners' velocities again after every update (ghost_refresh.h). After the passes the ghosts are
+// dropped.
 //
-// Supported so far: wcsph with symplectic Euler (time_integration 0) and the predictor-corrector
+// Supported: wcsph with symplectic Euler (time_integration 0) and the predictor-corrector
 // (1: ghosts 5 layers deep, those within 3 computing the predictor's interactions, flagged again
 // after the second sort), with walls, static and moving obstacles, periodic axes, viscosity,
-// density diffusion and particle shifting; seed. Not yet: dfsph (docs/distributed.md).
+// density diffusion and particle shifting; seed; dfsph (ghosts 3 layers deep, their velocities
+// refreshed from their owners after every velocity update inside the step: ghost_refresh.h; its
+// stopping tests' mean errors summed as fixed-point integers over the processes).
 #pragma once
 
 #include <cstdint>
@@ -29,6 +33,7 @@
 #include "dysa/core/state.h"
 #include "dysa/distributed/balancer.h"
 #include "dysa/distributed/communicator.h"
+#include "dysa/distributed/ghost_refresh.h"
 #include "dysa/distributed/particle_exchange.h"
 #include "dysa/distributed/slabs.h"
 
@@ -46,7 +51,7 @@ struct ExchangeTotals {
 class DistributedSimulation {
  public:
   // Collective. Validates the scene (ConfigError) and what runs across processes so far
-  // (wcsph, seed: ConfigError naming "solver"), spawns its particles and
+  // (wcsph, seed, dfsph: ConfigError naming "solver"), spawns its particles and
   // keeps those of this process's slab. `comm` must outlive this.
   DistributedSimulation(Scene scene, const Communicator& comm);
   ~DistributedSimulation();
@@ -139,6 +144,10 @@ class DistributedSimulation {
   size_t sort_pass_ = 0;
   size_t corrector_sort_pass_ = 0;  // passes_.size(): none (symplectic Euler, seed)
   int ghost_depth_ = 2;
+  // dfsph: the ghosts' velocities are refreshed from their owners inside the step
+  // (ghost_refresh.h), along the pattern planned after each sort.
+  bool refreshes_ghosts_ = false;
+  GhostRefresh ghost_refresh_;
   std::vector<int> first_layer_;  // per particle, its layer at the first sort (predictor)
   std::vector<int> index_scratch_;
   State state_;

@@ -16,9 +16,9 @@ namespace dysa::distributed {
 
 // The factory that makes a Simulation step on `runner`'s processes (Simulation's constructor
 // with a BackendFactory). Each simulation it makes sends its scene to every process first; a
-// scene or parameters the ranks cannot run (a solver other than wcsph and seed, the
-// predictor-corrector, fewer grid layers than ranks, a scene without JSON text) are refused
-// with a ConfigError naming the field, before any process is told.
+// scene or parameters the ranks cannot run (a solver other than wcsph, seed and dfsph, fewer
+// grid layers than ranks, a scene without JSON text) are refused with a ConfigError naming the
+// field, before any process is told.
 Simulation::BackendFactory RanksBackendFactory(std::shared_ptr<RankRunner> runner);
 
 // Throws ConfigError as the factory refuses: "solver", "processes" or "scene".

@@ -6,9 +6,10 @@
 // histogram). A process also holds, as ghosts, the particles of the layers within `depth`
 // layers of its slab that other processes own (across the seam of a periodic axis too).
 //
-// depth is 2 for wcsph, 5 for its predictor-corrector and the seed (GhostDepth in
+// depth is 2 for wcsph, 5 for its predictor-corrector and the seed, 3 for dfsph (GhostDepth in
 // distributed_simulation.cc says why): a process then computes every value its own particles
-// read, and needs one exchange per step.
+// read, and needs one exchange per step (dfsph, whose solves iterate, also refreshes its ghosts'
+// velocities inside the step: ghost_refresh.h).
 #pragma once
 
 #include <cstdint>
