@@ -16,6 +16,7 @@
 #include "cuda/probe_gatherer.cuh"
 #include "cuda/rank_subset.cuh"
 #include "cuda/sph_kernels.cuh"
+#include "dysa/core/fixed_point.h"
 
 namespace dysa::cuda {
 namespace {
@@ -310,16 +311,27 @@ __global__ void OwnerCountKernel(const uint32_t* keys, uint32_t* count, uint32_t
   if (k < n) atomicAdd(&count[keys[k]], 1u);  // integer counts: order-independent
 }
 
-// The mean of values[0, n) in double, summed in a fixed tree order (deterministic for a given n
-// on a given GPU): block b sums the contiguous chunk [b chunk, (b + 1) chunk).
+// The sum of values[k] * factor over [0, n) as 64-bit fixed-point integers, each term rounded on
+// its own (dysa/core/fixed_point.h, whose ToFixedPoint this repeats on the device): integers
+// add exactly in any order, so the blocks' and threads' order does not matter and the total is
+// the CPU's FixedPointSum bit for bit. Block b sums the contiguous chunk [b chunk, (b + 1) chunk).
 constexpr unsigned kSumBlocks = 512;
 constexpr unsigned kSumThreads = 256;
-__global__ void PartialSumKernel(const float* values, uint32_t n, uint32_t chunk, double* partial) {
-  __shared__ double tree[kSumThreads];
+__device__ long long ToFixedPointOnDevice(double term) {
+  if (isnan(term)) term = dysa::kFixedPointMaxTerm;
+  if (term > dysa::kFixedPointMaxTerm) term = dysa::kFixedPointMaxTerm;
+  if (term < -dysa::kFixedPointMaxTerm) term = -dysa::kFixedPointMaxTerm;
+  return llround(term * dysa::kFixedPointScale);
+}
+__global__ void PartialFixedPointSumKernel(const float* values, uint32_t n, uint32_t chunk,
+                                           double factor, long long* partial) {
+  __shared__ long long tree[kSumThreads];
   const uint32_t lo = blockIdx.x * chunk;
   const uint32_t hi = lo + chunk < n ? lo + chunk : n;
-  double sum = 0;
-  for (uint32_t k = lo + threadIdx.x; k < hi; k += kSumThreads) sum += values[k];
+  long long sum = 0;
+  for (uint32_t k = lo + threadIdx.x; k < hi; k += kSumThreads) {
+    sum += ToFixedPointOnDevice(double(values[k]) * factor);
+  }
   tree[threadIdx.x] = sum;
   __syncthreads();
   for (unsigned half = kSumThreads / 2; half > 0; half /= 2) {
@@ -328,9 +340,9 @@ __global__ void PartialSumKernel(const float* values, uint32_t n, uint32_t chunk
   }
   if (threadIdx.x == 0) partial[blockIdx.x] = tree[0];
 }
-__global__ void FinalSumKernel(const double* partial, unsigned count, double* out) {
-  __shared__ double tree[kSumBlocks];
-  tree[threadIdx.x] = threadIdx.x < count ? partial[threadIdx.x] : 0.0;
+__global__ void FinalFixedPointSumKernel(const long long* partial, unsigned count, long long* out) {
+  __shared__ long long tree[kSumBlocks];
+  tree[threadIdx.x] = threadIdx.x < count ? partial[threadIdx.x] : 0;
   __syncthreads();
   for (unsigned half = kSumBlocks / 2; half > 0; half /= 2) {
     if (threadIdx.x < half) tree[threadIdx.x] += tree[threadIdx.x + half];
@@ -372,11 +384,11 @@ struct DfsphPipeline::Impl {
   DeviceBuffer<SphereObstacle> spheres;
   DeviceBuffer<BoxObstacle> boxes;
   DeviceBuffer<float> device_maxima;
-  DeviceBuffer<double> partial_sums, device_sum;
+  DeviceBuffer<long long> partial_sums, device_sum;
   DeviceBuffer<uint32_t> device_totals;
   DeviceBuffer<unsigned long long> device_flags;  // [0] limited, [1] non-finite, [2] any kappa
   PinnedBuffer<float> maxima;
-  PinnedBuffer<double> sum;
+  PinnedBuffer<long long> sum;
   PinnedBuffer<uint32_t> totals;
   PinnedBuffer<unsigned long long> flags;
   DeviceBuffer<unsigned char> temp;
@@ -459,18 +471,19 @@ struct DfsphPipeline::Impl {
     return m > 0 ? m : 0.0f;  // the CPU's maxima start from 0
   }
 
-  // The mean error of bender_koschier_solver.cc's stopping tests, in double in a fixed tree
-  // order; the CPU sums fixed-point integers (fixed_point_sum.h), so the two may round a mean
-  // differently near a tolerance.
-  double Mean(const float* values) {
+  // The mean error of bender_koschier_solver.cc's stopping tests (MeanError): the mean of
+  // values[k] * factor summed as fixed-point integers, the CPU's bits whatever the order.
+  double MeanError(const float* values, double factor) {
     if (n == 0) return 0;
     const uint32_t chunk = (n + kSumBlocks - 1) / kSumBlocks;
     const unsigned blocks = (n + chunk - 1) / chunk;
-    PartialSumKernel<<<blocks, kSumThreads, 0, s()>>>(values, n, chunk, partial_sums.data());
-    FinalSumKernel<<<1, kSumBlocks, 0, s()>>>(partial_sums.data(), blocks, device_sum.data());
+    PartialFixedPointSumKernel<<<blocks, kSumThreads, 0, s()>>>(values, n, chunk, factor,
+                                                                partial_sums.data());
+    FinalFixedPointSumKernel<<<1, kSumBlocks, 0, s()>>>(partial_sums.data(), blocks,
+                                                        device_sum.data());
     sum.CopyFrom(device_sum, 1, s());
     CheckCuda(cudaStreamSynchronize(s()), "summing the solve's error");
-    return sum.data()[0] / double(n);
+    return dysa::FromFixedPoint(int64_t(sum.data()[0])) / double(n);
   }
 
   void ApplyKappa(float dt, float* applied) {
@@ -503,8 +516,8 @@ struct DfsphPipeline::Impl {
 
   // The solve loop of DivergenceSolve / DensitySolve: at least 2, at most max_iterations
   // iterations, until the mean error (times error_scale) is within the tolerance.
-  // The mean error the stopping test reads is Mean * error_times / error_over, in the CPU's order
-  // of operations.
+  // The mean error the stopping test reads is the mean of error * (error_times / error_over), the
+  // CPU's factor (MeanError in bender_koschier_solver.cc).
   SolveResult Solve(float dt, bool density_solve, const SolveSettings& settings, double error_times,
                     double error_over, float inv_dt_power, float* carried) {
     StartWarmStart(dt, density_solve, settings.warm_start, carried);
@@ -514,7 +527,7 @@ struct DfsphPipeline::Impl {
       SolveErrorKernel<<<Blocks(n), kBlock, 0, s()>>>(View(), BoundaryView(), SolverView(),
                                                       config.constants, dt, inv_dt_power,
                                                       density_solve, n);
-      result.error = Mean(error.data()) * error_times / error_over;
+      result.error = MeanError(error.data(), error_times / error_over);
       if (iteration >= 2 && result.error <= settings.tolerance) break;
       if (iteration == settings.max_iterations) {
         result.capped = true;

@@ -23,32 +23,15 @@
 #include <cstdint>
 #include <limits>
 
+#include "dysa/core/fixed_point.h"
 #include "dysa/core/scene.h"
 
 namespace dysa {
-
-inline constexpr int kFixedPointFractionBits = 32;
-inline constexpr double kFixedPointScale = double(uint64_t{1} << kFixedPointFractionBits);
-inline constexpr int kFixedPointMaxTermLog2 = 2;
-inline constexpr double kFixedPointMaxTerm = double(1 << kFixedPointMaxTermLog2);
 
 static_assert(kMaxParticles < (uint64_t{1} << 29), "the overflow bound assumes n < 2^29");
 static_assert(kMaxParticles * (uint64_t{1} << (kFixedPointFractionBits + kFixedPointMaxTermLog2)) <
                   uint64_t(std::numeric_limits<int64_t>::max()),
               "kMaxParticles terms of the largest magnitude must not overflow an int64_t");
-
-// The fixed-point integer of one term (a fraction), clamped and rounded to nearest (ties away
-// from zero: std::llround does not depend on the floating-point rounding mode).
-inline int64_t ToFixedPoint(double term) {
-  if (std::isnan(term)) term = kFixedPointMaxTerm;
-  if (term > kFixedPointMaxTerm) term = kFixedPointMaxTerm;
-  if (term < -kFixedPointMaxTerm) term = -kFixedPointMaxTerm;
-  return std::llround(term * kFixedPointScale);  // * 2^32: exact in double
-}
-
-// The fraction a fixed-point sum stands for (exact while |sum| < 2^53 2^-32, i.e. a sum below
-// 2^21; beyond, rounded once, the same on every process).
-inline double FromFixedPoint(int64_t sum) { return double(sum) / kFixedPointScale; }
 
 // sum_i ToFixedPoint(double(values[i]) * factor) over i in [0, n) where skip is null or
 // skip[i] == 0. Each term is the product of a float converted exactly to double and the same
