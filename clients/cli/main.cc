@@ -438,7 +438,7 @@ int main(int argc, char** argv) {
   run_cmd
       ->add_option("--balance-threshold", run.balance_threshold,
                    "Under mpirun: move the slab cuts when max/mean of the ranks' step times, "
-                   "over 5 steps, exceeds this")
+                   "over 10 steps, exceeds this")
       ->capture_default_str()
       ->check(CLI::Range(1.0, 1e6));
   run_cmd->add_flag("--hash", run.print_hash,

@@ -89,6 +89,7 @@ int main(int argc, char** argv) {
   std::string listen = "127.0.0.1:50051";
   int threads = 0;
   double frame_rate = 60;
+  double balance_threshold = 1.1;  // under mpirun: balancer.h's threshold
   uint64_t history_frames = 600;
   uint64_t history_mib = 256;
   std::string token_file, tls_cert, tls_key, port_file;
@@ -133,6 +134,11 @@ int main(int argc, char** argv) {
                  "Refuse scenes and parameters with more particles (RESOURCE_EXHAUSTED); above "
                  "20,000,000 (a frame's limit) only streams with a budget can watch")
       ->check(CLI::Range(uint64_t{1}, uint64_t{dysa::kMaxParticles}))
+      ->capture_default_str();
+  app.add_option("--balance-threshold", balance_threshold,
+                 "Under mpirun: move the slab cuts when max/mean of the ranks' step times, over "
+                 "10 steps, exceeds this")
+      ->check(CLI::Range(1.0, 1e6))
       ->capture_default_str();
   app.add_option("--max-subscribers", max_subscribers, "Frame streams open at once at most")
       ->check(CLI::Range(size_t{1}, size_t{100000}))
@@ -196,7 +202,7 @@ int main(int argc, char** argv) {
   std::unique_ptr<dysa::service::ServerRanks> ranks;
   if (on_ranks) {
     try {
-      ranks = std::make_unique<dysa::service::ServerRanks>(&argc, &argv);
+      ranks = std::make_unique<dysa::service::ServerRanks>(&argc, &argv, balance_threshold);
     } catch (const std::exception& e) {
       std::cerr << "dysa-server: error: " << e.what() << "\n";
       return 1;

@@ -10,14 +10,27 @@
 
 namespace dysa::service {
 
+namespace {
+
+distributed::BalanceSettings Balance(double threshold) {
+  distributed::BalanceSettings settings;
+  settings.threshold = threshold;
+  return settings;
+}
+
+}  // namespace
+
 struct ServerRanks::Parts {
-  Parts(int* argc, char*** argv) : session(argc, argv, /*any_thread=*/true) {}
+  Parts(int* argc, char*** argv, double balance_threshold)
+      : session(argc, argv, /*any_thread=*/true),
+        runner(std::make_shared<distributed::RankRunner>(comm, Balance(balance_threshold))) {}
   distributed::MpiSession session;
   distributed::MpiCommunicator comm;
-  std::shared_ptr<distributed::RankRunner> runner = std::make_shared<distributed::RankRunner>(comm);
+  std::shared_ptr<distributed::RankRunner> runner;
 };
 
-ServerRanks::ServerRanks(int* argc, char*** argv) : parts_(std::make_unique<Parts>(argc, argv)) {}
+ServerRanks::ServerRanks(int* argc, char*** argv, double balance_threshold)
+    : parts_(std::make_unique<Parts>(argc, argv, balance_threshold)) {}
 
 ServerRanks::~ServerRanks() {
   if (rank() != 0) return;

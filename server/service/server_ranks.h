@@ -16,8 +16,9 @@ namespace dysa::service {
 class ServerRanks {
  public:
   // Initialises MPI (any one thread at a time: rank 0's simulation thread steps). Throws
-  // std::runtime_error when MPI cannot.
-  ServerRanks(int* argc, char*** argv);
+  // std::runtime_error when MPI cannot. The ranks move their slab cuts when the max/mean of
+  // their step times over a window exceeds `balance_threshold` (balancer.h).
+  ServerRanks(int* argc, char*** argv, double balance_threshold);
   // Rank 0: tells the other ranks to stop, so that they end with it; then finalises MPI.
   ~ServerRanks();
   ServerRanks(const ServerRanks&) = delete;

@@ -31,12 +31,14 @@ fail() {
   exit 1
 }
 
-# start NAME [mpirun args...]: a paused server on the scene, its address in $out/NAME.addr.
+# start NAME [mpirun args...]: a paused server on the scene, its address in $out/NAME.addr;
+# $SERVER_ARGS, when set, goes to the server's command line.
 start() {
   local name=$1
   shift
+  # shellcheck disable=SC2086
   "$@" "$server" --scene "$scene" --paused --threads 1 --frame-rate 0 --listen 127.0.0.1:0 \
-    --port-file "$out/$name.port" > "$out/$name.log" 2>&1 &
+    --port-file "$out/$name.port" ${SERVER_ARGS:-} > "$out/$name.log" 2>&1 &
   pids+=($!)
   for _ in $(seq 150); do
     [ -f "$out/$name.port" ] && break
@@ -71,8 +73,15 @@ both() {
 }
 
 start_time=$SECONDS
+# A balance threshold out of its range is refused, naming the flag and the range.
+if "$server" --scene "$scene" --balance-threshold 0.5 > "$out/threshold" 2>&1; then
+  fail "--balance-threshold 0.5 was accepted"
+fi
+grep -q -- "--balance-threshold" "$out/threshold" && grep -q "1" "$out/threshold" ||
+  fail "--balance-threshold 0.5 refused without naming the flag: $(cat "$out/threshold")"
 start one
-start ranks "$mpiexec" --oversubscribe --allow-run-as-root -np 3
+# The ranks re-balance at any imbalance (--balance-threshold 1): the cuts move, the bits do not.
+SERVER_ARGS="--balance-threshold 1" start ranks "$mpiexec" --oversubscribe --allow-run-as-root -np 3
 on ranks status | grep -q "3 ranks" || fail "the ranks' server does not say it runs on 3 ranks"
 same "start"
 both step 8

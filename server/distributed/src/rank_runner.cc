@@ -145,6 +145,7 @@ RankResult RankRunner::Run(const Bytes& command) {
     r.Values(scene.params);
     try {
       sim_ = std::make_unique<DistributedSimulation>(std::move(scene), comm_);
+      sim_->set_balance(balance_);
     } catch (const std::invalid_argument& e) {
       throw ConfigError("processes", e.what());  // more ranks than the grid has layers
     }

@@ -40,8 +40,9 @@ struct RankResult {
 
 class RankRunner {
  public:
-  // `comm` must outlive this.
-  explicit RankRunner(const Communicator& comm) : comm_(comm) {}
+  // `comm` must outlive this. Each scene's simulation re-balances with `balance`.
+  explicit RankRunner(const Communicator& comm, BalanceSettings balance = {})
+      : comm_(comm), balance_(balance) {}
 
   const Communicator& comm() const { return comm_; }
   // The simulation of the latest scene; null before the first.
@@ -58,6 +59,7 @@ class RankRunner {
   RankResult Run(const Bytes& command);
 
   const Communicator& comm_;
+  const BalanceSettings balance_;
   std::unique_ptr<DistributedSimulation> sim_;
 };
 
