@@ -12,11 +12,11 @@
 #include "cuda/device_buffer.cuh"
 #include "cuda/device_grid.cuh"
 #include "cuda/dfsph_pipeline.h"
+#include "cuda/fixed_point_sum.cuh"
 #include "cuda/moving_boundary.cuh"
 #include "cuda/probe_gatherer.cuh"
 #include "cuda/rank_subset.cuh"
 #include "cuda/sph_kernels.cuh"
-#include "dysa/core/fixed_point.h"
 
 namespace dysa::cuda {
 namespace {
@@ -309,46 +309,6 @@ __global__ void SpeedSquaredKernel(Fluid f, float* speed2, uint32_t n) {
 __global__ void OwnerCountKernel(const uint32_t* keys, uint32_t* count, uint32_t n) {
   const uint32_t k = blockIdx.x * blockDim.x + threadIdx.x;
   if (k < n) atomicAdd(&count[keys[k]], 1u);  // integer counts: order-independent
-}
-
-// The sum of values[k] * factor over [0, n) as 64-bit fixed-point integers, each term rounded on
-// its own (dysa/core/fixed_point.h, whose ToFixedPoint this repeats on the device): integers
-// add exactly in any order, so the blocks' and threads' order does not matter and the total is
-// the CPU's FixedPointSum bit for bit. Block b sums the contiguous chunk [b chunk, (b + 1) chunk).
-constexpr unsigned kSumBlocks = 512;
-constexpr unsigned kSumThreads = 256;
-__device__ long long ToFixedPointOnDevice(double term) {
-  if (isnan(term)) term = dysa::kFixedPointMaxTerm;
-  if (term > dysa::kFixedPointMaxTerm) term = dysa::kFixedPointMaxTerm;
-  if (term < -dysa::kFixedPointMaxTerm) term = -dysa::kFixedPointMaxTerm;
-  return llround(term * dysa::kFixedPointScale);
-}
-__global__ void PartialFixedPointSumKernel(const float* values, uint32_t n, uint32_t chunk,
-                                           double factor, long long* partial) {
-  __shared__ long long tree[kSumThreads];
-  const uint32_t lo = blockIdx.x * chunk;
-  const uint32_t hi = lo + chunk < n ? lo + chunk : n;
-  long long sum = 0;
-  for (uint32_t k = lo + threadIdx.x; k < hi; k += kSumThreads) {
-    sum += ToFixedPointOnDevice(double(values[k]) * factor);
-  }
-  tree[threadIdx.x] = sum;
-  __syncthreads();
-  for (unsigned half = kSumThreads / 2; half > 0; half /= 2) {
-    if (threadIdx.x < half) tree[threadIdx.x] += tree[threadIdx.x + half];
-    __syncthreads();
-  }
-  if (threadIdx.x == 0) partial[blockIdx.x] = tree[0];
-}
-__global__ void FinalFixedPointSumKernel(const long long* partial, unsigned count, long long* out) {
-  __shared__ long long tree[kSumBlocks];
-  tree[threadIdx.x] = threadIdx.x < count ? partial[threadIdx.x] : 0;
-  __syncthreads();
-  for (unsigned half = kSumBlocks / 2; half > 0; half /= 2) {
-    if (threadIdx.x < half) tree[threadIdx.x] += tree[threadIdx.x + half];
-    __syncthreads();
-  }
-  if (threadIdx.x == 0) *out = tree[0];
 }
 
 }  // namespace

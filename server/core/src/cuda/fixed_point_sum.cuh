@@ -1,0 +1,54 @@
+// Order-free sums on the device: each term rounded to a 64-bit fixed-point integer on its own
+// (dysa/core/fixed_point.h, the CPU's ToFixedPoint repeated here), the integers reduced in
+// blocks. Integers add exactly in any order, so the total is the CPU's FixedPointSum bit for bit.
+#pragma once
+
+#include <cuda_runtime.h>
+
+#include <cstdint>
+
+#include "dysa/core/fixed_point.h"
+
+namespace dysa::cuda {
+namespace {
+
+// PartialFixedPointSumKernel: block b sums values[k] * factor over its contiguous chunk
+// [b chunk, (b + 1) chunk) into partial[b]; FinalFixedPointSumKernel adds the `count` partials.
+constexpr unsigned kSumBlocks = 512;
+constexpr unsigned kSumThreads = 256;
+__device__ long long ToFixedPointOnDevice(double term) {
+  if (isnan(term)) term = dysa::kFixedPointMaxTerm;
+  if (term > dysa::kFixedPointMaxTerm) term = dysa::kFixedPointMaxTerm;
+  if (term < -dysa::kFixedPointMaxTerm) term = -dysa::kFixedPointMaxTerm;
+  return llround(term * dysa::kFixedPointScale);
+}
+__global__ void PartialFixedPointSumKernel(const float* values, uint32_t n, uint32_t chunk,
+                                           double factor, long long* partial) {
+  __shared__ long long tree[kSumThreads];
+  const uint32_t lo = blockIdx.x * chunk;
+  const uint32_t hi = lo + chunk < n ? lo + chunk : n;
+  long long sum = 0;
+  for (uint32_t k = lo + threadIdx.x; k < hi; k += kSumThreads) {
+    sum += ToFixedPointOnDevice(double(values[k]) * factor);
+  }
+  tree[threadIdx.x] = sum;
+  __syncthreads();
+  for (unsigned half = kSumThreads / 2; half > 0; half /= 2) {
+    if (threadIdx.x < half) tree[threadIdx.x] += tree[threadIdx.x + half];
+    __syncthreads();
+  }
+  if (threadIdx.x == 0) partial[blockIdx.x] = tree[0];
+}
+__global__ void FinalFixedPointSumKernel(const long long* partial, unsigned count, long long* out) {
+  __shared__ long long tree[kSumBlocks];
+  tree[threadIdx.x] = threadIdx.x < count ? partial[threadIdx.x] : 0;
+  __syncthreads();
+  for (unsigned half = kSumBlocks / 2; half > 0; half /= 2) {
+    if (threadIdx.x < half) tree[threadIdx.x] += tree[threadIdx.x + half];
+    __syncthreads();
+  }
+  if (threadIdx.x == 0) *out = tree[0];
+}
+
+}  // namespace
+}  // namespace dysa::cuda
