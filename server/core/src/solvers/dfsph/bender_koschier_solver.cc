@@ -264,8 +264,9 @@ double MeanError(const State& state, const Real* error, double factor) {
   const ProcessShare& share = state.share;
   const uint8_t* ghost = share.GhostFlags();
   const size_t n = state.particles.size();
-  int64_t sums[2] = {FixedPointSum(error, n, factor, ghost), 0};
-  for (size_t i = 0; i < n; ++i) sums[1] += ghost && ghost[i] ? 0 : 1;
+  // The owned count: every particle on one process, without a pass over them per iteration.
+  const int64_t owned = ghost ? int64_t(std::count(ghost, ghost + n, uint8_t{0})) : int64_t(n);
+  int64_t sums[2] = {FixedPointSum(error, n, factor, ghost), owned};
   share.SumOverProcesses(sums);
   return sums[1] > 0 ? FromFixedPoint(sums[0]) / double(sums[1]) : 0;
 }
