@@ -18,8 +18,6 @@
 namespace dysa {
 namespace {
 
-std::string Num(double v) { return ExactNumber(v); }
-
 // A derived quantity (not a value the client gave), to 4 significant digits.
 std::string Approx(double v) {
   char text[32];
@@ -41,13 +39,14 @@ void CheckPeriodicDomain(const Scene& scene, const Params& params) {
     const double length = scene.domain.max[a] - scene.domain.min[a];
     if (length < 3 * support * (1 - 1e-9)) {  // a hair under: 3 * 0.04 is 0.12000000000000001
       throw ConfigError(
-          param, "the domain is periodic in " + std::string(1, axes[a]) + " with a length of " +
-                     Num(length) + " m, which must be at least 3 kernel supports; at most " +
-                     Num(length / (physical ? 6 * params.smoothing_length_ratio : 3)) + " m here");
+          param,
+          "the domain is periodic in " + std::string(1, axes[a]) + " with a length of " +
+              ExactNumber(length) + " m, which must be at least 3 kernel supports; at most " +
+              ExactNumber(length / (physical ? 6 * params.smoothing_length_ratio : 3)) + " m here");
     }
     auto check = [&](double lo, double hi, const std::string& path) {
       if (lo < scene.domain.min[a] + support || hi > scene.domain.max[a] - support) {
-        throw ConfigError(path, "must lie at least one kernel support (" + Num(support) +
+        throw ConfigError(path, "must lie at least one kernel support (" + ExactNumber(support) +
                                     " m) inside the periodic domain's faces along " +
                                     std::string(1, axes[a]) + "; obstacles do not wrap around");
       }
@@ -153,7 +152,7 @@ std::vector<Eigen::Vector3i> BlockParticleCounts(const Scene& scene, const Param
     // In double: the product of three per-axis counts can overflow any integer type.
     const double block = double(n.x()) * double(n.y()) * double(n.z());
     if (block > double(kMaxParticles) || double(total) + block > double(kMaxParticles)) {
-      throw ConfigError(path, "the scene would have " + Num(double(total) + block) +
+      throw ConfigError(path, "the scene would have " + ExactNumber(double(total) + block) +
                                   " particles; the limit is " + std::to_string(kMaxParticles));
     }
     total += uint64_t(block);
