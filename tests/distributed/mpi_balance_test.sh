@@ -19,7 +19,6 @@ fail() {
   echo "FAIL: $*"
   exit 1
 }
-field() { sed -n "s/^$1: \([^ ;]*\).*/\1/p" <<< "$2"; }
 
 plain=$("$dysa" run "$scene" --steps $steps --threads 1 --hash --out "$out/plain") ||
   fail "plain dysa run failed: $plain"

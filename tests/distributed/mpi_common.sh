@@ -14,6 +14,10 @@ mpi_require() {
   export ASAN_OPTIONS="${ASAN_OPTIONS:+$ASAN_OPTIONS:}detect_leaks=0"
 }
 
+# field NAME TEXT: the value of the line "NAME: VALUE ..." of `dysa run`'s output TEXT (up to
+# the first space or ';').
+field() { sed -n "s/^$1: \([^ ;]*\).*/\1/p" <<< "$2"; }
+
 # mpi_expect_the_job_ends JOB RANK_PID...: after a rank was killed, mpirun (JOB, a child of this
 # shell) must exit non-zero within 30 s and no rank outlive it by 10 s (mpirun's teardown of the
 # other ranks may finish just after it exits); otherwise calls the script's `fail`.

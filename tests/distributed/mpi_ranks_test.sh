@@ -33,7 +33,6 @@ fail() {
   echo "FAIL: $*"
   exit 1
 }
-field() { sed -n "s/^$1: \([^ ;]*\).*/\1/p" <<< "$2"; }
 
 for scene in "$@"; do
   name=$(basename "$scene" .json)
