@@ -2,6 +2,7 @@
 
 #include <mpi.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdlib>
 #include <limits>
@@ -20,14 +21,23 @@ void Check(int code, const char* what) {
   throw std::runtime_error(std::string(what) + ": " + std::string(text, size_t(length)));
 }
 
-// MPI counts and displacements are int: a message past 2 GiB needs the large-count API of
-// MPI 4, which Debian 12's Open MPI 4.1 lacks.
+// MPI counts and displacements are int, and the large-count calls of MPI 4 (MPI_Alltoallv_c ...)
+// are missing from Debian 12's Open MPI 4.1. This fails loudly where a message still goes whole.
 int CountOf(size_t bytes) {
   if (bytes > size_t(std::numeric_limits<int>::max())) {
     throw std::length_error("an MPI message of " + std::to_string(bytes) +
                             " bytes exceeds 2 GiB (int counts)");
   }
   return int(bytes);
+}
+
+// The rounds that move `bytes` at most `round` bytes at a time.
+uint64_t RoundsFor(uint64_t bytes, uint64_t round) { return (bytes + round - 1) / round; }
+
+// Bytes [r * round, (r + 1) * round) of a message of `size` bytes: how many there are.
+size_t ChunkOf(size_t size, size_t round, uint64_t r) {
+  const uint64_t begin = r * round;
+  return begin >= size ? 0 : size_t(std::min<uint64_t>(round, size - begin));
 }
 
 }  // namespace
@@ -52,9 +62,18 @@ bool LaunchedByMpirun() {
          std::getenv("PMI_RANK") != nullptr;
 }
 
-MpiCommunicator::MpiCommunicator() {
+MpiCommunicator::MpiCommunicator(size_t round_bytes) {
   Check(MPI_Comm_rank(MPI_COMM_WORLD, &rank_), "MPI_Comm_rank");
   Check(MPI_Comm_size(MPI_COMM_WORLD, &size_), "MPI_Comm_size");
+  if (round_bytes == 0) throw std::invalid_argument("MpiCommunicator: round_bytes must be >= 1");
+  // A round's buffer holds one chunk from (or for) every process, addressed by int offsets.
+  round_ = std::min(round_bytes, size_t(std::numeric_limits<int>::max()) / size_t(size_));
+}
+
+uint64_t MpiCommunicator::MaxOverProcesses(uint64_t value) const {
+  Check(MPI_Allreduce(MPI_IN_PLACE, &value, 1, MPI_UINT64_T, MPI_MAX, MPI_COMM_WORLD),
+        "MPI_Allreduce(MAX)");
+  return value;
 }
 
 void MpiCommunicator::MaxInPlace(std::span<double> values) const {
@@ -72,54 +91,79 @@ void MpiCommunicator::SumInPlace(std::span<int64_t> values) const {
 std::vector<Bytes> MpiCommunicator::AllToAll(const std::vector<Bytes>& to) const {
   const size_t n = size_t(size_);
   if (to.size() != n) throw std::invalid_argument("AllToAll: one buffer per process");
-  std::vector<int> send_counts(n), send_offsets(n), recv_counts(n), recv_offsets(n);
-  Bytes send;
-  for (size_t p = 0; p < n; ++p) {
-    send_counts[p] = CountOf(to[p].size());
-    send_offsets[p] = CountOf(send.size());
-    send.insert(send.end(), to[p].begin(), to[p].end());
-  }
-  Check(
-      MPI_Alltoall(send_counts.data(), 1, MPI_INT, recv_counts.data(), 1, MPI_INT, MPI_COMM_WORLD),
-      "MPI_Alltoall");
-  size_t total = 0;
-  for (size_t p = 0; p < n; ++p) {
-    recv_offsets[p] = CountOf(total);
-    total += size_t(recv_counts[p]);
-  }
-  Bytes received(total);
-  Check(
-      MPI_Alltoallv(send.data(), send_counts.data(), send_offsets.data(), MPI_BYTE, received.data(),
-                    recv_counts.data(), recv_offsets.data(), MPI_BYTE, MPI_COMM_WORLD),
-      "MPI_Alltoallv");
+  std::vector<uint64_t> send_sizes(n), receive_sizes(n);
+  uint64_t longest = 0;
+  for (size_t p = 0; p < n; ++p) send_sizes[p] = to[p].size();
+  Check(MPI_Alltoall(send_sizes.data(), 1, MPI_UINT64_T, receive_sizes.data(), 1, MPI_UINT64_T,
+                     MPI_COMM_WORLD),
+        "MPI_Alltoall");
   std::vector<Bytes> from(n);
   for (size_t p = 0; p < n; ++p) {
-    const auto begin = received.begin() + recv_offsets[p];
-    from[p].assign(begin, begin + recv_counts[p]);
+    longest = std::max({longest, send_sizes[p], receive_sizes[p]});
+    from[p].reserve(receive_sizes[p]);
+  }
+  // Every process takes part in as many rounds as the longest message anywhere needs; a round
+  // moves each message's next chunk of at most round_ bytes.
+  const uint64_t rounds = RoundsFor(MaxOverProcesses(longest), round_);
+  std::vector<int> send_counts(n), send_offsets(n), receive_counts(n), receive_offsets(n);
+  Bytes send, received;
+  for (uint64_t r = 0; r < rounds; ++r) {
+    send.clear();
+    int receive_total = 0;
+    for (size_t p = 0; p < n; ++p) {
+      const size_t out = ChunkOf(to[p].size(), round_, r);
+      send_counts[p] = int(out);
+      send_offsets[p] = int(send.size());
+      if (out) {
+        const auto begin = to[p].begin() + std::ptrdiff_t(r * round_);
+        send.insert(send.end(), begin, begin + std::ptrdiff_t(out));
+      }
+      receive_counts[p] = int(ChunkOf(size_t(receive_sizes[p]), round_, r));
+      receive_offsets[p] = receive_total;
+      receive_total += receive_counts[p];
+    }
+    received.resize(size_t(receive_total));
+    Check(MPI_Alltoallv(send.data(), send_counts.data(), send_offsets.data(), MPI_BYTE,
+                        received.data(), receive_counts.data(), receive_offsets.data(), MPI_BYTE,
+                        MPI_COMM_WORLD),
+          "MPI_Alltoallv");
+    for (size_t p = 0; p < n; ++p) {
+      const auto begin = received.begin() + receive_offsets[p];
+      from[p].insert(from[p].end(), begin, begin + receive_counts[p]);
+    }
   }
   return from;
 }
 
 std::vector<Bytes> MpiCommunicator::GatherToRoot(std::span<const std::byte> mine) const {
   const size_t n = size_t(size_);
-  int count = CountOf(mine.size());
+  const uint64_t size = mine.size();
+  std::vector<uint64_t> sizes(n);
+  Check(MPI_Gather(&size, 1, MPI_UINT64_T, sizes.data(), 1, MPI_UINT64_T, 0, MPI_COMM_WORLD),
+        "MPI_Gather");
+  std::vector<Bytes> from(rank_ == 0 ? n : 0);
+  for (size_t p = 0; p < from.size(); ++p) from[p].reserve(sizes[p]);
+  const uint64_t rounds = RoundsFor(MaxOverProcesses(size), round_);
   std::vector<int> counts(n), offsets(n);
-  Check(MPI_Gather(&count, 1, MPI_INT, counts.data(), 1, MPI_INT, 0, MPI_COMM_WORLD), "MPI_Gather");
-  size_t total = 0;
-  for (size_t p = 0; p < n; ++p) {
-    offsets[p] = CountOf(total);
-    total += size_t(counts[p]);
-  }
-  Bytes all(rank_ == 0 ? total : 0);
-  Check(MPI_Gatherv(mine.data(), count, MPI_BYTE, all.data(), counts.data(), offsets.data(),
-                    MPI_BYTE, 0, MPI_COMM_WORLD),
-        "MPI_Gatherv");
-  std::vector<Bytes> from;
-  if (rank_ != 0) return from;
-  from.resize(n);
-  for (size_t p = 0; p < n; ++p) {
-    const auto begin = all.begin() + offsets[p];
-    from[p].assign(begin, begin + counts[p]);
+  Bytes round;
+  for (uint64_t r = 0; r < rounds; ++r) {
+    const int count = int(ChunkOf(mine.size(), round_, r));
+    int total = 0;
+    if (rank_ == 0) {
+      for (size_t p = 0; p < n; ++p) {
+        counts[p] = int(ChunkOf(size_t(sizes[p]), round_, r));
+        offsets[p] = total;
+        total += counts[p];
+      }
+    }
+    round.resize(size_t(total));
+    Check(MPI_Gatherv(mine.data() + (count ? r * round_ : 0), count, MPI_BYTE, round.data(),
+                      counts.data(), offsets.data(), MPI_BYTE, 0, MPI_COMM_WORLD),
+          "MPI_Gatherv");
+    for (size_t p = 0; p < from.size(); ++p) {
+      const auto begin = round.begin() + offsets[p];
+      from[p].insert(from[p].end(), begin, begin + counts[p]);
+    }
   }
   return from;
 }
@@ -137,7 +181,11 @@ void MpiCommunicator::Broadcast(Bytes& bytes) const {
     }
   }
   if (rank_ != 0) bytes.resize(size);
-  Check(MPI_Bcast(bytes.data(), CountOf(bytes.size()), MPI_BYTE, 0, MPI_COMM_WORLD), "MPI_Bcast");
+  for (uint64_t r = 0; r < RoundsFor(size, round_); ++r) {
+    const size_t count = ChunkOf(bytes.size(), round_, r);
+    Check(MPI_Bcast(bytes.data() + r * round_, int(count), MPI_BYTE, 0, MPI_COMM_WORLD),
+          "MPI_Bcast");
+  }
 }
 
 void MpiCommunicator::Abort(int code) const {

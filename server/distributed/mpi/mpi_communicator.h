@@ -2,6 +2,9 @@
 // mpi_communicator.cc sees MPI, so nothing above this library needs MPI's headers.
 #pragma once
 
+#include <cstddef>
+#include <cstdint>
+
 #include "dysa/distributed/communicator.h"
 
 namespace dysa::distributed {
@@ -21,10 +24,18 @@ class MpiSession {
 // environment), so that a plain `dysa run` never initialises MPI.
 bool LaunchedByMpirun();
 
+// Messages of any size: MPI's counts and offsets are int and Open MPI 4.1 has no large-count
+// calls, so AllToAll, GatherToRoot and Broadcast move their bytes in rounds of at most
+// `round_bytes` per message (and at most 2^31 - 1 in a round's buffer of one chunk per
+// process). The sizes travel as 64-bit integers first; every process then takes part in the
+// rounds the longest message needs.
 class MpiCommunicator final : public Communicator {
  public:
-  // MPI_COMM_WORLD; needs a live MpiSession.
-  MpiCommunicator();
+  static constexpr size_t kDefaultRoundBytes = size_t(1) << 30;
+
+  // MPI_COMM_WORLD; needs a live MpiSession. `round_bytes` >= 1 (tests use a few bytes, to
+  // exercise the rounds on small messages).
+  explicit MpiCommunicator(size_t round_bytes = kDefaultRoundBytes);
   int rank() const override { return rank_; }
   int size() const override { return size_; }
   void MaxInPlace(std::span<double> values) const override;
@@ -34,13 +45,18 @@ class MpiCommunicator final : public Communicator {
   // The size travels first in a non-blocking broadcast that a waiting process polls, sleeping
   // between polls once a millisecond has passed; then the bytes.
   void Broadcast(Bytes& bytes) const override;
+  // The bytes a round moves per message.
+  size_t round_bytes() const { return round_; }
   // Ends every process of the job (a rank that fails alone would leave the others waiting in
   // a collective forever).
   [[noreturn]] void Abort(int code) const;
 
  private:
+  uint64_t MaxOverProcesses(uint64_t value) const;
+
   int rank_ = 0;
   int size_ = 1;
+  size_t round_ = kDefaultRoundBytes;
 };
 
 }  // namespace dysa::distributed
