@@ -124,7 +124,7 @@ constexpr const char* kMpiRunHelp =
 // while the others wait in a collective: that rank aborts the whole job.
 int RunOnRanks(int argc, char** argv, const dysa::RunOptions& run, const std::string& device) {
   dysa::distributed::MpiSession session(&argc, &argv);
-  const dysa::distributed::MpiCommunicator comm;
+  const dysa::distributed::MpiCommunicator comm({.wait_limit_s = run.rank_timeout});
   try {
     dysa::RunDistributed(run, comm, std::cout);
   } catch (const dysa::ConfigError& e) {
@@ -441,6 +441,12 @@ int main(int argc, char** argv) {
                    "over 10 steps, exceeds this")
       ->capture_default_str()
       ->check(CLI::Range(1.0, 1e6));
+  run_cmd
+      ->add_option("--rank-timeout", run.rank_timeout,
+                   "Under mpirun: seconds a rank waits for the others in one collective before "
+                   "it ends the job (one of them hangs)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.1, 1e6));
   run_cmd->add_flag("--hash", run.print_hash,
                     "Print the final state hash (equal hashes: bit-identical states; the same "
                     "under mpirun at any rank count)");

@@ -27,6 +27,9 @@ struct RunOptions {
   // Under mpirun: re-cut the slabs when max/mean of the ranks' step times exceeds this
   // (--balance-threshold; distributed::BalanceSettings).
   double balance_threshold = 1.1;
+  // Under mpirun: a collective that waits longer than this for the other ranks (one hangs)
+  // ends the job (--rank-timeout, s; distributed::MpiCommunicator).
+  double rank_timeout = 30;
 };
 
 // Runs the scene and writes OUT/probes.csv (and VTK frames); prints the per-pass timing table

@@ -90,6 +90,7 @@ int main(int argc, char** argv) {
   int threads = 0;
   double frame_rate = 60;
   double balance_threshold = 1.1;  // under mpirun: balancer.h's threshold
+  double rank_timeout = 30;        // s, under mpirun: a collective's wait for a hung rank
   uint64_t history_frames = 600;
   uint64_t history_mib = 256;
   std::string token_file, tls_cert, tls_key, port_file;
@@ -139,6 +140,11 @@ int main(int argc, char** argv) {
                  "Under mpirun: move the slab cuts when max/mean of the ranks' step times, over "
                  "10 steps, exceeds this")
       ->check(CLI::Range(1.0, 1e6))
+      ->capture_default_str();
+  app.add_option("--rank-timeout", rank_timeout,
+                 "Under mpirun: seconds a rank waits for the others in one collective before it "
+                 "ends the job (one of them hangs)")
+      ->check(CLI::Range(0.1, 1e6))
       ->capture_default_str();
   app.add_option("--max-subscribers", max_subscribers, "Frame streams open at once at most")
       ->check(CLI::Range(size_t{1}, size_t{100000}))
@@ -202,7 +208,8 @@ int main(int argc, char** argv) {
   std::unique_ptr<dysa::service::ServerRanks> ranks;
   if (on_ranks) {
     try {
-      ranks = std::make_unique<dysa::service::ServerRanks>(&argc, &argv, balance_threshold);
+      ranks = std::make_unique<dysa::service::ServerRanks>(&argc, &argv, balance_threshold,
+                                                           rank_timeout);
     } catch (const std::exception& e) {
       std::cerr << "dysa-server: error: " << e.what() << "\n";
       return 1;

@@ -21,16 +21,17 @@ distributed::BalanceSettings Balance(double threshold) {
 }  // namespace
 
 struct ServerRanks::Parts {
-  Parts(int* argc, char*** argv, double balance_threshold)
+  Parts(int* argc, char*** argv, double balance_threshold, double rank_timeout)
       : session(argc, argv, /*any_thread=*/true),
+        comm({.wait_limit_s = rank_timeout}),
         runner(std::make_shared<distributed::RankRunner>(comm, Balance(balance_threshold))) {}
   distributed::MpiSession session;
   distributed::MpiCommunicator comm;
   std::shared_ptr<distributed::RankRunner> runner;
 };
 
-ServerRanks::ServerRanks(int* argc, char*** argv, double balance_threshold)
-    : parts_(std::make_unique<Parts>(argc, argv, balance_threshold)) {}
+ServerRanks::ServerRanks(int* argc, char*** argv, double balance_threshold, double rank_timeout)
+    : parts_(std::make_unique<Parts>(argc, argv, balance_threshold, rank_timeout)) {}
 
 ServerRanks::~ServerRanks() {
   if (rank() != 0) return;

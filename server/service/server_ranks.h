@@ -17,8 +17,10 @@ class ServerRanks {
  public:
   // Initialises MPI (any one thread at a time: rank 0's simulation thread steps). Throws
   // std::runtime_error when MPI cannot. The ranks move their slab cuts when the max/mean of
-  // their step times over a window exceeds `balance_threshold` (balancer.h).
-  ServerRanks(int* argc, char*** argv, double balance_threshold);
+  // their step times over a window exceeds `balance_threshold` (balancer.h). A rank that waits
+  // longer than `rank_timeout` seconds in one collective (another rank hangs) ends the job
+  // (MpiCommunicator).
+  ServerRanks(int* argc, char*** argv, double balance_threshold, double rank_timeout);
   // Rank 0: tells the other ranks to stop, so that they end with it; then finalises MPI.
   ~ServerRanks();
   ServerRanks(const ServerRanks&) = delete;

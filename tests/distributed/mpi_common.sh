@@ -18,9 +18,10 @@ mpi_require() {
 # the first space or ';').
 field() { sed -n "s/^$1: \([^ ;]*\).*/\1/p" <<< "$2"; }
 
-# mpi_expect_the_job_ends JOB RANK_PID...: after a rank was killed, mpirun (JOB, a child of this
-# shell) must exit non-zero within 30 s and no rank outlive it by 10 s (mpirun's teardown of the
-# other ranks may finish just after it exits); otherwise calls the script's `fail`.
+# mpi_expect_the_job_ends JOB RANK_PID...: after a rank was killed (or stopped), mpirun (JOB, a
+# child of this shell) must exit non-zero within 30 s and no rank outlive it by 10 s (mpirun's
+# teardown of the other ranks may finish just after it exits); otherwise calls the script's
+# `fail`.
 mpi_expect_the_job_ends() {
   local job=$1 pid status start=$SECONDS
   shift
@@ -28,11 +29,11 @@ mpi_expect_the_job_ends() {
     kill -0 "$job" 2> /dev/null || break
     sleep 0.2
   done
-  kill -0 "$job" 2> /dev/null && fail "mpirun still runs 30 s after a rank was killed"
+  kill -0 "$job" 2> /dev/null && fail "mpirun still runs 30 s after a rank was killed or stopped"
   wait "$job"
   status=$?
   echo "mpirun exited with status $status after $((SECONDS - start)) s"
-  [ $status -ne 0 ] || fail "mpirun exited 0 after a rank was killed"
+  [ $status -ne 0 ] || fail "mpirun exited 0 after a rank was killed or stopped"
   for pid in "$@"; do
     for _ in $(seq 50); do
       kill -0 "$pid" 2> /dev/null || break

@@ -36,7 +36,7 @@ Bytes MessageOf(int from, int to, size_t scale) {
 class MpiCommunicatorTest : public ::testing::TestWithParam<size_t> {};
 
 TEST_P(MpiCommunicatorTest, AllToAllDeliversEveryByteInRounds) {
-  const MpiCommunicator comm(GetParam());
+  const MpiCommunicator comm({.round_bytes = GetParam()});
   std::vector<Bytes> to(size_t(comm.size()));
   for (int p = 0; p < comm.size(); ++p) to[size_t(p)] = MessageOf(comm.rank(), p, 11);
   const std::vector<Bytes> from = comm.AllToAll(to);
@@ -45,7 +45,7 @@ TEST_P(MpiCommunicatorTest, AllToAllDeliversEveryByteInRounds) {
 }
 
 TEST_P(MpiCommunicatorTest, GatherToRootDeliversEveryByteInRounds) {
-  const MpiCommunicator comm(GetParam());
+  const MpiCommunicator comm({.round_bytes = GetParam()});
   // Rank 1 sends nothing: the others' rounds go on without it.
   const Bytes mine = comm.rank() == 1 ? Bytes{} : MessageOf(comm.rank(), 0, 13);
   const std::vector<Bytes> from = comm.GatherToRoot(mine);
@@ -60,7 +60,7 @@ TEST_P(MpiCommunicatorTest, GatherToRootDeliversEveryByteInRounds) {
 }
 
 TEST_P(MpiCommunicatorTest, BroadcastDeliversEveryByteInRounds) {
-  const MpiCommunicator comm(GetParam());
+  const MpiCommunicator comm({.round_bytes = GetParam()});
   const size_t round = std::min<size_t>(GetParam(), 64);
   for (size_t length : {size_t(0), size_t(1), round, 3 * round + 2}) {
     Bytes expected(length);
@@ -79,7 +79,8 @@ TEST(MpiCommunicatorRoundsTest, ARoundFitsIntOffsetsForEveryProcess) {
   EXPECT_EQ(comm.round_bytes(),
             std::min(MpiCommunicator::kDefaultRoundBytes,
                      size_t(std::numeric_limits<int>::max()) / size_t(comm.size())));
-  EXPECT_THROW(MpiCommunicator(0), std::invalid_argument);
+  EXPECT_THROW(MpiCommunicator({.round_bytes = 0}), std::invalid_argument);
+  EXPECT_THROW(MpiCommunicator({.wait_limit_s = 0}), std::invalid_argument);
 }
 
 TEST(MpiCommunicatorRoundsTest, ASimulationOnShortRoundsReachesTheSameCheckpoint) {
@@ -87,7 +88,7 @@ TEST(MpiCommunicatorRoundsTest, ASimulationOnShortRoundsReachesTheSameCheckpoint
   // record is longer: records split across rounds).
   const Scene scene = LoadScene(DYSA_RANKS_SCENE);
   const MpiCommunicator whole;
-  const MpiCommunicator rounds(5);
+  const MpiCommunicator rounds({.round_bytes = 5});
   DistributedSimulation a(scene, whole);
   DistributedSimulation b(scene, rounds);
   for (int k = 0; k < 12; ++k) {

@@ -29,13 +29,27 @@ bool LaunchedByMpirun();
 // `round_bytes` per message (and at most 2^31 - 1 in a round's buffer of one chunk per
 // process). The sizes travel as 64-bit integers first; every process then takes part in the
 // rounds the longest message needs.
+//
+// A rank that hangs (stopped, deadlocked, its node gone without a signal) would leave the others
+// in a collective forever: every collective is started non-blocking and polled, and one that
+// has not completed after `wait_limit_s` ends the job (MPI_Abort, exit status 3) with a line on
+// stderr that names the rank and the call. The exception is Broadcast's wait for the size of
+// process 0's next message: the server's other ranks wait there between commands, for as long
+// as the server is paused.
 class MpiCommunicator final : public Communicator {
  public:
   static constexpr size_t kDefaultRoundBytes = size_t(1) << 30;
+  static constexpr double kDefaultWaitLimit = 30;  // s; --rank-timeout
 
-  // MPI_COMM_WORLD; needs a live MpiSession. `round_bytes` >= 1 (tests use a few bytes, to
-  // exercise the rounds on small messages).
-  explicit MpiCommunicator(size_t round_bytes = kDefaultRoundBytes);
+  struct Options {
+    size_t round_bytes = kDefaultRoundBytes;  // >= 1 (tests use a few bytes)
+    double wait_limit_s = kDefaultWaitLimit;  // > 0, s
+  };
+
+  // MPI_COMM_WORLD; needs a live MpiSession. Throws std::invalid_argument on options out of
+  // range.
+  MpiCommunicator() : MpiCommunicator(Options{}) {}
+  explicit MpiCommunicator(const Options& options);
   int rank() const override { return rank_; }
   int size() const override { return size_; }
   void MaxInPlace(std::span<double> values) const override;
@@ -43,10 +57,12 @@ class MpiCommunicator final : public Communicator {
   std::vector<Bytes> AllToAll(const std::vector<Bytes>& to) const override;
   std::vector<Bytes> GatherToRoot(std::span<const std::byte> mine) const override;
   // The size travels first in a non-blocking broadcast that a waiting process polls, sleeping
-  // between polls once a millisecond has passed; then the bytes.
+  // between polls once a millisecond has passed (without limit but on process 0); then the
+  // bytes.
   void Broadcast(Bytes& bytes) const override;
   // The bytes a round moves per message.
   size_t round_bytes() const { return round_; }
+  double wait_limit_s() const { return wait_limit_s_; }
   // Ends every process of the job (a rank that fails alone would leave the others waiting in
   // a collective forever).
   [[noreturn]] void Abort(int code) const;
@@ -57,6 +73,7 @@ class MpiCommunicator final : public Communicator {
   int rank_ = 0;
   int size_ = 1;
   size_t round_ = kDefaultRoundBytes;
+  double wait_limit_s_ = kDefaultWaitLimit;
 };
 
 }  // namespace dysa::distributed
