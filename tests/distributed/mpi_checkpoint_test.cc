@@ -6,6 +6,8 @@
 // dfsph (ranks_dfsph.json: its warm start, which the next steps read).
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include "dysa/core/scene.h"
 #include "dysa/core/simulation.h"
 #include "dysa/distributed/distributed_simulation.h"
@@ -64,6 +66,28 @@ void ExpectAOneProcessCheckpointRestoresOnRanks(const char* path) {
   if (g_comm->rank() != 0) return;
   EXPECT_EQ(spread.step(), plain.step());
   EXPECT_EQ(hash, StateHash(plain.state()));
+}
+
+TEST(MpiCheckpointTest, EachRankSpawnsOnlyItsSlab) {
+  // The ranks walk the scene's spawn without storing it (VisitSpawnedParticles): each holds its
+  // slab's particles, in arrays no larger than that, and together they hold the scene's, in the
+  // order one process spawns them (ids increasing on each rank).
+  const Scene scene = LoadScene(DYSA_RANKS_SCENE);
+  const DistributedSimulation spread(scene, *g_comm);
+  const ParticleArrays& mine = spread.particles();
+  const uint64_t total = spread.TotalParticles();
+  EXPECT_LT(mine.size(), total);
+  EXPECT_GT(mine.size(), 0u);
+  EXPECT_EQ(mine.id.capacity(), mine.size());
+  EXPECT_EQ(mine.position.capacity(), mine.size());
+  EXPECT_TRUE(std::is_sorted(mine.id.begin(), mine.id.end()));
+  ParticleArrays all;
+  SpawnParticles(scene, scene.params, all);
+  EXPECT_EQ(total, all.size());
+  for (size_t k = 0; k < mine.size(); ++k) {
+    ASSERT_EQ(mine.position[k], all.position[mine.id[k]]) << "id " << mine.id[k];
+    ASSERT_EQ(mine.velocity[k], all.velocity[mine.id[k]]) << "id " << mine.id[k];
+  }
 }
 
 TEST(MpiCheckpointTest, ACheckpointOnRanksIsTheOneOfOneProcess) {

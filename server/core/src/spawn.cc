@@ -1,6 +1,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <functional>
 #include <limits>
 
 #include "dysa/core/simulation.h"
@@ -56,17 +57,16 @@ bool InsideObstacle(const Scene& scene, const Vec3d& x, double margin) {
 
 }  // namespace
 
-void SpawnParticles(const Scene& scene, const Params& params, ParticleArrays& particles) {
+uint64_t VisitSpawnedParticles(
+    const Scene& scene, const Params& params,
+    const std::function<void(uint32_t id, const Vec3& position, const Vec3& velocity)>& visit) {
   const std::vector<Eigen::Vector3i> counts = BlockParticleCounts(scene, params);
-  size_t total = 0;
-  for (const Eigen::Vector3i& n : counts) total += size_t(n.x()) * n.y() * n.z();
-  particles.Resize(total);
   const bool physical = IsPhysicalSolver(scene.solver);
   // Boundary particles of the physical solvers sit on the obstacle's surface: keep the fluid
   // half a spacing away, as from the domain walls.
   const double obstacle_margin = physical ? 0.5 * params.particle_spacing : 0.0;
 
-  size_t i = 0;
+  uint64_t i = 0;
   for (size_t b = 0; b < scene.fluid_blocks.size(); ++b) {
     const FluidBlock& block = scene.fluid_blocks[b];
     const Eigen::Vector3i n = counts[b];
@@ -78,6 +78,7 @@ void SpawnParticles(const Scene& scene, const Params& params, ParticleArrays& pa
     const std::optional<double> spacing =
         physical ? std::optional<double>(params.particle_spacing) : block.spacing;
     const double jitter = block.jitter.value_or(physical ? 0.0 : params.spawn_jitter);
+    const Vec3 velocity = block.velocity.cast<Real>();
     SplitMix64 rng(block.seed);
     // The offset of lattice point k along axis a from the block centre. The lattice step is
     // the one SpawnParticleRadius takes (spawn_test checks that they agree).
@@ -92,15 +93,27 @@ void SpawnParticles(const Scene& scene, const Params& params, ParticleArrays& pa
           Vec3d pos = center + Vec3d(offset(0, x), offset(1, y), offset(2, z));
           if (jitter > 0) pos += rng.InUnitBall() * jitter;
           if (InsideObstacle(scene, pos, obstacle_margin)) continue;
-          particles.id[i] = static_cast<uint32_t>(i);
-          particles.position[i] = pos.cast<Real>();
-          particles.velocity[i] = block.velocity.cast<Real>();
+          visit(static_cast<uint32_t>(i), pos.cast<Real>(), velocity);
           ++i;
         }
       }
     }
   }
-  particles.Resize(i);  // less the points inside obstacles
+  return i;
+}
+
+void SpawnParticles(const Scene& scene, const Params& params, ParticleArrays& particles) {
+  const std::vector<Eigen::Vector3i> counts = BlockParticleCounts(scene, params);
+  size_t total = 0;
+  for (const Eigen::Vector3i& n : counts) total += size_t(n.x()) * n.y() * n.z();
+  particles.Resize(total);
+  const uint64_t spawned =
+      VisitSpawnedParticles(scene, params, [&](uint32_t id, const Vec3& x, const Vec3& v) {
+        particles.id[id] = id;
+        particles.position[id] = x;
+        particles.velocity[id] = v;
+      });
+  particles.Resize(spawned);  // less the points inside obstacles
   std::fill(particles.density.begin(), particles.density.end(), Real(0));
   std::fill(particles.pressure.begin(), particles.pressure.end(), Real(0));
 }

@@ -61,11 +61,7 @@ DistributedSimulation::DistributedSimulation(Scene scene, const Communicator& co
     : scene_(std::move(scene)), comm_(comm), refreshes_ghosts_(scene_.solver == "dfsph") {
   solver_ = FindSolver(scene_.solver).create();
   Configure(scene_.params);
-  // Every process spawns the whole scene (deterministic) and keeps its slab's particles; the
-  // spawn index is their first order key, the order one process starts in.
-  ParticleArrays all;
-  SpawnParticles(scene_, model_.params, all);
-  Adopt(std::move(all), {});
+  SpawnSlab();
   state_.share.max_over_processes = [this](std::span<double> v) {
     const auto start = Clock::now();
     comm_.MaxInPlace(v);
@@ -161,6 +157,39 @@ void DistributedSimulation::Adopt(ParticleArrays all, std::vector<SolverArray> a
   state_.particles = std::move(all);
   state_.share.ghost.clear();
   solver_->RestoreArrays(arrays, state_.particles.size());
+}
+
+void DistributedSimulation::SpawnSlab() {
+  // Every process walks the whole scene's spawn (deterministic) twice, storing none of it: once
+  // to count each layer's particles, from which all cut the same slabs (Adopt's cuts), then to
+  // keep its slab's. So a process holds O(N / P) particles from the start, not O(N). The spawn
+  // index is their first order key, the order one process starts in.
+  std::vector<int64_t> counts(size_t(slabs_->layers()), 0);
+  total_ = VisitSpawnedParticles(scene_, model_.params, [&](uint32_t, const Vec3& x, const Vec3&) {
+    ++counts[layout_.CellOf(x)[axis_]];
+  });
+  slabs_->Balance(counts);
+  balancer_.Restart();
+  last_compute_ms_ = -1;
+  size_t owned = 0;
+  for (int l = slabs_->begin(comm_.rank()); l < slabs_->begin(comm_.rank() + 1); ++l)
+    owned += size_t(counts[size_t(l)]);
+  ParticleArrays& mine = state_.particles;
+  mine.Resize(owned);
+  keys_.clear();
+  keys_.reserve(owned);
+  VisitSpawnedParticles(scene_, model_.params, [&](uint32_t id, const Vec3& x, const Vec3& v) {
+    if (slabs_->OwnerOf(layout_.CellOf(x)[axis_]) != comm_.rank()) return;
+    const size_t k = keys_.size();
+    keys_.push_back(id);
+    mine.id[k] = id;
+    mine.position[k] = x;
+    mine.velocity[k] = v;
+  });
+  std::fill(mine.density.begin(), mine.density.end(), Real(0));
+  std::fill(mine.pressure.begin(), mine.pressure.end(), Real(0));
+  state_.share.ghost.clear();
+  solver_->RestoreArrays({}, mine.size());
 }
 
 void DistributedSimulation::Record(size_t pass, double ms) {

@@ -201,6 +201,13 @@ class Simulation {
 // parameters; deterministic for a given scene, parameters and seeds.
 void SpawnParticles(const Scene& scene, const Params& params, ParticleArrays& particles);
 
+// The particles SpawnParticles creates, one call each in spawn order, without storing them:
+// visit(id, position, velocity) with id = the particle's index. For a process that keeps only
+// part of them (server/distributed). Returns how many there were.
+uint64_t VisitSpawnedParticles(
+    const Scene& scene, const Params& params,
+    const std::function<void(uint32_t id, const Vec3& position, const Vec3& velocity)>& visit);
+
 // Half the smallest rest spacing of the particles `scene` spawns with `params`, in m: over every
 // block and axis with more than one particle, the block's spacing, or size / (n - 1) for the
 // thesis's edge-to-edge spawner. When no block has two particles along any axis, half the

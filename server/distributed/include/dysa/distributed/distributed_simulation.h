@@ -132,6 +132,8 @@ class DistributedSimulation {
   // Keeps, of `all` (every process's particles in one process's storage order, which becomes
   // their order key) and their solver arrays, those of this process's slab after a re-cut.
   void Adopt(ParticleArrays all, std::vector<SolverArray> arrays);
+  // The scene's particles of this process's slab, spawned (the constructor).
+  void SpawnSlab();
   // Collective: every process's particles (and with `arrays`, the solver's arrays) on process 0
   // in key order.
   LocalParticles GatherAll(bool arrays) const;
