@@ -10,6 +10,7 @@
 
 #include "dysa/core/scene.h"
 #include "dysa/core/simulation.h"
+#include "dysa/detail_rank.h"
 #include "dysa/distributed/distributed_simulation.h"
 #include "mpi_communicator.h"
 
@@ -87,6 +88,36 @@ TEST(MpiCheckpointTest, EachRankSpawnsOnlyItsSlab) {
   for (size_t k = 0; k < mine.size(); ++k) {
     ASSERT_EQ(mine.position[k], all.position[mine.id[k]]) << "id " << mine.id[k];
     ASSERT_EQ(mine.velocity[k], all.velocity[mine.id[k]]) << "id " << mine.id[k];
+  }
+}
+
+TEST(MpiCheckpointTest, ASubsetGatherTakesOnlyTheSubsetFromEachRank) {
+  // A budgeted frame on ranks: each rank sends its particles of BelowRank(id, T) only, and
+  // process 0 gets exactly one process's subset, in one process's storage order.
+  const Scene scene = LoadScene(DYSA_RANKS_SCENE);
+  DistributedSimulation spread(scene, *g_comm);
+  Simulation plain(scene);
+  const double frame = plain.model().FrameTime();
+  StepFrames(spread, frame, 2);
+  StepFrames(plain, frame, 2);
+  constexpr uint32_t kThreshold = 1u << 30;  // a quarter of the ranks
+  const ParticleArrays subset = spread.GatherParticlesBelowRank(kThreshold);
+  if (g_comm->rank() != 0) {
+    EXPECT_EQ(subset.size(), 0u);
+    return;
+  }
+  const ParticleArrays& all = plain.state().particles;
+  std::vector<size_t> kept;
+  for (size_t i = 0; i < all.size(); ++i) {
+    if (BelowRank(all.id[i], kThreshold)) kept.push_back(i);
+  }
+  ASSERT_EQ(subset.size(), kept.size());
+  EXPECT_LT(subset.size(), all.size() / 2);
+  for (size_t k = 0; k < kept.size(); ++k) {
+    ASSERT_EQ(subset.id[k], all.id[kept[k]]);
+    ASSERT_EQ(subset.position[k], all.position[kept[k]]);
+    ASSERT_EQ(subset.velocity[k], all.velocity[kept[k]]);
+    ASSERT_EQ(subset.density[k], all.density[kept[k]]);
   }
 }
 

@@ -87,6 +87,31 @@ TEST(RanksBackendTest, SteppingOnTheRanksGivesTheBitsOfOneProcess) {
   ExpectSameBits(LoadScene(DYSA_RANKS_SCENE));
 }
 
+TEST(RanksBackendTest, ABudgetedReadTakesTheSubsetFromTheRanks) {
+  // A level of detail's subset (a budgeted stream's frame) read straight after a step, while
+  // the particles live on the ranks: the ranks' gather of the subset writes what one process
+  // writes, and nothing else.
+  const Scene scene = LoadScene(DYSA_RANKS_SCENE);
+  OnRanks ranks;
+  Simulation spread(scene, Device{}, ranks.factory());
+  Simulation plain(scene);
+  spread.StepFrame();
+  plain.StepFrame();
+  const size_t n = plain.particle_count();
+  constexpr uint32_t kThreshold = 1u << 29;  // an eighth of the ranks
+  const float kUnwritten = -7;
+  std::vector<float> p(3 * n, kUnwritten), v(3 * n, kUnwritten), d(n, kUnwritten);
+  std::vector<float> q(3 * n, kUnwritten), w(3 * n, kUnwritten), e(n, kUnwritten);
+  const size_t got = spread.ReadParticlesByIdBelowRank(kThreshold, {p, v, d});
+  const size_t want = plain.ReadParticlesByIdBelowRank(kThreshold, {q, w, e});
+  EXPECT_EQ(got, want);
+  EXPECT_GT(got, n / 16);
+  EXPECT_LT(got, n / 4);
+  EXPECT_EQ(p, q);
+  EXPECT_EQ(v, w);
+  EXPECT_EQ(d, e);
+}
+
 TEST(RanksBackendTest, TheSeedToo) { ExpectSameBits(LoadScene(DYSA_RANKS_SEED_SCENE)); }
 
 // dfsph's checkpoint holds its warm start (density_stiffness, divergence_stiffness), which the

@@ -124,6 +124,11 @@ size_t Simulation::ReadParticlesByIdBelowRank(uint32_t threshold, const Particle
     }
     return c.count;
   }
+  if (host_stale_) {
+    const std::optional<size_t> kept =
+        backend_->DownloadByIdBelowRank(threshold, position, velocity, density);
+    if (kept) return *kept;
+  }
   // A scan of the storage (another backend's particles first come to the host whole): the
   // rank is a hash of the id (a few multiplications).
   const ParticleArrays& p = state().particles;

@@ -3,16 +3,24 @@
 // particles into the order key's order, which is the storage order one process would have, so
 // that all of them equal what dysa::Simulation gives for the same state.
 #include <cstring>
+#include <stdexcept>
 #include <string>
 #include <utility>
 
+#include "dysa/detail_rank.h"
 #include "dysa/distributed/distributed_simulation.h"
 
 namespace dysa::distributed {
 
-LocalParticles DistributedSimulation::GatherAll(bool with_arrays) const {
+LocalParticles DistributedSimulation::GatherAll(bool with_arrays, uint32_t threshold) const {
   const ParticleArrays& p = state_.particles;
   const size_t n = p.size();
+  // The particles that go: all, or those of BelowRank (a level of detail, chosen where they live).
+  std::vector<size_t> chosen;
+  chosen.reserve(threshold ? 0 : n);
+  for (size_t i = 0; i < n; ++i) {
+    if (threshold == 0 || BelowRank(p.id[i], threshold)) chosen.push_back(i);
+  }
   // The solver's arrays that every process holds for each of its particles (one none holds,
   // wcsph's carried density before the first step, is gathered empty, as Simulation saves it).
   std::vector<SolverArray> arrays =
@@ -27,9 +35,10 @@ LocalParticles DistributedSimulation::GatherAll(bool with_arrays) const {
   // Per particle: order key, id, position, velocity, density, pressure, then the carried arrays.
   constexpr size_t kFixed = sizeof(uint64_t) + sizeof(uint32_t) + 8 * sizeof(Real);
   const size_t stride = kFixed + carried.size() * sizeof(Real);
-  Bytes mine(n * stride);
-  for (size_t i = 0; i < n; ++i) {
-    std::byte* at = mine.data() + i * stride;
+  Bytes mine(chosen.size() * stride);
+  for (size_t j = 0; j < chosen.size(); ++j) {
+    const size_t i = chosen[j];
+    std::byte* at = mine.data() + j * stride;
     std::memcpy(at, &keys_[i], 8);
     std::memcpy(at + 8, &p.id[i], 4);
     std::memcpy(at + 12, p.position[i].data(), 3 * sizeof(Real));
@@ -77,6 +86,11 @@ LocalParticles DistributedSimulation::GatherAll(bool with_arrays) const {
 
 ParticleArrays DistributedSimulation::GatherParticles() const {
   return std::move(GatherAll(false).particles);
+}
+
+ParticleArrays DistributedSimulation::GatherParticlesBelowRank(uint32_t threshold) const {
+  if (threshold == 0) throw std::invalid_argument("GatherParticlesBelowRank: threshold 0");
+  return std::move(GatherAll(false, threshold).particles);
 }
 
 uint64_t DistributedSimulation::GlobalStateHash() const {

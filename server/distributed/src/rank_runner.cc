@@ -110,7 +110,11 @@ Bytes StepCommand(double time, uint64_t step, double max_dt) {
   return w.Take();
 }
 
-Bytes GatherCommand() { return Writer(Kind::kGather).Take(); }
+Bytes GatherCommand(uint32_t threshold) {
+  Writer w(Kind::kGather);
+  w.Put(threshold);
+  return w.Take();
+}
 Bytes CheckpointCommand() { return Writer(Kind::kCheckpoint).Take(); }
 Bytes StopCommand() { return Writer(Kind::kStop).Take(); }
 
@@ -185,9 +189,12 @@ RankResult RankRunner::Run(const Bytes& command) {
       result.outcome = sim_->StepAt(time, step, max_dt);
       break;
     }
-    case Kind::kGather:
-      result.particles = sim_->GatherParticles();
+    case Kind::kGather: {
+      const uint32_t threshold = r.Get<uint32_t>();
+      result.particles =
+          threshold ? sim_->GatherParticlesBelowRank(threshold) : sim_->GatherParticles();
       break;
+    }
     case Kind::kCheckpoint:
       result.checkpoint = sim_->SaveCheckpoint();
       break;

@@ -9,6 +9,19 @@
 namespace dysa::distributed {
 namespace {
 
+// Each particle's values at its id's entries (null: not copied).
+void ScatterById(const ParticleArrays& p, float* position, float* velocity, float* density) {
+#pragma omp parallel for schedule(static)
+  for (size_t i = 0; i < p.size(); ++i) {
+    const size_t k = p.id[i];
+    for (int a = 0; a < 3; ++a) {
+      if (position) position[3 * k + a] = p.position[i][a];
+      if (velocity) velocity[3 * k + a] = p.velocity[i][a];
+    }
+    if (density) density[k] = p.density[i];
+  }
+}
+
 class RanksBackend final : public StepBackend {
  public:
   RanksBackend(std::shared_ptr<RankRunner> runner, const Scene& scene)
@@ -51,16 +64,15 @@ class RanksBackend final : public StepBackend {
   }
 
   void DownloadById(float* position, float* velocity, float* density) const override {
-    const ParticleArrays p = std::move(runner_->Send(GatherCommand()).particles);
-#pragma omp parallel for schedule(static)
-    for (size_t i = 0; i < p.size(); ++i) {
-      const size_t k = p.id[i];
-      for (int a = 0; a < 3; ++a) {
-        if (position) position[3 * k + a] = p.position[i][a];
-        if (velocity) velocity[3 * k + a] = p.velocity[i][a];
-      }
-      if (density) density[k] = p.density[i];
-    }
+    ScatterById(runner_->Send(GatherCommand()).particles, position, velocity, density);
+  }
+
+  // A budgeted stream's frame: each rank sends only its particles of the subset.
+  std::optional<size_t> DownloadByIdBelowRank(uint32_t threshold, float* position, float* velocity,
+                                              float* density) const override {
+    const ParticleArrays p = std::move(runner_->Send(GatherCommand(threshold)).particles);
+    ScatterById(p, position, velocity, density);
+    return p.size();
   }
 
   bool gathers_probes() const override { return false; }

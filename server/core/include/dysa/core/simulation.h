@@ -97,7 +97,8 @@ class Simulation {
   // (dysa/detail_rank.h, the codec's detail threshold) are written, at their ids' entries; the
   // other entries are left as they are. A threshold of 0 keeps every particle, as the codec's
   // (ReadParticlesById). On a GPU the subset is chosen and packed on the device and only its
-  // particles cross to the host. Returns the particles written. Throws as ReadParticlesById.
+  // particles cross to the host; on ranks each rank sends only its particles of the subset.
+  // Returns the particles written. Throws as ReadParticlesById.
   size_t ReadParticlesByIdBelowRank(uint32_t threshold, const ParticlesById& out) const;
   // The values of `probes` for the current state, in ProbeColumns() order (probes.h), as
   // EvaluateProbes(probes, model(), state()) computes them. On a GPU they are evaluated on the

@@ -5,7 +5,9 @@
 // in core (gpu_backend.h); the ranks' one in server/distributed (ranks_backend.h).
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -47,6 +49,15 @@ class StepBackend {
                                         std::vector<SolverArray>& solver_arrays) const = 0;
   // Positions, velocities (xyz triples) and densities in particle-id order; null: not copied.
   virtual void DownloadById(float* position, float* velocity, float* density) const = 0;
+  // As DownloadById, only for the particles of BelowRank(id, threshold) (threshold > 0;
+  // dysa/detail_rank.h), chosen where they live so that only they cross; the other entries are
+  // left as they are. Returns how many were copied, or nothing where this backend has no such
+  // read (Simulation then reads every particle).
+  virtual std::optional<size_t> DownloadByIdBelowRank(uint32_t /*threshold*/, float* /*position*/,
+                                                      float* /*velocity*/,
+                                                      float* /*density*/) const {
+    return std::nullopt;
+  }
   // Whether GatherProbes runs where the particles are; otherwise Simulation downloads them and
   // gathers on the host.
   virtual bool gathers_probes() const { return true; }

@@ -103,6 +103,9 @@ class DistributedSimulation {
   // have (order key), so that a probe or a frame sums and writes them as one process would;
   // empty elsewhere.
   ParticleArrays GatherParticles() const;
+  // Collective. As GatherParticles, only the particles of BelowRank(id, threshold) (threshold >
+  // 0; dysa/detail_rank.h): each process chooses its own, so only they cross to process 0.
+  ParticleArrays GatherParticlesBelowRank(uint32_t threshold) const;
   // Collective. On process 0 the checkpoint one process's Simulation::SaveCheckpoint gives for
   // this state (its particles and solver arrays in that process's storage order), so that it
   // restores on any number of processes; empty elsewhere. Its frame is the one restored last.
@@ -136,7 +139,8 @@ class DistributedSimulation {
   void SpawnSlab();
   // Collective: every process's particles (and with `arrays`, the solver's arrays) on process 0
   // in key order.
-  LocalParticles GatherAll(bool arrays) const;
+  // With a `threshold`, only the particles of BelowRank(id, threshold) (no arrays).
+  LocalParticles GatherAll(bool arrays, uint32_t threshold = 0) const;
 
   Scene scene_;
   const Communicator& comm_;

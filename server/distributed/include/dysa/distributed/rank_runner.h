@@ -26,7 +26,9 @@ Bytes ConfigureCommand(const Params& params);
 // The particles (and solver arrays) that replace every process's: each keeps its slab.
 Bytes UploadCommand(const ParticleArrays& particles, std::span<const SolverArray> arrays);
 Bytes StepCommand(double time, uint64_t step, double max_dt);
-Bytes GatherCommand();      // every particle on process 0, in one process's storage order
+// Every particle on process 0, in one process's storage order; with a threshold > 0, only those
+// of BelowRank(id, threshold).
+Bytes GatherCommand(uint32_t threshold = 0);
 Bytes CheckpointCommand();  // a checkpoint on process 0
 Bytes StopCommand();
 
