@@ -1,9 +1,9 @@
 // The delay relay (delay_relay.h, dysa-delay-relay): on plain loopback (no root needed) an echo
 // server through it at 10 ms each way answers in 20-25 ms; a large random transfer comes back
-// byte for byte, in order, at hundreds of MB/s; a direction whose receiver stops reading holds
-// no more than its bound; several connections at once; a close travels both ways, as late as the
-// bytes before it; bad flags are refused naming the flag and its range. As root, the relay also
-// bridges two network namespaces (skipped, saying why, otherwise).
+// byte for byte, in order, pipelined (not one delay per chunk); a direction whose receiver stops
+// reading holds no more than its bound; several connections at once; a close travels both ways, as
+// late as the bytes before it; bad flags are refused naming the flag and its range. As root, the
+// relay also bridges two network namespaces (skipped, saying why, otherwise).
 #include "link/delay_relay.h"
 
 #include <fcntl.h>
@@ -244,7 +244,7 @@ TEST(DelayRelayTest, AnEchoThroughTenMsEachWayTakesTwentyToTwentyFiveMs) {
   close(fd);
 }
 
-TEST(DelayRelayTest, ALargeRandomTransferComesBackExactlyInOrderAtHundredsOfMBPerSecond) {
+TEST(DelayRelayTest, ALargeRandomTransferComesBackExactlyInOrderAndPipelined) {
   TestServer echo(Echo);
   DelayRelay relay(To(echo.port(), 10));
   const std::vector<char> data = RandomBytes(size_t(128) << 20, 11);
@@ -257,9 +257,11 @@ TEST(DelayRelayTest, ALargeRandomTransferComesBackExactlyInOrderAtHundredsOfMBPe
   std::cout << data.size() / (1 << 20) << " MiB there and back through the relay (10 ms each "
             << "way) in " << seconds << " s: " << mb_per_s << " MB/s; peak queued "
             << relay.peak_queued_bytes() / 1024 << " KiB\n";
-  // Each byte crosses the relay twice (there and back) beside the echo: on the 2-core machine
-  // with others' builds beside it, 400-570 MB/s. The floor only says "not crippled".
-  EXPECT_GT(mb_per_s, 100);
+  // Each byte crosses the relay twice (there and back) beside the echo: 400-570 MB/s on the
+  // 2-core machine, 89-98 MB/s while two builds ran beside it. The floor is no speed target; it
+  // tells a pipelined relay from one that holds each read (at most 256 KiB) for the delay in
+  // turn (10 ms: at most 26 MB/s), with room for a loaded machine.
+  EXPECT_GT(mb_per_s, 50);
   EXPECT_LE(relay.peak_queued_bytes(), RelayOptions().max_queued_bytes + (size_t(256) << 10));
 }
 
