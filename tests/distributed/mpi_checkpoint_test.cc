@@ -12,7 +12,7 @@
 #include "dysa/core/simulation.h"
 #include "dysa/detail_rank.h"
 #include "dysa/distributed/distributed_simulation.h"
-#include "mpi_communicator.h"
+#include "mpi_test_main.h"
 
 #if !defined(DYSA_RANKS_SCENE) || !defined(DYSA_RANKS_DFSPH_SCENE)
 #error "tests/CMakeLists.txt defines DYSA_RANKS_SCENE and DYSA_RANKS_DFSPH_SCENE"
@@ -20,8 +20,6 @@
 
 namespace dysa::distributed {
 namespace {
-
-const MpiCommunicator* g_comm = nullptr;
 
 template <class Sim>
 void StepFrames(Sim& sim, double frame_time, int frames) {
@@ -33,14 +31,14 @@ void StepFrames(Sim& sim, double frame_time, int frames) {
 
 void ExpectACheckpointOnRanksIsTheOneOfOneProcess(const char* path) {
   const Scene scene = LoadScene(path);
-  DistributedSimulation spread(scene, *g_comm);
+  DistributedSimulation spread(scene, TestComm());
   Simulation plain(scene);
   const double frame = plain.model().FrameTime();
   StepFrames(spread, frame, 3);
   StepFrames(plain, frame, 3);
   const Checkpoint b = spread.SaveCheckpoint();
   EXPECT_GT(spread.totals().migrated + spread.totals().ghosts, 0u);
-  if (g_comm->rank() != 0) return;
+  if (TestComm().rank() != 0) return;
   const Checkpoint a = plain.SaveCheckpoint();
   EXPECT_EQ(b.step, a.step);
   EXPECT_EQ(b.time, a.time);
@@ -60,11 +58,11 @@ void ExpectAOneProcessCheckpointRestoresOnRanks(const char* path) {
   StepFrames(plain, frame, 2);
   const Checkpoint checkpoint = plain.SaveCheckpoint();
   StepFrames(plain, frame, 2);
-  DistributedSimulation spread(scene, *g_comm);
+  DistributedSimulation spread(scene, TestComm());
   spread.RestoreCheckpoint(checkpoint);
   StepFrames(spread, frame, 2);
   const uint64_t hash = spread.GlobalStateHash();
-  if (g_comm->rank() != 0) return;
+  if (TestComm().rank() != 0) return;
   EXPECT_EQ(spread.step(), plain.step());
   EXPECT_EQ(hash, StateHash(plain.state()));
 }
@@ -74,7 +72,7 @@ TEST(MpiCheckpointTest, EachRankSpawnsOnlyItsSlab) {
   // slab's particles, in arrays no larger than that, and together they hold the scene's, in the
   // order one process spawns them (ids increasing on each rank).
   const Scene scene = LoadScene(DYSA_RANKS_SCENE);
-  const DistributedSimulation spread(scene, *g_comm);
+  const DistributedSimulation spread(scene, TestComm());
   const ParticleArrays& mine = spread.particles();
   const uint64_t total = spread.TotalParticles();
   EXPECT_LT(mine.size(), total);
@@ -95,14 +93,14 @@ TEST(MpiCheckpointTest, ASubsetGatherTakesOnlyTheSubsetFromEachRank) {
   // A budgeted frame on ranks: each rank sends its particles of BelowRank(id, T) only, and
   // process 0 gets exactly one process's subset, in one process's storage order.
   const Scene scene = LoadScene(DYSA_RANKS_SCENE);
-  DistributedSimulation spread(scene, *g_comm);
+  DistributedSimulation spread(scene, TestComm());
   Simulation plain(scene);
   const double frame = plain.model().FrameTime();
   StepFrames(spread, frame, 2);
   StepFrames(plain, frame, 2);
   constexpr uint32_t kThreshold = 1u << 30;  // a quarter of the ranks
   const ParticleArrays subset = spread.GatherParticlesBelowRank(kThreshold);
-  if (g_comm->rank() != 0) {
+  if (TestComm().rank() != 0) {
     EXPECT_EQ(subset.size(), 0u);
     return;
   }
@@ -139,19 +137,3 @@ TEST(MpiCheckpointTest, DfsphsOneProcessCheckpointRestoresOnRanks) {
 
 }  // namespace
 }  // namespace dysa::distributed
-
-// MPI around GoogleTest: every rank runs every test (their collectives pair up); only rank 0
-// prints, and the job fails when any rank's tests failed.
-int main(int argc, char** argv) {
-  dysa::distributed::MpiSession session(&argc, &argv);
-  const dysa::distributed::MpiCommunicator comm;
-  dysa::distributed::g_comm = &comm;
-  ::testing::InitGoogleTest(&argc, argv);
-  if (comm.rank() != 0) {
-    delete ::testing::UnitTest::GetInstance()->listeners().Release(
-        ::testing::UnitTest::GetInstance()->listeners().default_result_printer());
-  }
-  double failed = RUN_ALL_TESTS() != 0 ? 1 : 0;
-  comm.MaxInPlace({&failed, 1});
-  return failed > 0 ? 1 : 0;
-}

@@ -1,11 +1,9 @@
-// ctest -L mpi, run by mpirun on 2 and 3 ranks: MpiCommunicator moves messages of any size.
-// MPI's counts are int, so messages past 2 GiB go in rounds; these tests make the rounds a few
-// bytes long, so that small messages take many rounds (uneven sizes, empty messages, a process
-// that sends nothing while another sends many rounds), and check every byte that arrives. A
+// ctest -L mpi, run by mpirun on 2 and 3 ranks (mpi_test_main.h): MpiCommunicator moves messages of
+// any size. MPI's counts are int, so messages past 2 GiB go in rounds; these tests make the rounds
+// a few bytes long, so that small messages take many rounds (uneven sizes, empty messages, a
+// process that sends nothing while another sends many rounds), and check every byte that arrives. A
 // decomposed simulation on such a communicator reaches the checkpoint it reaches on the default
 // one, bit for bit.
-#include "mpi_communicator.h"
-
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -16,6 +14,7 @@
 
 #include "dysa/core/scene.h"
 #include "dysa/distributed/distributed_simulation.h"
+#include "mpi_test_main.h"
 
 #ifndef DYSA_RANKS_SCENE
 #error "tests/CMakeLists.txt defines DYSA_RANKS_SCENE"
@@ -112,18 +111,3 @@ TEST(MpiCommunicatorRoundsTest, ASimulationOnShortRoundsReachesTheSameCheckpoint
 
 }  // namespace
 }  // namespace dysa::distributed
-
-// MPI around GoogleTest, as mpi_checkpoint_test: every rank runs every test; only rank 0
-// prints, and the job fails when any rank's tests failed.
-int main(int argc, char** argv) {
-  dysa::distributed::MpiSession session(&argc, &argv);
-  const dysa::distributed::MpiCommunicator comm;
-  ::testing::InitGoogleTest(&argc, argv);
-  if (comm.rank() != 0) {
-    delete ::testing::UnitTest::GetInstance()->listeners().Release(
-        ::testing::UnitTest::GetInstance()->listeners().default_result_printer());
-  }
-  double failed = RUN_ALL_TESTS() != 0 ? 1 : 0;
-  comm.MaxInPlace({&failed, 1});
-  return failed > 0 ? 1 : 0;
-}
