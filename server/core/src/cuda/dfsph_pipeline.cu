@@ -6,16 +6,13 @@
 #include <cub/device/device_radix_sort.cuh>
 #include <cub/device/device_reduce.cuh>
 #include <cub/device/device_scan.cuh>
-#include <stdexcept>
 #include <string>
 
 #include "cuda/device_buffer.cuh"
 #include "cuda/device_grid.cuh"
 #include "cuda/dfsph_pipeline.h"
 #include "cuda/fixed_point_sum.cuh"
-#include "cuda/moving_boundary.cuh"
-#include "cuda/probe_gatherer.cuh"
-#include "cuda/rank_subset.cuh"
+#include "cuda/physical_arrays.cuh"
 #include "cuda/sph_kernels.cuh"
 
 namespace dysa::cuda {
@@ -313,36 +310,21 @@ __global__ void OwnerCountKernel(const uint32_t* keys, uint32_t* count, uint32_t
 
 }  // namespace
 
-struct DfsphPipeline::Impl {
-  explicit Impl(int device_index) : device(device_index), stream(device_index) {}
+// The particles, the boundary and the obstacles are PhysicalArrays'; these are dfsph's own.
+struct DfsphPipeline::Impl : PhysicalArrays {
+  explicit Impl(int device_index) : PhysicalArrays(device_index) {}
 
-  int device;
-  Stream stream;
   DfsphStepConfig config;
   std::vector<std::string> passes;
-  uint32_t n = 0;
-  DeviceBuffer<float> x, y, z, vx, vy, vz, x2, y2, z2, vx2, vy2, vz2;
-  DeviceBuffer<uint32_t> id, id2;
   DeviceBuffer<float> density_stiffness, divergence_stiffness, stiffness2;
-  DeviceBuffer<float> density, pressure, ax, ay, az, speed2, acceleration2;
   DeviceBuffer<float> alpha, kappa, error, kappa_sum;
   DeviceBuffer<uint32_t> fluid_count, wall_count, fluid_begin, wall_begin;
   DeviceBuffer<Pair> fluid_pairs, wall_pairs;
   DeviceBuffer<uint32_t> wall_owner, wall_owner_sorted, wall_b, wall_b_sorted;
-  GridSorter sorter;
-  uint32_t nb = 0;
-  DeviceBuffer<float> bx, by, bz, bvolume, bvx, bvy, bvz, bunused;
-  DeviceBuffer<uint8_t> bno_slip;
-  GridSorter boundary_sorter;
-  MovingBoundary moving;
-  float obstacle_speed = 0;  // m/s, the contact's fastest obstacle (MoveSurfaces)
+  // The Boundary view's two pressure arrays, which no dfsph kernel uses.
+  DeviceBuffer<float> bunused;
   DeviceBuffer<uint32_t> bn_count, bn_begin;
   DeviceBuffer<float> bn_weight, hydrostatic, kappa_b;
-  mutable DeviceBuffer<float> frame_staging;  // DownloadById's
-  mutable ProbeGatherer probe_gatherer;
-  mutable RankSubset rank_subset;  // DownloadBelowRank's
-  DeviceBuffer<SphereObstacle> spheres;
-  DeviceBuffer<BoxObstacle> boxes;
   DeviceBuffer<float> device_maxima;
   DeviceBuffer<long long> partial_sums, device_sum;
   DeviceBuffer<uint32_t> device_totals;
@@ -359,26 +341,8 @@ struct DfsphPipeline::Impl {
   unsigned Blocks(uint32_t count) const { return (count + kBlock - 1) / kBlock; }
   void BeginPass() { timer.Record(pass++, s()); }
 
-  Fluid View() {
-    return {x.data(),       y.data(),        z.data(),  vx.data(), vy.data(), vz.data(), id.data(),
-            density.data(), pressure.data(), ax.data(), ay.data(), az.data(), nullptr};
-  }
-  Boundary BoundaryView() {
-    return {bx.data(),
-            by.data(),
-            bz.data(),
-            bvolume.data(),
-            bno_slip.data(),
-            bunused.data(),
-            bunused.data(),
-            bvx.data(),
-            bvy.data(),
-            bvz.data(),
-            nb,
-            moving.ux(),
-            moving.uy(),
-            moving.uz()};
-  }
+  Fluid View() { return FluidOf(*this, nullptr); }
+  Boundary BoundaryView() { return BoundaryOf(*this, bunused.data(), bunused.data()); }
   Solver SolverView() {
     return {alpha.data(),       kappa.data(),
             error.data(),       kappa_sum.data(),
@@ -388,21 +352,9 @@ struct DfsphPipeline::Impl {
             bn_weight.data(),   hydrostatic.data(),
             kappa_b.data()};
   }
-  Surfaces SurfaceView() {
-    Surfaces surfaces{
-        spheres.data(), int(config.spheres.size()), boxes.data(), int(config.boxes.size()), {},
-        obstacle_speed};
-    for (int a = 0; a < 3; ++a) surfaces.periodic[a] = config.grid.periodic[a];
-    return surfaces;
-  }
+  Surfaces SurfaceView() { return SurfacesOf(*this); }
 
   void Temp(size_t bytes) { temp.Resize(bytes > 0 ? bytes : 1); }
-
-  template <class T>
-  void Gather(const uint32_t* order, DeviceBuffer<T>& data, DeviceBuffer<T>& target, uint32_t m) {
-    GatherByOrder(order, data.data(), target.data(), m, s());
-    data.swap(target);
-  }
 
   // begin[0, count] = exclusive sums of count[0, count) (count[count] must be 0).
   void ExclusiveSum(uint32_t* counts, uint32_t* begin, uint32_t count) {
@@ -508,32 +460,16 @@ DfsphPipeline::~DfsphPipeline() = default;
 size_t DfsphPipeline::size() const { return impl_->n; }
 
 void DfsphPipeline::DownloadById(float* position, float* velocity, float* density) const {
-  Impl& m = *impl_;
-  DeviceScope scope(m.device);
-  const uint32_t* id = m.id.data();
-  if (position)
-    cuda::DownloadById(id, m.x.data(), m.y.data(), m.z.data(), m.n, position, m.frame_staging,
-                       m.s());
-  if (velocity)
-    cuda::DownloadById(id, m.vx.data(), m.vy.data(), m.vz.data(), m.n, velocity, m.frame_staging,
-                       m.s());
-  if (density)
-    cuda::DownloadById(id, m.density.data(), nullptr, nullptr, m.n, density, m.frame_staging,
-                       m.s());
+  impl_->DownloadById(position, velocity, density);
 }
 
 void DfsphPipeline::GatherProbes(const ProbeGatherPlan& plan, ProbeGather& out) const {
-  Impl& m = *impl_;
-  DeviceScope scope(m.device);
-  m.probe_gatherer.Gather(ProbeParticlesOf(m), plan, m.stream.get(), out);
+  impl_->GatherProbes(plan, out);
 }
 
 RankSubsetCopy DfsphPipeline::DownloadBelowRank(uint32_t threshold, bool position, bool velocity,
                                                 bool density) const {
-  Impl& m = *impl_;
-  DeviceScope scope(m.device);
-  return m.rank_subset.Download(SubsetParticlesOf(m), threshold, position, velocity, density,
-                                m.stream.get());
+  return impl_->DownloadBelowRank(threshold, position, velocity, density);
 }
 
 std::vector<std::string> DfsphPipeline::Configure(const DfsphStepConfig& config,
@@ -542,38 +478,11 @@ std::vector<std::string> DfsphPipeline::Configure(const DfsphStepConfig& config,
   DeviceScope scope(m.device);
   cudaStream_t s = m.s();
   m.config = config;
-  m.spheres.Assign(config.spheres, s);
-  m.boxes.Assign(config.boxes, s);
-  m.sorter.Configure(config.grid);
-  m.boundary_sorter.Configure(config.grid);
-  m.nb = uint32_t(boundary.volume.size());
+  m.ConfigureArrays(config.grid, config.spheres, config.boxes, boundary,
+                    {&m.bunused, &m.hydrostatic, &m.kappa_b});
   const uint32_t nb = m.nb > 0 ? m.nb : 1;
-  for (DeviceBuffer<float>* b : {&m.bx, &m.by, &m.bz, &m.bvolume, &m.bvx, &m.bvy, &m.bvz,
-                                 &m.bunused, &m.hydrostatic, &m.kappa_b}) {
-    b->Resize(nb);
-    b->Zero(s);
-  }
-  m.bno_slip.Resize(nb);
-  m.bx.Assign(boundary.x, s), m.by.Assign(boundary.y, s), m.bz.Assign(boundary.z, s);
-  m.bvolume.Assign(boundary.volume, s);
-  m.bno_slip.Assign(boundary.no_slip, s);
-  m.boundary_sorter.Reserve(m.nb);
-  m.boundary_sorter.Sort(config.grid, m.bx.data(), m.by.data(), m.bz.data(), m.nb, s);
-  if (m.nb > 0) {  // the identity when the host's order is the grid's (wcsph_pipeline.cu)
-    const uint32_t* order = m.boundary_sorter.order();
-    DeviceBuffer<float> scratch;
-    scratch.Resize(m.nb);
-    for (DeviceBuffer<float>* b : {&m.bx, &m.by, &m.bz, &m.bvolume}) {
-      m.Gather(order, *b, scratch, m.nb);
-    }
-    DeviceBuffer<uint8_t> flags;
-    flags.Resize(m.nb);
-    m.Gather(order, m.bno_slip, flags, m.nb);
-  }
   m.bn_count.Resize(size_t(nb) + 1);
   m.bn_begin.Resize(size_t(nb) + 1);
-  m.moving.Configure(boundary, s);
-  m.obstacle_speed = 0;
   m.passes.clear();
   if (m.moving.active()) m.passes.push_back("move_boundary");
   for (const char* name :
@@ -606,48 +515,15 @@ void DfsphPipeline::Upload(size_t n, const uint32_t* id, const float* position,
                            const float* divergence_stiffness) {
   Impl& m = *impl_;
   DeviceScope scope(m.device);
-  if (n > uint64_t(UINT32_MAX) / 2) throw std::length_error("too many particles for the GPU");
+  m.AllocateFluid(n, {&m.density_stiffness, &m.divergence_stiffness, &m.stiffness2, &m.alpha,
+                      &m.kappa, &m.error, &m.kappa_sum});
   const uint32_t count = uint32_t(n > 0 ? n : 1);
-  for (DeviceBuffer<float>* b : {&m.x,
-                                 &m.y,
-                                 &m.z,
-                                 &m.vx,
-                                 &m.vy,
-                                 &m.vz,
-                                 &m.x2,
-                                 &m.y2,
-                                 &m.z2,
-                                 &m.vx2,
-                                 &m.vy2,
-                                 &m.vz2,
-                                 &m.density_stiffness,
-                                 &m.divergence_stiffness,
-                                 &m.stiffness2,
-                                 &m.density,
-                                 &m.pressure,
-                                 &m.ax,
-                                 &m.ay,
-                                 &m.az,
-                                 &m.speed2,
-                                 &m.acceleration2,
-                                 &m.alpha,
-                                 &m.kappa,
-                                 &m.error,
-                                 &m.kappa_sum}) {
-    b->Resize(count);
-  }
-  m.id.Resize(count), m.id2.Resize(count);
   for (DeviceBuffer<uint32_t>* b : {&m.fluid_count, &m.wall_count, &m.fluid_begin, &m.wall_begin}) {
     b->Resize(size_t(count) + 1);
   }
-  m.sorter.Reserve(uint32_t(n));
-  m.n = uint32_t(n);
   cudaStream_t s = m.s();
-  UploadInterleaved(position, n, m.x, m.y, m.z, s);
-  UploadInterleaved(velocity, n, m.vx, m.vy, m.vz, s);
+  m.EnqueueUpload(id, position, velocity);
   if (n > 0) {
-    CheckCuda(cudaMemcpyAsync(m.id.data(), id, n * sizeof(uint32_t), cudaMemcpyHostToDevice, s),
-              "uploading ids");
     CheckCuda(cudaMemcpyAsync(m.density_stiffness.data(), density_stiffness, n * sizeof(float),
                               cudaMemcpyHostToDevice, s),
               "uploading the warm start");
@@ -655,7 +531,6 @@ void DfsphPipeline::Upload(size_t n, const uint32_t* id, const float* position,
                               n * sizeof(float), cudaMemcpyHostToDevice, s),
               "uploading the warm start");
   }
-  m.density.Zero(s), m.pressure.Zero(s);
   CheckCuda(cudaStreamSynchronize(s), "uploading particles");
 }
 
@@ -665,11 +540,7 @@ void DfsphPipeline::Download(uint32_t* id, float* position, float* velocity, flo
   Impl& m = *impl_;
   DeviceScope scope(m.device);
   cudaStream_t s = m.s();
-  if (id) m.id.CopyTo(id, m.n, s);
-  if (position) DownloadInterleaved(m.x, m.y, m.z, m.n, position, s);
-  if (velocity) DownloadInterleaved(m.vx, m.vy, m.vz, m.n, velocity, s);
-  if (density) m.density.CopyTo(density, m.n, s);
-  if (pressure) m.pressure.CopyTo(pressure, m.n, s);
+  m.EnqueueDownload(id, position, velocity, density, pressure);
   if (density_stiffness) m.density_stiffness.CopyTo(density_stiffness, m.n, s);
   if (divergence_stiffness) m.divergence_stiffness.CopyTo(divergence_stiffness, m.n, s);
   CheckCuda(cudaStreamSynchronize(s), "downloading particles");
@@ -677,11 +548,7 @@ void DfsphPipeline::Download(uint32_t* id, float* position, float* velocity, flo
 
 void DfsphPipeline::MoveSurfaces(const std::vector<SphereObstacle>& spheres,
                                  const std::vector<BoxObstacle>& boxes, float obstacle_speed) {
-  Impl& m = *impl_;
-  DeviceScope scope(m.device);
-  m.spheres.Assign(spheres, m.s());
-  m.boxes.Assign(boxes, m.s());
-  m.obstacle_speed = obstacle_speed;
+  impl_->MoveSurfaces(spheres, boxes, obstacle_speed);
 }
 
 float DfsphPipeline::Prepare(float gravity, uint32_t max_per_cell,
@@ -695,16 +562,11 @@ float DfsphPipeline::Prepare(float gravity, uint32_t max_per_cell,
 
   if (m.moving.active()) {
     m.BeginPass();  // move_boundary
-    m.moving.Move(motion.offset, motion.velocity, m.config.grid, m.boundary_sorter, m.bx.data(),
-                  m.by.data(), m.bz.data(), m.bvolume.data(), m.bno_slip.data(), s);
+    m.MoveBoundary(m.config.grid, motion);
   }
   m.BeginPass();  // neighbour_grid, carrying the warm start along
-  m.sorter.Sort(m.config.grid, m.x.data(), m.y.data(), m.z.data(), n, s);
+  const uint32_t* order = m.SortFluid(m.config.grid);
   if (n > 0) {
-    const uint32_t* order = m.sorter.order();
-    m.Gather(order, m.x, m.x2, n), m.Gather(order, m.y, m.y2, n), m.Gather(order, m.z, m.z2, n);
-    m.Gather(order, m.vx, m.vx2, n), m.Gather(order, m.vy, m.vy2, n);
-    m.Gather(order, m.vz, m.vz2, n), m.Gather(order, m.id, m.id2, n);
     m.Gather(order, m.density_stiffness, m.stiffness2, n);
     m.Gather(order, m.divergence_stiffness, m.stiffness2, n);
   }
@@ -875,13 +737,15 @@ uint32_t DfsphPipeline::max_cell_count() const { return impl_->sorter.max_count(
 
 uint64_t DfsphPipeline::DeviceBytes() const {
   const Impl& m = *impl_;
-  return uint64_t(m.x.capacity()) * (26 * sizeof(float) + 6 * sizeof(uint32_t)) +
+  // Dfsph's own: 7 float arrays (the warm starts and their scratch, alpha, kappa, the error,
+  // the kappa sum) and 4 count arrays per particle, the pair lists and the walls' transpose,
+  // and 3 floats and 2 counts per boundary sample.
+  return m.PhysicalDeviceBytes() +
+         uint64_t(m.x.capacity()) * (7 * sizeof(float) + 4 * sizeof(uint32_t)) +
          uint64_t(m.fluid_pairs.capacity() + m.wall_pairs.capacity()) * sizeof(Pair) +
          uint64_t(m.wall_owner.capacity()) * 4 * sizeof(uint32_t) +
          uint64_t(m.bn_weight.capacity()) * sizeof(float) +
-         uint64_t(m.bx.capacity()) * (10 * sizeof(float) + 2 * sizeof(uint32_t) + 1) +
-         m.sorter.DeviceBytes() + m.boundary_sorter.DeviceBytes() + m.moving.DeviceBytes() +
-         m.temp.capacity() + m.rank_subset.DeviceBytes();
+         uint64_t(m.bx.capacity()) * (3 * sizeof(float) + 2 * sizeof(uint32_t)) + m.temp.capacity();
 }
 
 }  // namespace dysa::cuda

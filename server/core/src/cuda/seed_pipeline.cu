@@ -13,8 +13,7 @@
 
 #include "cuda/device_buffer.cuh"
 #include "cuda/device_grid.cuh"
-#include "cuda/probe_gatherer.cuh"
-#include "cuda/rank_subset.cuh"
+#include "cuda/particle_arrays.cuh"
 #include "cuda/seed_pipeline.h"
 
 namespace dysa::cuda {
@@ -722,8 +721,10 @@ __global__ void ObstaclesKernel(Particles p, Obstacles o, float damping, uint32_
 
 }  // namespace
 
-struct SeedPipeline::Impl {
-  explicit Impl(int device_index) : device(device_index), stream(device_index) {
+// The positions, velocities, ids, densities and pressures are ParticleArrays'; these are the
+// seed's own.
+struct SeedPipeline::Impl : ParticleArrays {
+  explicit Impl(int device_index) : ParticleArrays(device_index) {
     // DYSA_CUDA_SEED_LIST=K fixes the neighbour list's capacity at K blocks of 8 candidates per
     // particle (0: no list, the grid kernels only; a small K leaves most particles to them), for
     // tests of the grid kernels and the overflow path.
@@ -742,19 +743,11 @@ struct SeedPipeline::Impl {
 
   static uint64_t RoundUp(uint64_t x, uint64_t to) { return (x + to - 1) / to * to; }
 
-  int device;
-  Stream stream;
   SeedStepConfig config;
   std::vector<std::string> passes;
-  uint32_t n = 0;
-  // Particle arrays and their permutation targets (swapped after each sort).
-  DeviceBuffer<float> x, y, z, vx, vy, vz, px, py, pz;
-  DeviceBuffer<float> x2, y2, z2, vx2, vy2, vz2, px2, py2, pz2;
-  DeviceBuffer<uint32_t> id, id2;
-  mutable DeviceBuffer<float> frame_staging;  // DownloadById's
-  mutable ProbeGatherer probe_gatherer;
-  mutable RankSubset rank_subset;  // DownloadBelowRank's
-  DeviceBuffer<float> density, near_density, pressure, near_pressure;
+  // The predicted positions and their permutation targets (swapped after each sort).
+  DeviceBuffer<float> px, py, pz, px2, py2, pz2;
+  DeviceBuffer<float> near_density, near_pressure;
   // The grid's points (px, py, pz), for the neighbour kernels, and kLanes - 1 entries of
   // padding (DensityListKernel loads whole blocks).
   DeviceBuffer<float4> pos4;
@@ -764,7 +757,6 @@ struct SeedPipeline::Impl {
   uint32_t list_want = kListBlocks;  // the capacity (blocks) the next step asks for
   bool list_fixed = false;           // DYSA_CUDA_SEED_LIST: no growth
   bool list_refused = false;         // no room for list_want; not asked again until Upload
-  GridSorter sorter;
   DeviceBuffer<SphereObstacle> spheres;
   DeviceBuffer<BoxObstacle> boxes;
   // Copied back per step: [0] limited, [1] non-finite, [2] the particles the list could not
@@ -778,43 +770,29 @@ struct SeedPipeline::Impl {
             vz.data(), px.data(), py.data(), pz.data(), id.data()};
   }
 
-  void Allocate(uint32_t count) {
-    for (DeviceBuffer<float>* b :
-         {&x,   &y,   &z,       &vx,           &vy,       &vz,           &px,  &py,
-          &pz,  &x2,  &y2,      &z2,           &vx2,      &vy2,          &vz2, &px2,
-          &py2, &pz2, &density, &near_density, &pressure, &near_pressure}) {
-      b->Resize(count);
-    }
-    id.Resize(count);
-    id2.Resize(count);
+  void Allocate(size_t count) {
+    AllocateParticles(count, count,
+                      {&px, &py, &pz, &px2, &py2, &pz2, &near_density, &near_pressure});
     pos4.Resize(uint64_t(count) + kLanes - 1);
     CheckCuda(cudaMemsetAsync(pos4.data() + count, 0, (kLanes - 1) * sizeof(float4), stream.get()),
               "clearing the positions' padding");
     pos_value.Resize(count);
     list_units.Resize(count);
-    sorter.Reserve(count);
-    n = count;
   }
 
   void Sort() {
     const Particles p = View();
     sorter.Sort(config.grid, p.px, p.py, p.pz, n, stream.get());
     const uint32_t* order = sorter.order();
-    Gather(order, x, x2), Gather(order, y, y2), Gather(order, z, z2);
-    Gather(order, vx, vx2), Gather(order, vy, vy2), Gather(order, vz, vz2);
+    Gather(order, x, x2, n), Gather(order, y, y2, n), Gather(order, z, z2, n);
+    Gather(order, vx, vx2, n), Gather(order, vy, vy2, n), Gather(order, vz, vz2, n);
     if (n > 0) {
       GatherPredictedKernel<<<(n + kBlock - 1) / kBlock, kBlock, 0, stream.get()>>>(
           order, px.data(), py.data(), pz.data(), px2.data(), py2.data(), pz2.data(), pos4.data(),
           n);
     }
     px.swap(px2), py.swap(py2), pz.swap(pz2);
-    Gather(order, id, id2);
-  }
-
-  template <class T>
-  void Gather(const uint32_t* order, DeviceBuffer<T>& data, DeviceBuffer<T>& target) {
-    GatherByOrder(order, data.data(), target.data(), n, stream.get());
-    data.swap(target);
+    Gather(order, id, id2, n);
   }
 
   // Word w of a particle's lane l lies (8 w + l) * ListStride() words after its first; rounded
@@ -888,18 +866,12 @@ void SeedPipeline::Upload(size_t n, const uint32_t* id, const float* position,
                           const float* velocity) {
   Impl& m = *impl_;
   DeviceScope scope(m.device);
-  if (n > uint64_t(UINT32_MAX) / 2) throw std::length_error("too many particles for the GPU");
-  m.Allocate(uint32_t(n));
+  m.Allocate(n);
   m.list_refused = false;
-  UploadInterleaved(position, n, m.x, m.y, m.z, m.stream.get());
-  UploadInterleaved(velocity, n, m.vx, m.vy, m.vz, m.stream.get());
-  CheckCuda(cudaMemcpyAsync(m.id.data(), id, n * sizeof(uint32_t), cudaMemcpyHostToDevice,
-                            m.stream.get()),
-            "uploading ids");
-  // Density and pressure are computed by the step; zero them so a download before the first
-  // step reads zeros, as the CPU's freshly spawned arrays.
-  for (DeviceBuffer<float>* b :
-       {&m.px, &m.py, &m.pz, &m.density, &m.near_density, &m.pressure, &m.near_pressure}) {
+  m.EnqueueUpload(id, position, velocity);
+  // As the densities and pressures (EnqueueUpload), the step's other outputs read zeros before
+  // the first step.
+  for (DeviceBuffer<float>* b : {&m.px, &m.py, &m.pz, &m.near_density, &m.near_pressure}) {
     b->Zero(m.stream.get());
   }
   CheckCuda(cudaStreamSynchronize(m.stream.get()), "uploading particles");
@@ -911,13 +883,9 @@ void SeedPipeline::Download(uint32_t* id, float* position, float* velocity, floa
   Impl& m = *impl_;
   DeviceScope scope(m.device);
   const size_t n = m.n;
-  if (id) m.id.CopyTo(id, n, m.stream.get());
-  if (position) DownloadInterleaved(m.x, m.y, m.z, n, position, m.stream.get());
-  if (velocity) DownloadInterleaved(m.vx, m.vy, m.vz, n, velocity, m.stream.get());
+  m.EnqueueDownload(id, position, velocity, density, pressure);
   if (predicted) DownloadInterleaved(m.px, m.py, m.pz, n, predicted, m.stream.get());
-  if (density) m.density.CopyTo(density, n, m.stream.get());
   if (near_density) m.near_density.CopyTo(near_density, n, m.stream.get());
-  if (pressure) m.pressure.CopyTo(pressure, n, m.stream.get());
   if (near_pressure) m.near_pressure.CopyTo(near_pressure, n, m.stream.get());
   CheckCuda(cudaStreamSynchronize(m.stream.get()), "downloading particles");
 }
@@ -1036,48 +1004,29 @@ StepOutcome SeedPipeline::Step() {
 }
 
 void SeedPipeline::DownloadById(float* position, float* velocity, float* density) const {
-  Impl& m = *impl_;
-  DeviceScope scope(m.device);
-  cudaStream_t s = m.stream.get();
-  const uint32_t* id = m.id.data();
-  if (position) {
-    cuda::DownloadById(id, m.x.data(), m.y.data(), m.z.data(), m.n, position, m.frame_staging, s);
-  }
-  if (velocity) {
-    cuda::DownloadById(id, m.vx.data(), m.vy.data(), m.vz.data(), m.n, velocity, m.frame_staging,
-                       s);
-  }
-  if (density) {
-    cuda::DownloadById(id, m.density.data(), nullptr, nullptr, m.n, density, m.frame_staging, s);
-  }
+  impl_->DownloadById(position, velocity, density);
 }
 
 void SeedPipeline::GatherProbes(const ProbeGatherPlan& plan, ProbeGather& out) const {
-  Impl& m = *impl_;
-  DeviceScope scope(m.device);
-  m.probe_gatherer.Gather(ProbeParticlesOf(m), plan, m.stream.get(), out);
+  impl_->GatherProbes(plan, out);
 }
 
 RankSubsetCopy SeedPipeline::DownloadBelowRank(uint32_t threshold, bool position, bool velocity,
                                                bool density) const {
-  Impl& m = *impl_;
-  DeviceScope scope(m.device);
-  return m.rank_subset.Download(SubsetParticlesOf(m), threshold, position, velocity, density,
-                                m.stream.get());
+  return impl_->DownloadBelowRank(threshold, position, velocity, density);
 }
 
 uint32_t SeedPipeline::max_cell_count() const { return impl_->sorter.max_count(); }
 
 uint64_t SeedPipeline::DeviceBytes() const {
   const Impl& m = *impl_;
-  // 22 float arrays (positions, velocities, predictions, their permutation targets, densities,
-  // pressures), two id arrays, the packed positions (float4) and the positions with values (two
-  // float4), the neighbour list's units and words, and the grid's keys, order and cell starts.
-  return uint64_t(m.x.capacity()) * (22 * sizeof(float) + 2 * sizeof(uint32_t)) +
+  // The seed's own: 8 float arrays (the predictions, their permutation targets, the near
+  // densities and pressures), the packed positions (float4) and the positions with values (two
+  // float4), and the neighbour list's units and words.
+  return m.ParticleDeviceBytes() + uint64_t(m.x.capacity()) * 8 * sizeof(float) +
          uint64_t(m.pos4.capacity()) * sizeof(float4) +
          uint64_t(m.pos_value.capacity()) * sizeof(PosValue) +
-         uint64_t(m.list_units.capacity() + m.list_words.capacity()) * sizeof(uint32_t) +
-         m.sorter.DeviceBytes() + m.rank_subset.DeviceBytes();
+         uint64_t(m.list_units.capacity() + m.list_words.capacity()) * sizeof(uint32_t);
 }
 
 }  // namespace dysa::cuda
