@@ -1,5 +1,5 @@
 // The physical solvers' (wcsph, dfsph) shared state on the GPU: the particle arrays
-// (particle_arrays.cuh) with the accelerations and the time step's maxima inputs, the boundary
+// (particle_buffers.cuh) with the accelerations and the time step's maxima inputs, the boundary
 // particles sorted on their own grid (and moved by the move_boundary pass), and the obstacles
 // of the wall contact. Both pipelines set these up, sort and move them the same way; each keeps
 // only its solver's arrays beside them (sph_kernels.cuh's FluidOf, BoundaryOf and SurfacesOf
@@ -17,13 +17,13 @@
 #include "cuda/device_grid.cuh"
 #include "cuda/gpu_types.h"
 #include "cuda/moving_boundary.cuh"
-#include "cuda/particle_arrays.cuh"
+#include "cuda/particle_buffers.cuh"
 #include "cuda/wcsph_pipeline.h"  // BoundaryCloud
 
 namespace dysa::cuda {
 
-struct PhysicalArrays : ParticleArrays {
-  explicit PhysicalArrays(int device_index) : ParticleArrays(device_index) {}
+struct PhysicalArrays : ParticleBuffers {
+  explicit PhysicalArrays(int device_index) : ParticleBuffers(device_index) {}
 
   // AllocateParticles with these arrays and the pipeline's `own`, at least one value each (the
   // kernels' views hold no null arrays).

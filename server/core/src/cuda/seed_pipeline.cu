@@ -9,7 +9,7 @@
 
 #include "cuda/device_buffer.cuh"
 #include "cuda/device_grid.cuh"
-#include "cuda/particle_arrays.cuh"
+#include "cuda/particle_buffers.cuh"
 #include "cuda/seed_kernels.cuh"
 #include "cuda/seed_list_kernels.cuh"
 #include "cuda/seed_neighbour_list.cuh"
@@ -17,10 +17,10 @@
 
 namespace dysa::cuda {
 
-// The positions, velocities, ids, densities and pressures are ParticleArrays'; these are the
+// The positions, velocities, ids, densities and pressures are ParticleBuffers'; these are the
 // seed's own.
-struct SeedPipeline::Impl : ParticleArrays {
-  explicit Impl(int device_index) : ParticleArrays(device_index) {
+struct SeedPipeline::Impl : ParticleBuffers {
+  explicit Impl(int device_index) : ParticleBuffers(device_index) {
     // DYSA_CUDA_SEED_LIST=K fixes the neighbour list's capacity at K blocks of 8 candidates per
     // particle (0: no list, the grid kernels only; a small K leaves most particles to them), for
     // tests of the grid kernels and the overflow path.

@@ -23,8 +23,8 @@
 
 namespace dysa::cuda {
 
-struct ParticleArrays {
-  explicit ParticleArrays(int device_index);
+struct ParticleBuffers {
+  explicit ParticleBuffers(int device_index);
 
   // Grows the shared per-particle arrays and the pipeline's `own` to `elements` values each and
   // the sorter to sort `count` particles; n becomes count. Throws std::length_error for more

@@ -1,16 +1,16 @@
-// The pipelines' shared particle arrays (particle_arrays.cuh).
+// The pipelines' shared particle arrays (particle_buffers.cuh).
 #include <cuda_runtime.h>
 
 #include <stdexcept>
 
-#include "cuda/particle_arrays.cuh"
+#include "cuda/particle_buffers.cuh"
 
 namespace dysa::cuda {
 
-ParticleArrays::ParticleArrays(int device_index) : device(device_index), stream(device_index) {}
+ParticleBuffers::ParticleBuffers(int device_index) : device(device_index), stream(device_index) {}
 
-void ParticleArrays::AllocateParticles(size_t count, size_t elements,
-                                       std::initializer_list<DeviceBuffer<float>*> own) {
+void ParticleBuffers::AllocateParticles(size_t count, size_t elements,
+                                        std::initializer_list<DeviceBuffer<float>*> own) {
   if (count > uint64_t(UINT32_MAX) / 2) throw std::length_error("too many particles for the GPU");
   for (DeviceBuffer<float>* b :
        {&x, &y, &z, &vx, &vy, &vz, &x2, &y2, &z2, &vx2, &vy2, &vz2, &density, &pressure}) {
@@ -23,8 +23,8 @@ void ParticleArrays::AllocateParticles(size_t count, size_t elements,
   n = uint32_t(count);
 }
 
-void ParticleArrays::EnqueueUpload(const uint32_t* host_id, const float* position,
-                                   const float* velocity) {
+void ParticleBuffers::EnqueueUpload(const uint32_t* host_id, const float* position,
+                                    const float* velocity) {
   cudaStream_t s = stream.get();
   UploadInterleaved(position, n, x, y, z, s);
   UploadInterleaved(velocity, n, vx, vy, vz, s);
@@ -36,8 +36,8 @@ void ParticleArrays::EnqueueUpload(const uint32_t* host_id, const float* positio
   density.Zero(s), pressure.Zero(s);
 }
 
-void ParticleArrays::EnqueueDownload(uint32_t* host_id, float* position, float* velocity,
-                                     float* host_density, float* host_pressure) const {
+void ParticleBuffers::EnqueueDownload(uint32_t* host_id, float* position, float* velocity,
+                                      float* host_density, float* host_pressure) const {
   cudaStream_t s = stream.get();
   if (host_id) id.CopyTo(host_id, n, s);
   if (position) DownloadInterleaved(x, y, z, n, position, s);
@@ -46,7 +46,7 @@ void ParticleArrays::EnqueueDownload(uint32_t* host_id, float* position, float* 
   if (host_pressure) pressure.CopyTo(host_pressure, n, s);
 }
 
-void ParticleArrays::DownloadById(float* position, float* velocity, float* host_density) const {
+void ParticleBuffers::DownloadById(float* position, float* velocity, float* host_density) const {
   DeviceScope scope(device);
   cudaStream_t s = stream.get();
   if (position)
@@ -58,19 +58,19 @@ void ParticleArrays::DownloadById(float* position, float* velocity, float* host_
                        s);
 }
 
-RankSubsetCopy ParticleArrays::DownloadBelowRank(uint32_t threshold, bool position, bool velocity,
-                                                 bool with_density) const {
+RankSubsetCopy ParticleBuffers::DownloadBelowRank(uint32_t threshold, bool position, bool velocity,
+                                                  bool with_density) const {
   DeviceScope scope(device);
   return rank_subset.Download(SubsetParticlesOf(*this), threshold, position, velocity, with_density,
                               stream.get());
 }
 
-void ParticleArrays::GatherProbes(const ProbeGatherPlan& plan, ProbeGather& out) const {
+void ParticleBuffers::GatherProbes(const ProbeGatherPlan& plan, ProbeGather& out) const {
   DeviceScope scope(device);
   probe_gatherer.Gather(ProbeParticlesOf(*this), plan, stream.get(), out);
 }
 
-uint64_t ParticleArrays::ParticleDeviceBytes() const {
+uint64_t ParticleBuffers::ParticleDeviceBytes() const {
   // 14 float arrays (positions, velocities, their permutation targets, densities, pressures)
   // and the two id arrays.
   return uint64_t(x.capacity()) * (14 * sizeof(float) + 2 * sizeof(uint32_t)) +
