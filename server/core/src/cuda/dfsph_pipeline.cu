@@ -161,23 +161,10 @@ struct DfsphPipeline::Impl : PhysicalArrays {
   }
 };
 
-DfsphPipeline::DfsphPipeline(int device) : impl_(std::make_unique<Impl>(device)) {}
+DfsphPipeline::DfsphPipeline(int device) : impl_(std::make_unique<Impl>(device)) {
+  arrays_ = impl_.get();
+}
 DfsphPipeline::~DfsphPipeline() = default;
-
-size_t DfsphPipeline::size() const { return impl_->n; }
-
-void DfsphPipeline::DownloadById(float* position, float* velocity, float* density) const {
-  impl_->DownloadById(position, velocity, density);
-}
-
-void DfsphPipeline::GatherProbes(const ProbeGatherPlan& plan, ProbeGather& out) const {
-  impl_->GatherProbes(plan, out);
-}
-
-RankSubsetCopy DfsphPipeline::DownloadBelowRank(uint32_t threshold, bool position, bool velocity,
-                                                bool density) const {
-  return impl_->DownloadBelowRank(threshold, position, velocity, density);
-}
 
 std::vector<std::string> DfsphPipeline::Configure(const DfsphStepConfig& config,
                                                   const BoundaryCloud& boundary) {
@@ -439,8 +426,6 @@ StepOutcome DfsphPipeline::Integrate(float dt, float speed_limit) {
   outcome.finite = m.flags.data()[1] == 0;
   return outcome;
 }
-
-uint32_t DfsphPipeline::max_cell_count() const { return impl_->sorter.max_count(); }
 
 uint64_t DfsphPipeline::DeviceBytes() const {
   const Impl& m = *impl_;

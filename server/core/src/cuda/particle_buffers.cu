@@ -1,9 +1,11 @@
-// The pipelines' shared particle arrays (particle_buffers.cuh).
+// The pipelines' shared particle arrays (particle_buffers.cuh) and their read-outs
+// (particle_readout.h).
 #include <cuda_runtime.h>
 
 #include <stdexcept>
 
 #include "cuda/particle_buffers.cuh"
+#include "cuda/particle_readout.h"
 
 namespace dysa::cuda {
 
@@ -46,28 +48,37 @@ void ParticleBuffers::EnqueueDownload(uint32_t* host_id, float* position, float*
   if (host_pressure) pressure.CopyTo(host_pressure, n, s);
 }
 
-void ParticleBuffers::DownloadById(float* position, float* velocity, float* host_density) const {
-  DeviceScope scope(device);
-  cudaStream_t s = stream.get();
-  if (position)
-    cuda::DownloadById(id.data(), x.data(), y.data(), z.data(), n, position, frame_staging, s);
-  if (velocity)
-    cuda::DownloadById(id.data(), vx.data(), vy.data(), vz.data(), n, velocity, frame_staging, s);
-  if (host_density)
-    cuda::DownloadById(id.data(), density.data(), nullptr, nullptr, n, host_density, frame_staging,
-                       s);
+void ParticleReadout::DownloadById(float* position, float* velocity, float* density) const {
+  const ParticleBuffers& a = *arrays_;
+  DeviceScope scope(a.device);
+  cudaStream_t s = a.stream.get();
+  const uint32_t* id = a.id.data();
+  DeviceBuffer<float>& staging = arrays_->frame_staging;
+  if (position) {
+    cuda::DownloadById(id, a.x.data(), a.y.data(), a.z.data(), a.n, position, staging, s);
+  }
+  if (velocity) {
+    cuda::DownloadById(id, a.vx.data(), a.vy.data(), a.vz.data(), a.n, velocity, staging, s);
+  }
+  if (density) {
+    cuda::DownloadById(id, a.density.data(), nullptr, nullptr, a.n, density, staging, s);
+  }
 }
 
-RankSubsetCopy ParticleBuffers::DownloadBelowRank(uint32_t threshold, bool position, bool velocity,
-                                                  bool with_density) const {
-  DeviceScope scope(device);
-  return rank_subset.Download(SubsetParticlesOf(*this), threshold, position, velocity, with_density,
-                              stream.get());
+RankSubsetCopy ParticleReadout::DownloadBelowRank(uint32_t threshold, bool position, bool velocity,
+                                                  bool density) const {
+  DeviceScope scope(arrays_->device);
+  return arrays_->rank_subset.Download(SubsetParticlesOf(*arrays_), threshold, position, velocity,
+                                       density, arrays_->stream.get());
 }
 
-void ParticleBuffers::GatherProbes(const ProbeGatherPlan& plan, ProbeGather& out) const {
-  DeviceScope scope(device);
-  probe_gatherer.Gather(ProbeParticlesOf(*this), plan, stream.get(), out);
+size_t ParticleReadout::size() const { return arrays_->n; }
+
+uint32_t ParticleReadout::max_cell_count() const { return arrays_->sorter.max_count(); }
+
+void ParticleReadout::GatherProbes(const ProbeGatherPlan& plan, ProbeGather& out) const {
+  DeviceScope scope(arrays_->device);
+  arrays_->probe_gatherer.Gather(ProbeParticlesOf(*arrays_), plan, arrays_->stream.get(), out);
 }
 
 uint64_t ParticleBuffers::ParticleDeviceBytes() const {

@@ -1,7 +1,8 @@
 // The particle arrays every GPU pipeline keeps (seed, wcsph, dfsph) and their copies to and from
 // the host, in one place: ids, positions, velocities, densities and pressures in the grid's
 // order, the permutation targets the neighbour sort swaps them with, the grid sorter, and the
-// read-outs (storage order, particle-id order, a level of detail's subset, the probes' gather).
+// read-outs (storage order here; particle-id order, a level of detail's subset and the probes'
+// gather through ParticleReadout, particle_readout.h).
 //
 // A pipeline's Impl derives from it (the physical solvers' through PhysicalArrays) and adds the
 // arrays only it has, so that its kernels' views and the templates over "a pipeline's state"
@@ -18,8 +19,6 @@
 #include "cuda/device_grid.cuh"
 #include "cuda/probe_gatherer.cuh"
 #include "cuda/rank_subset.cuh"
-#include "probe_gather.h"
-#include "rank_subset.h"
 
 namespace dysa::cuda {
 
@@ -42,14 +41,6 @@ struct ParticleBuffers {
   void EnqueueDownload(uint32_t* host_id, float* position, float* velocity, float* host_density,
                        float* host_pressure) const;
 
-  // Positions and velocities (xyz triples) and densities in particle-id order (id k at k); any
-  // pointer may be null (not copied).
-  void DownloadById(float* position, float* velocity, float* host_density) const;
-  // The particles of BelowRank(id, threshold) in id order, chosen and packed on the device.
-  RankSubsetCopy DownloadBelowRank(uint32_t threshold, bool position, bool velocity,
-                                   bool with_density) const;
-  void GatherProbes(const ProbeGatherPlan& plan, ProbeGather& out) const;
-
   // Bytes of the shared arrays, the sorter and the subset's buffers.
   uint64_t ParticleDeviceBytes() const;
 
@@ -69,9 +60,10 @@ struct ParticleBuffers {
   DeviceBuffer<uint32_t> id, id2;
   DeviceBuffer<float> density, pressure;
   GridSorter sorter;
-  mutable DeviceBuffer<float> frame_staging;  // DownloadById's
-  mutable ProbeGatherer probe_gatherer;
-  mutable RankSubset rank_subset;  // DownloadBelowRank's
+  // ParticleReadout's: DownloadById's staging, the probes' gather, DownloadBelowRank's subset.
+  DeviceBuffer<float> frame_staging;
+  ProbeGatherer probe_gatherer;
+  RankSubset rank_subset;
 };
 
 }  // namespace dysa::cuda

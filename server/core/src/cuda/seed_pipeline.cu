@@ -135,10 +135,10 @@ struct SeedPipeline::Impl : ParticleBuffers {
   }
 };
 
-SeedPipeline::SeedPipeline(int device) : impl_(std::make_unique<Impl>(device)) {}
+SeedPipeline::SeedPipeline(int device) : impl_(std::make_unique<Impl>(device)) {
+  arrays_ = impl_.get();
+}
 SeedPipeline::~SeedPipeline() = default;
-
-size_t SeedPipeline::size() const { return impl_->n; }
 
 std::vector<std::string> SeedPipeline::Configure(const SeedStepConfig& config) {
   Impl& m = *impl_;
@@ -298,21 +298,6 @@ StepOutcome SeedPipeline::Step() {
   outcome.finite = m.flags.data()[1] == 0;
   return outcome;
 }
-
-void SeedPipeline::DownloadById(float* position, float* velocity, float* density) const {
-  impl_->DownloadById(position, velocity, density);
-}
-
-void SeedPipeline::GatherProbes(const ProbeGatherPlan& plan, ProbeGather& out) const {
-  impl_->GatherProbes(plan, out);
-}
-
-RankSubsetCopy SeedPipeline::DownloadBelowRank(uint32_t threshold, bool position, bool velocity,
-                                               bool density) const {
-  return impl_->DownloadBelowRank(threshold, position, velocity, density);
-}
-
-uint32_t SeedPipeline::max_cell_count() const { return impl_->sorter.max_count(); }
 
 uint64_t SeedPipeline::DeviceBytes() const {
   const Impl& m = *impl_;

@@ -101,23 +101,10 @@ struct WcsphPipeline::Impl : PhysicalArrays {
   }
 };
 
-WcsphPipeline::WcsphPipeline(int device) : impl_(std::make_unique<Impl>(device)) {}
+WcsphPipeline::WcsphPipeline(int device) : impl_(std::make_unique<Impl>(device)) {
+  arrays_ = impl_.get();
+}
 WcsphPipeline::~WcsphPipeline() = default;
-
-size_t WcsphPipeline::size() const { return impl_->n; }
-
-void WcsphPipeline::DownloadById(float* position, float* velocity, float* density) const {
-  impl_->DownloadById(position, velocity, density);
-}
-
-void WcsphPipeline::GatherProbes(const ProbeGatherPlan& plan, ProbeGather& out) const {
-  impl_->GatherProbes(plan, out);
-}
-
-RankSubsetCopy WcsphPipeline::DownloadBelowRank(uint32_t threshold, bool position, bool velocity,
-                                                bool density) const {
-  return impl_->DownloadBelowRank(threshold, position, velocity, density);
-}
 
 std::vector<std::string> WcsphPipeline::Configure(const WcsphStepConfig& config,
                                                   const BoundaryCloud& boundary) {
@@ -349,8 +336,6 @@ StepOutcome WcsphPipeline::Correct(float dt) {
   m.predicted = false;
   return m.FinishStep("the wcsph correction");
 }
-
-uint32_t WcsphPipeline::max_cell_count() const { return impl_->sorter.max_count(); }
 
 uint64_t WcsphPipeline::DeviceBytes() const {
   const Impl& m = *impl_;
