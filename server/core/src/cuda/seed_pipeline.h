@@ -9,10 +9,10 @@
 // the CPU's order. The CPU's neighbour loops accumulate in 8 lanes (simd.h), lane l taking the
 // candidates begin + l, begin + l + 8, ... of each run, and add the lanes 0..7 at the end; a
 // GPU thread keeps the same 8 partial sums in registers, or, where it reads a neighbour list
-// built by the density pass, each lane's in turn (seed_pipeline.cu). nvcc compiles these kernels
-// with --fmad=false (no fused multiply-add, as the CPU's -ffp-contract=off), IEEE division and
-// square root. Lanes the CPU masks off add +0 or subtract a signed zero from a sum that is never
-// -0, which changes nothing, so the GPU skips them.
+// built by the density pass, each lane's in turn (seed_neighbour_list.cuh). nvcc compiles these
+// kernels with --fmad=false (no fused multiply-add, as the CPU's -ffp-contract=off), IEEE division
+// and square root. Lanes the CPU masks off add +0 or subtract a signed zero from a sum that is
+// never -0, which changes nothing, so the GPU skips them.
 #pragma once
 
 #include <cstddef>
