@@ -146,6 +146,10 @@ class SeedGpuBackend final : public GpuBackend {
                                    bool density) const override {
     return pipeline_.DownloadBelowRank(threshold, position, velocity, density);
   }
+  RankSubsetCopy DownloadViewSubset(const ViewSubsetRequest& request, uint64_t budget,
+                                    bool position, bool velocity, bool density) const override {
+    return pipeline_.DownloadViewSubset(request, budget, position, velocity, density);
+  }
   void GatherProbes(const ProbeGatherPlan& plan, ProbeGather& out) const override {
     pipeline_.GatherProbes(plan, out);
   }
@@ -343,6 +347,10 @@ class WcsphGpuBackend final : public GpuBackend {
                                    bool density) const override {
     return pipeline_.DownloadBelowRank(threshold, position, velocity, density);
   }
+  RankSubsetCopy DownloadViewSubset(const ViewSubsetRequest& request, uint64_t budget,
+                                    bool position, bool velocity, bool density) const override {
+    return pipeline_.DownloadViewSubset(request, budget, position, velocity, density);
+  }
   void GatherProbes(const ProbeGatherPlan& plan, ProbeGather& out) const override {
     pipeline_.GatherProbes(plan, out);
   }
@@ -461,6 +469,10 @@ class DfsphGpuBackend final : public GpuBackend {
   RankSubsetCopy DownloadBelowRank(uint32_t threshold, bool position, bool velocity,
                                    bool density) const override {
     return pipeline_.DownloadBelowRank(threshold, position, velocity, density);
+  }
+  RankSubsetCopy DownloadViewSubset(const ViewSubsetRequest& request, uint64_t budget,
+                                    bool position, bool velocity, bool density) const override {
+    return pipeline_.DownloadViewSubset(request, budget, position, velocity, density);
   }
   void GatherProbes(const ProbeGatherPlan& plan, ProbeGather& out) const override {
     pipeline_.GatherProbes(plan, out);

@@ -17,6 +17,7 @@
 #include "cuda/probe_gatherer.cuh"
 #include "cuda/rank_subset.cuh"
 #include "cuda/sph_kernels.cuh"
+#include "cuda/view_subset.cuh"
 
 namespace dysa::cuda {
 namespace {
@@ -341,6 +342,7 @@ struct DfsphPipeline::Impl {
   mutable DeviceBuffer<float> frame_staging;  // DownloadById's
   mutable ProbeGatherer probe_gatherer;
   mutable RankSubset rank_subset;  // DownloadBelowRank's
+  mutable ViewSubset view_subset;  // DownloadViewSubset's
   DeviceBuffer<SphereObstacle> spheres;
   DeviceBuffer<BoxObstacle> boxes;
   DeviceBuffer<float> device_maxima;
@@ -533,6 +535,14 @@ RankSubsetCopy DfsphPipeline::DownloadBelowRank(uint32_t threshold, bool positio
   Impl& m = *impl_;
   DeviceScope scope(m.device);
   return m.rank_subset.Download(SubsetParticlesOf(m), threshold, position, velocity, density,
+                                m.stream.get());
+}
+
+RankSubsetCopy DfsphPipeline::DownloadViewSubset(const ViewSubsetRequest& request, uint64_t budget,
+                                                 bool position, bool velocity, bool density) const {
+  Impl& m = *impl_;
+  DeviceScope scope(m.device);
+  return m.view_subset.Download(SubsetParticlesOf(m), request, budget, position, velocity, density,
                                 m.stream.get());
 }
 
@@ -881,7 +891,7 @@ uint64_t DfsphPipeline::DeviceBytes() const {
          uint64_t(m.bn_weight.capacity()) * sizeof(float) +
          uint64_t(m.bx.capacity()) * (10 * sizeof(float) + 2 * sizeof(uint32_t) + 1) +
          m.sorter.DeviceBytes() + m.boundary_sorter.DeviceBytes() + m.moving.DeviceBytes() +
-         m.temp.capacity() + m.rank_subset.DeviceBytes();
+         m.temp.capacity() + m.rank_subset.DeviceBytes() + m.view_subset.DeviceBytes();
 }
 
 }  // namespace dysa::cuda

@@ -18,6 +18,7 @@
 
 #include "cuda/gpu_types.h"
 #include "cuda/wcsph_pipeline.h"
+#include "dysa/core/view_selection.h"
 #include "probe_gather.h"
 #include "rank_subset.h"
 
@@ -87,6 +88,9 @@ class DfsphPipeline {
   // the device (rank_subset.cuh): only they cross to the host.
   RankSubsetCopy DownloadBelowRank(uint32_t threshold, bool position, bool velocity,
                                    bool density) const;
+  // A view stream's subset, chosen and packed on the device (view_subset.cuh).
+  RankSubsetCopy DownloadViewSubset(const ViewSubsetRequest& request, uint64_t budget,
+                                    bool position, bool velocity, bool density) const;
   size_t size() const;
   // The most particles one grid cell held at the latest step's neighbour sort (read after the
   // step, or for dfsph after Prepare).

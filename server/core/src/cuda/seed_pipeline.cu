@@ -16,6 +16,7 @@
 #include "cuda/probe_gatherer.cuh"
 #include "cuda/rank_subset.cuh"
 #include "cuda/seed_pipeline.h"
+#include "cuda/view_subset.cuh"
 
 namespace dysa::cuda {
 namespace {
@@ -754,6 +755,7 @@ struct SeedPipeline::Impl {
   mutable DeviceBuffer<float> frame_staging;  // DownloadById's
   mutable ProbeGatherer probe_gatherer;
   mutable RankSubset rank_subset;  // DownloadBelowRank's
+  mutable ViewSubset view_subset;  // DownloadViewSubset's
   DeviceBuffer<float> density, near_density, pressure, near_pressure;
   // The grid's points (px, py, pz), for the neighbour kernels, and kLanes - 1 entries of
   // padding (DensityListKernel loads whole blocks).
@@ -1066,6 +1068,14 @@ RankSubsetCopy SeedPipeline::DownloadBelowRank(uint32_t threshold, bool position
                                 m.stream.get());
 }
 
+RankSubsetCopy SeedPipeline::DownloadViewSubset(const ViewSubsetRequest& request, uint64_t budget,
+                                                bool position, bool velocity, bool density) const {
+  Impl& m = *impl_;
+  DeviceScope scope(m.device);
+  return m.view_subset.Download(SubsetParticlesOf(m), request, budget, position, velocity, density,
+                                m.stream.get());
+}
+
 uint32_t SeedPipeline::max_cell_count() const { return impl_->sorter.max_count(); }
 
 uint64_t SeedPipeline::DeviceBytes() const {
@@ -1077,7 +1087,7 @@ uint64_t SeedPipeline::DeviceBytes() const {
          uint64_t(m.pos4.capacity()) * sizeof(float4) +
          uint64_t(m.pos_value.capacity()) * sizeof(PosValue) +
          uint64_t(m.list_units.capacity() + m.list_words.capacity()) * sizeof(uint32_t) +
-         m.sorter.DeviceBytes() + m.rank_subset.DeviceBytes();
+         m.sorter.DeviceBytes() + m.rank_subset.DeviceBytes() + m.view_subset.DeviceBytes();
 }
 
 }  // namespace dysa::cuda

@@ -22,6 +22,7 @@
 #include <vector>
 
 #include "cuda/gpu_types.h"
+#include "dysa/core/view_selection.h"
 #include "probe_gather.h"
 #include "rank_subset.h"
 
@@ -84,6 +85,9 @@ class SeedPipeline {
   // the device (rank_subset.cuh): only they cross to the host.
   RankSubsetCopy DownloadBelowRank(uint32_t threshold, bool position, bool velocity,
                                    bool density) const;
+  // A view stream's subset, chosen and packed on the device (view_subset.cuh).
+  RankSubsetCopy DownloadViewSubset(const ViewSubsetRequest& request, uint64_t budget,
+                                    bool position, bool velocity, bool density) const;
   size_t size() const;
   // Device memory held, bytes (particles, the grid, the neighbour list, scratch).
   // The most particles one grid cell held at the latest step's neighbour sort (read after the

@@ -14,6 +14,7 @@
 #include "cuda/rank_subset.cuh"
 #include "cuda/sph_kernels.cuh"
 #include "cuda/symplectic_kernels.cuh"
+#include "cuda/view_subset.cuh"
 #include "cuda/wcsph_kernels.cuh"
 #include "cuda/wcsph_pipeline.h"
 
@@ -59,6 +60,7 @@ struct WcsphPipeline::Impl {
   mutable DeviceBuffer<float> frame_staging;  // DownloadById's
   mutable ProbeGatherer probe_gatherer;
   mutable RankSubset rank_subset;  // DownloadBelowRank's
+  mutable ViewSubset view_subset;  // DownloadViewSubset's
   DeviceBuffer<SphereObstacle> spheres;
   DeviceBuffer<BoxObstacle> boxes;
   DeviceBuffer<float> device_maxima;              // [0] |v|^2, [1] |a|^2, [2] density
@@ -191,6 +193,14 @@ RankSubsetCopy WcsphPipeline::DownloadBelowRank(uint32_t threshold, bool positio
   Impl& m = *impl_;
   DeviceScope scope(m.device);
   return m.rank_subset.Download(SubsetParticlesOf(m), threshold, position, velocity, density,
+                                m.stream.get());
+}
+
+RankSubsetCopy WcsphPipeline::DownloadViewSubset(const ViewSubsetRequest& request, uint64_t budget,
+                                                 bool position, bool velocity, bool density) const {
+  Impl& m = *impl_;
+  DeviceScope scope(m.device);
+  return m.view_subset.Download(SubsetParticlesOf(m), request, budget, position, velocity, density,
                                 m.stream.get());
 }
 
@@ -483,7 +493,7 @@ uint64_t WcsphPipeline::DeviceBytes() const {
          uint64_t(m.packed_position.capacity()) * 2 * sizeof(float4) +
          uint64_t(m.bx.capacity()) * (9 * sizeof(float) + 1) + m.sorter.DeviceBytes() +
          m.boundary_sorter.DeviceBytes() + m.moving.DeviceBytes() + m.reduce_temp.capacity() +
-         m.rank_subset.DeviceBytes();
+         m.rank_subset.DeviceBytes() + m.view_subset.DeviceBytes();
 }
 
 }  // namespace dysa::cuda
