@@ -92,6 +92,10 @@ class PipelineBackend : public GpuBackend {
                                    bool density) const override {
     return pipeline_.DownloadBelowRank(threshold, position, velocity, density);
   }
+  RankSubsetCopy DownloadViewSubset(const ViewSubsetRequest& request, uint64_t budget,
+                                    bool position, bool velocity, bool density) const override {
+    return pipeline_.DownloadViewSubset(request, budget, position, velocity, density);
+  }
   void GatherProbes(const ProbeGatherPlan& plan, ProbeGather& out) const override {
     pipeline_.GatherProbes(plan, out);
   }

@@ -46,7 +46,8 @@ struct SolveResult {
   bool capped = false;
 };
 
-// DownloadById, DownloadBelowRank, size, max_cell_count and GatherProbes are ParticleReadout's.
+// DownloadById, DownloadBelowRank, DownloadViewSubset, size, max_cell_count and GatherProbes are
+// ParticleReadout's.
 class DfsphPipeline : public ParticleReadout {
  public:
   explicit DfsphPipeline(int device);

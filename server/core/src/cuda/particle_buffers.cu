@@ -72,6 +72,14 @@ RankSubsetCopy ParticleReadout::DownloadBelowRank(uint32_t threshold, bool posit
                                        density, arrays_->stream.get());
 }
 
+RankSubsetCopy ParticleReadout::DownloadViewSubset(const ViewSubsetRequest& request,
+                                                   uint64_t budget, bool position, bool velocity,
+                                                   bool density) const {
+  DeviceScope scope(arrays_->device);
+  return arrays_->view_subset.Download(SubsetParticlesOf(*arrays_), request, budget, position,
+                                       velocity, density, arrays_->stream.get());
+}
+
 size_t ParticleReadout::size() const { return arrays_->n; }
 
 uint32_t ParticleReadout::max_cell_count() const { return arrays_->sorter.max_count(); }
@@ -85,7 +93,7 @@ uint64_t ParticleBuffers::ParticleDeviceBytes() const {
   // 14 float arrays (positions, velocities, their permutation targets, densities, pressures)
   // and the two id arrays.
   return uint64_t(x.capacity()) * (14 * sizeof(float) + 2 * sizeof(uint32_t)) +
-         sorter.DeviceBytes() + rank_subset.DeviceBytes();
+         sorter.DeviceBytes() + rank_subset.DeviceBytes() + view_subset.DeviceBytes();
 }
 
 }  // namespace dysa::cuda

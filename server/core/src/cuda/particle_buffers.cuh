@@ -1,8 +1,8 @@
 // The particle arrays every GPU pipeline keeps (seed, wcsph, dfsph) and their copies to and from
 // the host, in one place: ids, positions, velocities, densities and pressures in the grid's
 // order, the permutation targets the neighbour sort swaps them with, the grid sorter, and the
-// read-outs (storage order here; particle-id order, a level of detail's subset and the probes'
-// gather through ParticleReadout, particle_readout.h).
+// read-outs (storage order here; particle-id order, a level of detail's subset, a view stream's
+// subset and the probes' gather through ParticleReadout, particle_readout.h).
 //
 // A pipeline's Impl derives from it (the physical solvers' through PhysicalArrays) and adds the
 // arrays only it has, so that its kernels' views and the templates over "a pipeline's state"
@@ -19,6 +19,7 @@
 #include "cuda/device_grid.cuh"
 #include "cuda/probe_gatherer.cuh"
 #include "cuda/rank_subset.cuh"
+#include "cuda/view_subset.cuh"
 
 namespace dysa::cuda {
 
@@ -41,7 +42,7 @@ struct ParticleBuffers {
   void EnqueueDownload(uint32_t* host_id, float* position, float* velocity, float* host_density,
                        float* host_pressure) const;
 
-  // Bytes of the shared arrays, the sorter and the subset's buffers.
+  // Bytes of the shared arrays, the sorter and the subsets' buffers.
   uint64_t ParticleDeviceBytes() const;
 
   // data becomes data permuted by `order` (out[k] = in[order[k]]); target holds the old values.
@@ -60,10 +61,12 @@ struct ParticleBuffers {
   DeviceBuffer<uint32_t> id, id2;
   DeviceBuffer<float> density, pressure;
   GridSorter sorter;
-  // ParticleReadout's: DownloadById's staging, the probes' gather, DownloadBelowRank's subset.
+  // ParticleReadout's: DownloadById's staging, the probes' gather, DownloadBelowRank's subset,
+  // DownloadViewSubset's.
   DeviceBuffer<float> frame_staging;
   ProbeGatherer probe_gatherer;
   RankSubset rank_subset;
+  ViewSubset view_subset;
 };
 
 }  // namespace dysa::cuda

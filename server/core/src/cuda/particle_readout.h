@@ -1,6 +1,7 @@
 // What the host reads back from a GPU pipeline's particles whatever its solver (seed, wcsph,
 // dfsph): their count, the positions, velocities and densities in particle-id order, a level of
-// detail's subset, the probes' gather and the neighbour sort's fullest cell. Each pipeline
+// detail's subset, a view stream's subset, the probes' gather and the neighbour sort's fullest
+// cell. Each pipeline
 // derives from it and points it at its particle arrays (ParticleBuffers, particle_buffers.cuh).
 // A plain interface: the C++ compiler reads it without CUDA.
 #pragma once
@@ -8,6 +9,7 @@
 #include <cstddef>
 #include <cstdint>
 
+#include "dysa/core/view_selection.h"
 #include "probe_gather.h"
 #include "rank_subset.h"
 
@@ -24,6 +26,9 @@ class ParticleReadout {
   // the device (rank_subset.cuh): only they cross to the host.
   RankSubsetCopy DownloadBelowRank(uint32_t threshold, bool position, bool velocity,
                                    bool density) const;
+  // A view stream's subset, chosen and packed on the device (view_subset.cuh).
+  RankSubsetCopy DownloadViewSubset(const ViewSubsetRequest& request, uint64_t budget,
+                                    bool position, bool velocity, bool density) const;
   size_t size() const;
   // The most particles one grid cell held at the latest step's neighbour sort (read after the
   // step, or for dfsph after Prepare).

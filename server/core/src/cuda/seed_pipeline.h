@@ -56,7 +56,8 @@ struct SeedStepConfig {
   std::vector<BoxObstacle> boxes;
 };
 
-// DownloadById, DownloadBelowRank, size, max_cell_count and GatherProbes are ParticleReadout's.
+// DownloadById, DownloadBelowRank, DownloadViewSubset, size, max_cell_count and GatherProbes are
+// ParticleReadout's.
 class SeedPipeline : public ParticleReadout {
  public:
   explicit SeedPipeline(int device);
