@@ -14,6 +14,7 @@
 #include "dysa/core/solver.h"
 #include "dysa/core/state.h"
 #include "dysa/core/step_backend.h"
+#include "dysa/core/view_selection.h"
 #include "probe_gather.h"
 #include "rank_subset.h"
 
@@ -28,6 +29,10 @@ class GpuBackend : public StepBackend {
   // chosen and packed on the device, so only they cross to the host (cuda/rank_subset.cuh).
   virtual RankSubsetCopy DownloadBelowRank(uint32_t threshold, bool position, bool velocity,
                                            bool density) const = 0;
+  // A view stream's subset (dysa/core/view_selection.h): the `budget` smallest keys' particles,
+  // ids increasing, chosen and packed on the device (cuda/view_subset.cuh).
+  virtual RankSubsetCopy DownloadViewSubset(const ViewSubsetRequest& request, uint64_t budget,
+                                            bool position, bool velocity, bool density) const = 0;
 
  protected:
   DeviceInfo info_;

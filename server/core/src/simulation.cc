@@ -6,6 +6,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "dysa/core/view_selection.h"
 #include "dysa/detail_rank.h"
 #include "gpu_backend.h"
 #include "probe_stages.h"
@@ -33,6 +34,20 @@ ByIdPointers CheckedPointers(const Simulation::ParticlesById& out, size_t n, con
   };
   return {check(out.position, 3 * n, "position"), check(out.velocity, 3 * n, "velocity"),
           check(out.density, n, "density")};
+}
+
+// Scatters a subset packed on a device (in the order of its ids) to the ids' entries.
+void ScatterSubset(const RankSubsetCopy& c, const ByIdPointers& to) {
+  float *position = to.position, *velocity = to.velocity, *density = to.density;
+#pragma omp parallel for schedule(static)
+  for (size_t j = 0; j < c.count; ++j) {
+    const size_t k = c.ids[j];
+    for (int a = 0; a < 3; ++a) {
+      if (position) position[3 * k + a] = c.position[3 * j + a];
+      if (velocity) velocity[3 * k + a] = c.velocity[3 * j + a];
+    }
+    if (density) density[k] = c.density[j];
+  }
 }
 
 }  // namespace
@@ -113,15 +128,7 @@ size_t Simulation::ReadParticlesByIdBelowRank(uint32_t threshold, const Particle
     // Packed in id order on the device; scattered to the ids' entries here.
     const RankSubsetCopy c = gpu->DownloadBelowRank(threshold, position != nullptr,
                                                     velocity != nullptr, density != nullptr);
-#pragma omp parallel for schedule(static)
-    for (size_t j = 0; j < c.count; ++j) {
-      const size_t k = c.ids[j];
-      for (int a = 0; a < 3; ++a) {
-        if (position) position[3 * k + a] = c.position[3 * j + a];
-        if (velocity) velocity[3 * k + a] = c.velocity[3 * j + a];
-      }
-      if (density) density[k] = c.density[j];
-    }
+    ScatterSubset(c, {position, velocity, density});
     return c.count;
   }
   if (host_stale_) {
@@ -146,6 +153,35 @@ size_t Simulation::ReadParticlesByIdBelowRank(uint32_t threshold, const Particle
     if (density) density[k] = p.density[i];
   }
   return kept;
+}
+
+size_t Simulation::ReadViewSubset(const ViewSubsetRequest& request, uint64_t budget,
+                                  std::vector<uint32_t>& ids, const ParticlesById& out) const {
+  const size_t n = particle_count_;
+  const ByIdPointers to = CheckedPointers(out, n, "ReadViewSubset");
+  if (!request.weigh) throw std::invalid_argument("ReadViewSubset: the request has no weigher");
+  const auto* gpu = dynamic_cast<const GpuBackend*>(backend_.get());
+  if (gpu && host_stale_) {
+    // Chosen and packed in id order on the device; scattered to the ids' entries here.
+    const RankSubsetCopy c = gpu->DownloadViewSubset(request, budget, to.position != nullptr,
+                                                     to.velocity != nullptr, to.density != nullptr);
+    ids.assign(c.ids, c.ids + c.count);
+    ScatterSubset(c, to);
+    return c.count;
+  }
+  // On the host: every particle in id order (the keys need every position), then the chosen.
+  std::vector<float> position(3 * n), velocity(to.velocity ? 3 * n : 0),
+      density(to.density ? n : 0);
+  ReadParticlesById({position, velocity, density});
+  ids = ViewKeys(position.data(), n, request).Select(budget);
+  for (const uint32_t k : ids) {
+    for (int a = 0; a < 3; ++a) {
+      if (to.position) to.position[3 * k + a] = position[3 * k + a];
+      if (to.velocity) to.velocity[3 * k + a] = velocity[3 * k + a];
+    }
+    if (to.density) to.density[k] = density[k];
+  }
+  return ids.size();
 }
 
 std::string Simulation::DeviceDescription() const {

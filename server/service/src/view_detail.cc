@@ -6,8 +6,6 @@
 #include <stdexcept>
 #include <string>
 
-#include "dysa/codec/detail_subset.h"
-
 namespace dysa::service {
 namespace {
 
@@ -87,71 +85,47 @@ void StreamView::Validate() const {
   }
 }
 
-ViewOrder::ViewOrder(const StreamView& view, std::span<const float> positions,
-                     std::array<double, 3> lo, std::array<double, 3> hi, uint32_t stride)
-    : stride_(std::max<uint32_t>(1, stride)) {
-  const size_t n = positions.size() / 3;
-  const size_t m = (n + stride_ - 1) / stride_;
-  for (int a = 0; a < 3; ++a) {
-    if (hi[a] > lo[a]) continue;
-    lo[a] = std::numeric_limits<double>::infinity();
-    hi[a] = -lo[a];
-    for (size_t i = 0; i < n; ++i) {
-      lo[a] = std::min(lo[a], double(positions[3 * i + a]));
-      hi[a] = std::max(hi[a], double(positions[3 * i + a]));
-    }
-    if (!(hi[a] > lo[a])) lo[a] = (n ? lo[a] : 0) - 0.5, hi[a] = lo[a] + 1;
-  }
-  constexpr int g = kGrid;
-  Vec edge;
-  for (int a = 0; a < 3; ++a) edge[a] = (hi[a] - lo[a]) / g;
-  cell_of_.resize(m);
-  std::vector<uint32_t> count(size_t(g) * g * g, 0);
-  for (size_t k = 0; k < m; ++k) {
-    const float* p = &positions[3 * k * stride_];
-    uint32_t cell = 0;
-    for (int a = 2; a >= 0; --a) {
-      const double x = std::floor((p[a] - lo[a]) / edge[a]);
-      cell = cell * g + uint32_t(std::clamp(std::isfinite(x) ? x : 0.0, 0.0, double(g - 1)));
-    }
-    cell_of_[k] = cell;
-    ++count[cell];
-  }
-  // Per occupied cell: in view or not, and its weight (see the header).
+namespace {
+
+// The weights of the cells holding candidates (see the header), and per cell whether it is in
+// view when `in_view` is given.
+void WeighCells(const StreamView& view, const ViewGrid& grid, const uint32_t* count, double* weight,
+                std::vector<uint8_t>* in_view) {
+  constexpr int g = ViewOrder::kGrid;
+  const Vec lo = {grid.lo[0], grid.lo[1], grid.lo[2]};
+  const Vec edge = {grid.edge[0], grid.edge[1], grid.edge[2]};
   const Frustum frustum(view);
   const double rho = 0.5 * std::sqrt(Dot(edge, edge));
-  in_view_.assign(count.size(), 0);
-  std::vector<double> weight(count.size(), 0);
-  for (uint32_t cell = 0; cell < count.size(); ++cell) {
+  if (in_view) in_view->assign(kViewCells, 0);
+  for (uint32_t cell = 0; cell < kViewCells; ++cell) {
     if (count[cell] == 0) continue;
     const Vec c = {lo[0] + (cell % g + 0.5) * edge[0], lo[1] + ((cell / g) % g + 0.5) * edge[1],
                    lo[2] + (cell / (g * g) + 0.5) * edge[2]};
     const Vec rel = Sub(c, view.eye);
     const double d = std::max(std::sqrt(Dot(rel, rel)), rho);
-    in_view_[cell] = frustum.Reaches(c, rho) ? 1 : 0;
-    weight[cell] = (rho / d) * (rho / d) / count[cell] * (in_view_[cell] ? 1.0 : kOutsideWeight);
-  }
-  keys_.resize(m);
-  for (size_t k = 0; k < m; ++k) {
-    const double rank = double(codec::DetailRank(uint32_t(k * stride_))) * 0x1.0p-32;
-    keys_[k] = float(rank / weight[cell_of_[k]]);
+    const bool inside = frustum.Reaches(c, rho);
+    if (in_view) (*in_view)[cell] = inside ? 1 : 0;
+    weight[cell] = (rho / d) * (rho / d) / count[cell] * (inside ? 1.0 : ViewOrder::kOutsideWeight);
   }
 }
 
-std::vector<uint32_t> ViewOrder::Select(uint64_t budget) const {
-  std::vector<uint32_t> order(keys_.size());
-  for (uint32_t k = 0; k < order.size(); ++k) order[k] = k;
-  if (budget < order.size()) {
-    // One strict total order (key, then candidate index) for every budget: the selections nest.
-    const auto before = [&](uint32_t a, uint32_t b) {
-      return keys_[a] < keys_[b] || (keys_[a] == keys_[b] && a < b);
-    };
-    std::nth_element(order.begin(), order.begin() + budget, order.end(), before);
-    order.resize(budget);
-    std::sort(order.begin(), order.end());
-  }
-  for (uint32_t& k : order) k *= stride_;
-  return order;
+}  // namespace
+
+ViewSubsetRequest ViewRequest(const StreamView& view, std::array<double, 3> domain_min,
+                              std::array<double, 3> domain_max, uint32_t stride,
+                              std::vector<uint8_t>* in_view) {
+  ViewSubsetRequest request;
+  request.box_min = domain_min;
+  request.box_max = domain_max;
+  request.stride = std::max<uint32_t>(1, stride);
+  request.weigh = [view, in_view](const ViewGrid& grid, const uint32_t* count, double* weight) {
+    WeighCells(view, grid, count, weight, in_view);
+  };
+  return request;
 }
+
+ViewOrder::ViewOrder(const StreamView& view, std::span<const float> positions,
+                     std::array<double, 3> lo, std::array<double, 3> hi, uint32_t stride)
+    : keys_(positions.data(), positions.size() / 3, ViewRequest(view, lo, hi, stride, &in_view_)) {}
 
 }  // namespace dysa::service

@@ -80,11 +80,38 @@ void PlaceSeedObstacles(const Model& model, double t, double dt,
   }
 }
 
-class SeedGpuBackend final : public GpuBackend {
+// A backend over one of the pipelines: the read-outs they share (cuda::ParticleReadout) and the
+// memory they hold, forwarded alike.
+template <class Pipeline>
+class PipelineBackend : public GpuBackend {
  public:
-  SeedGpuBackend(const Device& device, const DeviceInfo& info) : pipeline_(device.index) {
+  void DownloadById(float* position, float* velocity, float* density) const override {
+    pipeline_.DownloadById(position, velocity, density);
+  }
+  RankSubsetCopy DownloadBelowRank(uint32_t threshold, bool position, bool velocity,
+                                   bool density) const override {
+    return pipeline_.DownloadBelowRank(threshold, position, velocity, density);
+  }
+  RankSubsetCopy DownloadViewSubset(const ViewSubsetRequest& request, uint64_t budget,
+                                    bool position, bool velocity, bool density) const override {
+    return pipeline_.DownloadViewSubset(request, budget, position, velocity, density);
+  }
+  void GatherProbes(const ProbeGatherPlan& plan, ProbeGather& out) const override {
+    pipeline_.GatherProbes(plan, out);
+  }
+  uint64_t DeviceBytes() const override { return pipeline_.DeviceBytes(); }
+
+ protected:
+  PipelineBackend(const Device& device, const DeviceInfo& info) : pipeline_(device.index) {
     info_ = info;
   }
+
+  Pipeline pipeline_;
+};
+
+class SeedGpuBackend final : public PipelineBackend<cuda::SeedPipeline> {
+ public:
+  SeedGpuBackend(const Device& device, const DeviceInfo& info) : PipelineBackend(device, info) {}
 
   std::vector<std::string> Configure(const Model& model) override {
     const Params& prm = model.params;
@@ -139,17 +166,6 @@ class SeedGpuBackend final : public GpuBackend {
                        nullptr, nullptr, nullptr);
   }
 
-  void DownloadById(float* position, float* velocity, float* density) const override {
-    pipeline_.DownloadById(position, velocity, density);
-  }
-  RankSubsetCopy DownloadBelowRank(uint32_t threshold, bool position, bool velocity,
-                                   bool density) const override {
-    return pipeline_.DownloadBelowRank(threshold, position, velocity, density);
-  }
-  void GatherProbes(const ProbeGatherPlan& plan, ProbeGather& out) const override {
-    pipeline_.GatherProbes(plan, out);
-  }
-
   StepReport Step(const Model& model, State& state) override {
     if (model.HasMovingObstacles()) {
       std::vector<cuda::SphereObstacle> spheres;
@@ -161,11 +177,6 @@ class SeedGpuBackend final : public GpuBackend {
     return StepReport{std::move(outcome.pass_ms), outcome.finite, outcome.limited,
                       pipeline_.max_cell_count()};
   }
-
-  uint64_t DeviceBytes() const override { return pipeline_.DeviceBytes(); }
-
- private:
-  cuda::SeedPipeline pipeline_;
 };
 
 void AddObstacles(const Model& model, std::vector<cuda::SphereObstacle>& spheres,
@@ -288,11 +299,9 @@ cuda::BoundaryCloud Cloud(const BoundaryParticles& boundary) {
 // Weakly compressible SPH (Becker & Teschner 2007) on the GPU: the passes up to the time step
 // run there, the CFL step is chosen here from the maxima they return (CflLimits, the CPU's
 // code), and the integration runs there with it.
-class WcsphGpuBackend final : public GpuBackend {
+class WcsphGpuBackend final : public PipelineBackend<cuda::WcsphPipeline> {
  public:
-  WcsphGpuBackend(const Device& device, const DeviceInfo& info) : pipeline_(device.index) {
-    info_ = info;
-  }
+  WcsphGpuBackend(const Device& device, const DeviceInfo& info) : PipelineBackend(device, info) {}
 
   std::vector<std::string> Configure(const Model& model) override {
     cuda::WcsphStepConfig config;
@@ -334,17 +343,6 @@ class WcsphGpuBackend final : public GpuBackend {
     if (pipeline_.DownloadCarriedDensity(carried.data())) {
       solver_arrays.push_back({std::string(wcsph::kCarriedDensity), std::move(carried)});
     }
-  }
-
-  void DownloadById(float* position, float* velocity, float* density) const override {
-    pipeline_.DownloadById(position, velocity, density);
-  }
-  RankSubsetCopy DownloadBelowRank(uint32_t threshold, bool position, bool velocity,
-                                   bool density) const override {
-    return pipeline_.DownloadBelowRank(threshold, position, velocity, density);
-  }
-  void GatherProbes(const ProbeGatherPlan& plan, ProbeGather& out) const override {
-    pipeline_.GatherProbes(plan, out);
   }
 
   // The gravity, rho^H_ij's factor (as ComputeInteractions) and the boundary's motion at
@@ -396,21 +394,14 @@ class WcsphGpuBackend final : public GpuBackend {
     cuda::StepOutcome outcome = pipeline_.Correct(Real(state.dt));
     return StepReport{std::move(outcome.pass_ms), outcome.finite, 0};
   }
-
-  uint64_t DeviceBytes() const override { return pipeline_.DeviceBytes(); }
-
- private:
-  cuda::WcsphPipeline pipeline_;
 };
 
 // Divergence-free SPH (Bender & Koschier 2015/2017) on the GPU: the passes and the solves'
 // iterations run there; the two time steps are chosen here (CflLimits, the CPU's code) from the
 // maxima the GPU returns.
-class DfsphGpuBackend final : public GpuBackend {
+class DfsphGpuBackend final : public PipelineBackend<cuda::DfsphPipeline> {
  public:
-  DfsphGpuBackend(const Device& device, const DeviceInfo& info) : pipeline_(device.index) {
-    info_ = info;
-  }
+  DfsphGpuBackend(const Device& device, const DeviceInfo& info) : PipelineBackend(device, info) {}
 
   std::vector<std::string> Configure(const Model& model) override {
     cuda::DfsphStepConfig config;
@@ -453,17 +444,6 @@ class DfsphGpuBackend final : public GpuBackend {
                      {std::string(dfsph::kDivergenceStiffness), std::vector<Real>(n)}};
     pipeline_.Download(p.id.data(), Floats(p.position), Floats(p.velocity), nullptr, nullptr,
                        solver_arrays[0].values.data(), solver_arrays[1].values.data());
-  }
-
-  void DownloadById(float* position, float* velocity, float* density) const override {
-    pipeline_.DownloadById(position, velocity, density);
-  }
-  RankSubsetCopy DownloadBelowRank(uint32_t threshold, bool position, bool velocity,
-                                   bool density) const override {
-    return pipeline_.DownloadBelowRank(threshold, position, velocity, density);
-  }
-  void GatherProbes(const ProbeGatherPlan& plan, ProbeGather& out) const override {
-    pipeline_.GatherProbes(plan, out);
   }
 
   StepReport Step(const Model& model, State& state) override {
@@ -511,7 +491,6 @@ class DfsphGpuBackend final : public GpuBackend {
     return StepReport{std::move(outcome.pass_ms), outcome.finite, 0};
   }
 
-  uint64_t DeviceBytes() const override { return pipeline_.DeviceBytes(); }
   SolverStats stats() const override { return stats_; }
 
  private:
@@ -526,7 +505,6 @@ class DfsphGpuBackend final : public GpuBackend {
     }
   }
 
-  cuda::DfsphPipeline pipeline_;
   SolverStats stats_;
 };
 

@@ -17,9 +17,8 @@
 #include <vector>
 
 #include "cuda/gpu_types.h"
+#include "cuda/particle_readout.h"
 #include "cuda/wcsph_pipeline.h"
-#include "probe_gather.h"
-#include "rank_subset.h"
 
 namespace dysa::cuda {
 
@@ -47,7 +46,9 @@ struct SolveResult {
   bool capped = false;
 };
 
-class DfsphPipeline {
+// DownloadById, DownloadBelowRank, DownloadViewSubset, size, max_cell_count and GatherProbes are
+// ParticleReadout's.
+class DfsphPipeline : public ParticleReadout {
  public:
   explicit DfsphPipeline(int device);
   ~DfsphPipeline();
@@ -80,21 +81,7 @@ class DfsphPipeline {
   // As WcsphPipeline::MoveSurfaces: the contact's obstacles over the coming integration.
   void MoveSurfaces(const std::vector<SphereObstacle>& spheres,
                     const std::vector<BoxObstacle>& boxes, float obstacle_speed);
-  // Positions and velocities (xyz triples) and densities in particle-id order (id k at k);
-  // any pointer may be null (not copied).
-  void DownloadById(float* position, float* velocity, float* density) const;
-  // The particles of BelowRank(id, threshold) (threshold > 0) in id order, chosen and packed on
-  // the device (rank_subset.cuh): only they cross to the host.
-  RankSubsetCopy DownloadBelowRank(uint32_t threshold, bool position, bool velocity,
-                                   bool density) const;
-  size_t size() const;
-  // The most particles one grid cell held at the latest step's neighbour sort (read after the
-  // step, or for dfsph after Prepare).
-  uint32_t max_cell_count() const;
   uint64_t DeviceBytes() const;
-
-  // The probes' gather (probe_gather.h) over the particles, on the device.
-  void GatherProbes(const ProbeGatherPlan& plan, ProbeGather& out) const;
 
  private:
   struct Impl;

@@ -21,7 +21,7 @@ struct ProbeParticles {
 };
 
 // The ProbeParticles of a pipeline's state (any struct with device buffers n, x, y, z, vx, vy,
-// vz, density and pressure: the three pipelines' Impl).
+// vz, density and pressure: the pipelines' ParticleBuffers, particle_buffers.cuh).
 template <class Arrays>
 ProbeParticles ProbeParticlesOf(const Arrays& a) {
   ProbeParticles p;

@@ -23,7 +23,7 @@ struct SubsetParticles {
 };
 
 // The SubsetParticles of a pipeline's state (any struct with device buffers n, id, x, y, z, vx,
-// vy, vz and density: the three pipelines' Impl).
+// vy, vz and density: the pipelines' ParticleBuffers, particle_buffers.cuh).
 template <class Arrays>
 SubsetParticles SubsetParticlesOf(const Arrays& a) {
   SubsetParticles p;

@@ -9,10 +9,10 @@
 // the CPU's order. The CPU's neighbour loops accumulate in 8 lanes (simd.h), lane l taking the
 // candidates begin + l, begin + l + 8, ... of each run, and add the lanes 0..7 at the end; a
 // GPU thread keeps the same 8 partial sums in registers, or, where it reads a neighbour list
-// built by the density pass, each lane's in turn (seed_pipeline.cu). nvcc compiles these kernels
-// with --fmad=false (no fused multiply-add, as the CPU's -ffp-contract=off), IEEE division and
-// square root. Lanes the CPU masks off add +0 or subtract a signed zero from a sum that is never
-// -0, which changes nothing, so the GPU skips them.
+// built by the density pass, each lane's in turn (seed_neighbour_list.cuh). nvcc compiles these
+// kernels with --fmad=false (no fused multiply-add, as the CPU's -ffp-contract=off), IEEE division
+// and square root. Lanes the CPU masks off add +0 or subtract a signed zero from a sum that is
+// never -0, which changes nothing, so the GPU skips them.
 #pragma once
 
 #include <cstddef>
@@ -22,8 +22,7 @@
 #include <vector>
 
 #include "cuda/gpu_types.h"
-#include "probe_gather.h"
-#include "rank_subset.h"
+#include "cuda/particle_readout.h"
 
 namespace dysa::cuda {
 
@@ -57,7 +56,9 @@ struct SeedStepConfig {
   std::vector<BoxObstacle> boxes;
 };
 
-class SeedPipeline {
+// DownloadById, DownloadBelowRank, DownloadViewSubset, size, max_cell_count and GatherProbes are
+// ParticleReadout's.
+class SeedPipeline : public ParticleReadout {
  public:
   explicit SeedPipeline(int device);
   ~SeedPipeline();
@@ -77,22 +78,8 @@ class SeedPipeline {
   void MoveObstacles(const std::vector<SphereObstacle>& spheres,
                      const std::vector<BoxObstacle>& boxes);
   StepOutcome Step();
-  // Positions and velocities (xyz triples) and densities in particle-id order (id k at k);
-  // any pointer may be null (not copied).
-  void DownloadById(float* position, float* velocity, float* density) const;
-  // The particles of BelowRank(id, threshold) (threshold > 0) in id order, chosen and packed on
-  // the device (rank_subset.cuh): only they cross to the host.
-  RankSubsetCopy DownloadBelowRank(uint32_t threshold, bool position, bool velocity,
-                                   bool density) const;
-  size_t size() const;
   // Device memory held, bytes (particles, the grid, the neighbour list, scratch).
-  // The most particles one grid cell held at the latest step's neighbour sort (read after the
-  // step, or for dfsph after Prepare).
-  uint32_t max_cell_count() const;
   uint64_t DeviceBytes() const;
-
-  // The probes' gather (probe_gather.h) over the particles, on the device.
-  void GatherProbes(const ProbeGatherPlan& plan, ProbeGather& out) const;
 
  private:
   struct Impl;

@@ -298,5 +298,26 @@ __device__ void MoveAndStore(const SphConstants& c, const Surfaces& s, Fluid f, 
   f.vx[i] = vs[0], f.vy[i] = vs[1], f.vz[i] = vs[2];
 }
 
+// The kernels' views of a pipeline's arrays (PhysicalArrays, physical_arrays.cuh). Only wcsph
+// keeps p / rho^2 and the walls' pressures; dfsph passes null and a scratch array for them.
+template <class Arrays>
+Fluid FluidOf(Arrays& a, float* p_over_rho2) {
+  return {a.x.data(),  a.y.data(),  a.z.data(),       a.vx.data(),       a.vy.data(),
+          a.vz.data(), a.id.data(), a.density.data(), a.pressure.data(), a.ax.data(),
+          a.ay.data(), a.az.data(), p_over_rho2};
+}
+template <class Arrays>
+Boundary BoundaryOf(Arrays& a, float* pressure, float* p_over_rho2) {
+  return {a.bx.data(), a.by.data(),   a.bz.data(),   a.bvolume.data(), a.bno_slip.data(),
+          pressure,    p_over_rho2,   a.bvx.data(),  a.bvy.data(),     a.bvz.data(),
+          a.nb,        a.moving.ux(), a.moving.uy(), a.moving.uz()};
+}
+template <class Arrays>
+Surfaces SurfacesOf(const Arrays& a) {
+  Surfaces s{a.spheres.data(), a.sphere_count, a.boxes.data(), a.box_count, {}, a.obstacle_speed};
+  for (int k = 0; k < 3; ++k) s.periodic[k] = a.periodic[k];
+  return s;
+}
+
 }  // namespace
 }  // namespace dysa::cuda::sph

@@ -3,15 +3,12 @@
 #include <cuda_runtime.h>
 
 #include <cub/device/device_reduce.cuh>
-#include <stdexcept>
 #include <string>
 
 #include "cuda/device_buffer.cuh"
 #include "cuda/device_grid.cuh"
-#include "cuda/moving_boundary.cuh"
 #include "cuda/particle_shifting.cuh"
-#include "cuda/probe_gatherer.cuh"
-#include "cuda/rank_subset.cuh"
+#include "cuda/physical_arrays.cuh"
 #include "cuda/sph_kernels.cuh"
 #include "cuda/symplectic_kernels.cuh"
 #include "cuda/wcsph_kernels.cuh"
@@ -24,17 +21,13 @@ using namespace sph;  // NOLINT: this file is the wcsph half of those kernels
 
 }  // namespace
 
-struct WcsphPipeline::Impl {
-  explicit Impl(int device_index) : device(device_index), stream(device_index) {}
+// The particles, the boundary and the obstacles are PhysicalArrays'; these are wcsph's own.
+struct WcsphPipeline::Impl : PhysicalArrays {
+  explicit Impl(int device_index) : PhysicalArrays(device_index) {}
 
-  int device;
-  Stream stream;
   WcsphStepConfig config;
   std::vector<std::string> passes;
-  uint32_t n = 0;
-  DeviceBuffer<float> x, y, z, vx, vy, vz, x2, y2, z2, vx2, vy2, vz2;
-  DeviceBuffer<uint32_t> id, id2;
-  DeviceBuffer<float> density, pressure, ax, ay, az, p_over_rho2, speed2, acceleration2;
+  DeviceBuffer<float> p_over_rho2;
   // The density the continuity equation carries (permuted with the particles), its scratch for
   // the permutation, and the step's D rho / Dt; carried_ready false until InitialDensityKernel.
   DeviceBuffer<float> carried, carried2, density_rate;
@@ -47,20 +40,8 @@ struct WcsphPipeline::Impl {
   bool predicted = false;
   // The particle shifting's displacement rate (allocated at its first pass).
   DeviceBuffer<float> shift_x, shift_y, shift_z;
-  GridSorter sorter;
-  // The boundary: positions, volumes and flags in its grid's order, its grid, and per step its
-  // pressures and velocities.
-  uint32_t nb = 0;
-  DeviceBuffer<float> bx, by, bz, bvolume, bpressure, bp_over_rho2, bvx, bvy, bvz;
-  DeviceBuffer<uint8_t> bno_slip;
-  GridSorter boundary_sorter;
-  MovingBoundary moving;
-  float obstacle_speed = 0;                   // m/s, the contact's fastest obstacle (MoveSurfaces)
-  mutable DeviceBuffer<float> frame_staging;  // DownloadById's
-  mutable ProbeGatherer probe_gatherer;
-  mutable RankSubset rank_subset;  // DownloadBelowRank's
-  DeviceBuffer<SphereObstacle> spheres;
-  DeviceBuffer<BoxObstacle> boxes;
+  // The boundary's pressures per step.
+  DeviceBuffer<float> bpressure, bp_over_rho2;
   DeviceBuffer<float> device_maxima;              // [0] |v|^2, [1] |a|^2, [2] density
   DeviceBuffer<unsigned long long> device_flags;  // [0] unused, [1] non-finite
   PinnedBuffer<float> maxima;
@@ -69,60 +50,20 @@ struct WcsphPipeline::Impl {
   EventTimer timer;
   size_t pass = 0;
 
-  Fluid View() {
-    return {x.data(),  y.data(),  z.data(),          vx.data(),       vy.data(),
-            vz.data(), id.data(), density.data(),    pressure.data(), ax.data(),
-            ay.data(), az.data(), p_over_rho2.data()};
-  }
-  Boundary BoundaryView() {
-    return {bx.data(),
-            by.data(),
-            bz.data(),
-            bvolume.data(),
-            bno_slip.data(),
-            bpressure.data(),
-            bp_over_rho2.data(),
-            bvx.data(),
-            bvy.data(),
-            bvz.data(),
-            nb,
-            moving.ux(),
-            moving.uy(),
-            moving.uz()};
-  }
-  Surfaces SurfaceView() {
-    Surfaces s{
-        spheres.data(), int(config.spheres.size()), boxes.data(), int(config.boxes.size()), {},
-        obstacle_speed};
-    for (int a = 0; a < 3; ++a) s.periodic[a] = config.grid.periodic[a];
-    return s;
-  }
+  Fluid View() { return FluidOf(*this, p_over_rho2.data()); }
+  Boundary BoundaryView() { return BoundaryOf(*this, bpressure.data(), bp_over_rho2.data()); }
+  Surfaces SurfaceView() { return SurfacesOf(*this); }
 
-  void Allocate(uint32_t count) {
-    for (DeviceBuffer<float>* b : {&x,       &y,        &z,           &vx,       &vy,
-                                   &vz,      &x2,       &y2,          &z2,       &vx2,
-                                   &vy2,     &vz2,      &density,     &pressure, &ax,
-                                   &ay,      &az,       &p_over_rho2, &speed2,   &acceleration2,
-                                   &carried, &carried2, &density_rate}) {
-      b->Resize(count > 0 ? count : 1);
-    }
-    id.Resize(count > 0 ? count : 1);
-    id2.Resize(count > 0 ? count : 1);
-    packed_position.Resize(count > 0 ? count : 1);
-    packed_velocity.Resize(count > 0 ? count : 1);
-    sorter.Reserve(count);
+  void Allocate(size_t count) {
+    AllocateFluid(count, {&p_over_rho2, &carried, &carried2, &density_rate});
+    const uint32_t elements = uint32_t(count > 0 ? count : 1);
+    packed_position.Resize(elements);
+    packed_velocity.Resize(elements);
     size_t bytes = 0;
     CheckCuda(cub::DeviceReduce::Max(nullptr, bytes, speed2.data(), device_maxima.data(),
-                                     int64_t(count > 0 ? count : 1)),
+                                     int64_t(elements)),
               "sizing the maxima");
     reduce_temp.Resize(bytes > 0 ? bytes : 1);
-    n = count;
-  }
-
-  template <class T>
-  void Gather(const uint32_t* order, DeviceBuffer<T>& data, DeviceBuffer<T>& target, uint32_t m) {
-    GatherByOrder(order, data.data(), target.data(), m, stream.get());
-    data.swap(target);
   }
 
   // The shifting pass where it is on (timed as the next pass); the shift to integrate with.
@@ -160,39 +101,10 @@ struct WcsphPipeline::Impl {
   }
 };
 
-WcsphPipeline::WcsphPipeline(int device) : impl_(std::make_unique<Impl>(device)) {}
+WcsphPipeline::WcsphPipeline(int device) : impl_(std::make_unique<Impl>(device)) {
+  arrays_ = impl_.get();
+}
 WcsphPipeline::~WcsphPipeline() = default;
-
-size_t WcsphPipeline::size() const { return impl_->n; }
-
-void WcsphPipeline::DownloadById(float* position, float* velocity, float* density) const {
-  Impl& m = *impl_;
-  DeviceScope scope(m.device);
-  const uint32_t* id = m.id.data();
-  if (position)
-    cuda::DownloadById(id, m.x.data(), m.y.data(), m.z.data(), m.n, position, m.frame_staging,
-                       m.stream.get());
-  if (velocity)
-    cuda::DownloadById(id, m.vx.data(), m.vy.data(), m.vz.data(), m.n, velocity, m.frame_staging,
-                       m.stream.get());
-  if (density)
-    cuda::DownloadById(id, m.density.data(), nullptr, nullptr, m.n, density, m.frame_staging,
-                       m.stream.get());
-}
-
-void WcsphPipeline::GatherProbes(const ProbeGatherPlan& plan, ProbeGather& out) const {
-  Impl& m = *impl_;
-  DeviceScope scope(m.device);
-  m.probe_gatherer.Gather(ProbeParticlesOf(m), plan, m.stream.get(), out);
-}
-
-RankSubsetCopy WcsphPipeline::DownloadBelowRank(uint32_t threshold, bool position, bool velocity,
-                                                bool density) const {
-  Impl& m = *impl_;
-  DeviceScope scope(m.device);
-  return m.rank_subset.Download(SubsetParticlesOf(m), threshold, position, velocity, density,
-                                m.stream.get());
-}
 
 std::vector<std::string> WcsphPipeline::Configure(const WcsphStepConfig& config,
                                                   const BoundaryCloud& boundary) {
@@ -200,38 +112,8 @@ std::vector<std::string> WcsphPipeline::Configure(const WcsphStepConfig& config,
   DeviceScope scope(m.device);
   cudaStream_t s = m.stream.get();
   m.config = config;
-  m.spheres.Assign(config.spheres, s);
-  m.boxes.Assign(config.boxes, s);
-  m.sorter.Configure(config.grid);
-  m.boundary_sorter.Configure(config.grid);
-  // The boundary, sorted on its own grid (already in cell order: the stable sort keeps it).
-  m.nb = uint32_t(boundary.volume.size());
-  const uint32_t nb = m.nb > 0 ? m.nb : 1;
-  for (DeviceBuffer<float>* b :
-       {&m.bx, &m.by, &m.bz, &m.bvolume, &m.bpressure, &m.bp_over_rho2, &m.bvx, &m.bvy, &m.bvz}) {
-    b->Resize(nb);
-    b->Zero(s);
-  }
-  m.bno_slip.Resize(nb);
-  m.bx.Assign(boundary.x, s), m.by.Assign(boundary.y, s), m.bz.Assign(boundary.z, s);
-  m.bvolume.Assign(boundary.volume, s);
-  m.bno_slip.Assign(boundary.no_slip, s);
-  m.boundary_sorter.Reserve(m.nb);
-  m.boundary_sorter.Sort(config.grid, m.bx.data(), m.by.data(), m.bz.data(), m.nb, s);
-  if (m.nb > 0) {
-    // The identity permutation when the host's order is the grid's, as it is; applied anyway so
-    // that the arrays always match the cell starts.
-    const uint32_t* order = m.boundary_sorter.order();
-    DeviceBuffer<float> scratch;
-    scratch.Resize(m.nb);
-    for (DeviceBuffer<float>* b : {&m.bx, &m.by, &m.bz, &m.bvolume})
-      m.Gather(order, *b, scratch, m.nb);
-    DeviceBuffer<uint8_t> flags;
-    flags.Resize(m.nb);
-    m.Gather(order, m.bno_slip, flags, m.nb);
-  }
-  m.moving.Configure(boundary, s);
-  m.obstacle_speed = 0;
+  m.ConfigureArrays(config.grid, config.spheres, config.boxes, boundary,
+                    {&m.bpressure, &m.bp_over_rho2});
   m.passes.clear();
   if (m.moving.active()) m.passes.push_back("move_boundary");
   for (const char* name : {"neighbour_grid", "pressure", "boundary_pressure", "interactions"}) {
@@ -259,16 +141,9 @@ void WcsphPipeline::Upload(size_t n, const uint32_t* id, const float* position,
                            const float* velocity, const float* carried_density) {
   Impl& m = *impl_;
   DeviceScope scope(m.device);
-  if (n > uint64_t(UINT32_MAX) / 2) throw std::length_error("too many particles for the GPU");
-  m.Allocate(uint32_t(n));
+  m.Allocate(n);
   cudaStream_t s = m.stream.get();
-  UploadInterleaved(position, n, m.x, m.y, m.z, s);
-  UploadInterleaved(velocity, n, m.vx, m.vy, m.vz, s);
-  if (n > 0) {
-    CheckCuda(cudaMemcpyAsync(m.id.data(), id, n * sizeof(uint32_t), cudaMemcpyHostToDevice, s),
-              "uploading ids");
-  }
-  m.density.Zero(s), m.pressure.Zero(s);
+  m.EnqueueUpload(id, position, velocity);
   m.carried_ready = carried_density != nullptr;
   if (carried_density && n > 0) {
     CheckCuda(cudaMemcpyAsync(m.carried.data(), carried_density, n * sizeof(float),
@@ -283,11 +158,7 @@ void WcsphPipeline::Download(uint32_t* id, float* position, float* velocity, flo
   Impl& m = *impl_;
   DeviceScope scope(m.device);
   cudaStream_t s = m.stream.get();
-  if (id) m.id.CopyTo(id, m.n, s);
-  if (position) DownloadInterleaved(m.x, m.y, m.z, m.n, position, s);
-  if (velocity) DownloadInterleaved(m.vx, m.vy, m.vz, m.n, velocity, s);
-  if (density) m.density.CopyTo(density, m.n, s);
-  if (pressure) m.pressure.CopyTo(pressure, m.n, s);
+  m.EnqueueDownload(id, position, velocity, density, pressure);
   CheckCuda(cudaStreamSynchronize(s), "downloading particles");
 }
 
@@ -303,11 +174,7 @@ bool WcsphPipeline::DownloadCarriedDensity(float* carried_density) const {
 
 void WcsphPipeline::MoveSurfaces(const std::vector<SphereObstacle>& spheres,
                                  const std::vector<BoxObstacle>& boxes, float obstacle_speed) {
-  Impl& m = *impl_;
-  DeviceScope scope(m.device);
-  m.spheres.Assign(spheres, m.stream.get());
-  m.boxes.Assign(boxes, m.stream.get());
-  m.obstacle_speed = obstacle_speed;
+  impl_->MoveSurfaces(spheres, boxes, obstacle_speed);
 }
 
 void WcsphPipeline::Impl::ForcePasses(float gravity, float hydrostatic,
@@ -323,16 +190,11 @@ void WcsphPipeline::Impl::ForcePasses(float gravity, float hydrostatic,
 
   if (m.moving.active()) {
     begin_pass();  // move_boundary
-    m.moving.Move(motion.offset, motion.velocity, cfg.grid, m.boundary_sorter, m.bx.data(),
-                  m.by.data(), m.bz.data(), m.bvolume.data(), m.bno_slip.data(), s);
+    m.MoveBoundary(cfg.grid, motion);
   }
   begin_pass();  // neighbour_grid
-  m.sorter.Sort(cfg.grid, m.x.data(), m.y.data(), m.z.data(), n, s);
-  const uint32_t* order = m.sorter.order();
+  const uint32_t* order = m.SortFluid(cfg.grid);
   if (n > 0) {
-    m.Gather(order, m.x, m.x2, n), m.Gather(order, m.y, m.y2, n), m.Gather(order, m.z, m.z2, n);
-    m.Gather(order, m.vx, m.vx2, n), m.Gather(order, m.vy, m.vy2, n);
-    m.Gather(order, m.vz, m.vz2, n), m.Gather(order, m.id, m.id2, n);
     if (m.carried_ready) m.Gather(order, m.carried, m.carried2, n);
     if (m.predicted) {
       m.Gather(order, m.start_x, m.x2, n), m.Gather(order, m.start_y, m.y2, n);
@@ -475,15 +337,13 @@ StepOutcome WcsphPipeline::Correct(float dt) {
   return m.FinishStep("the wcsph correction");
 }
 
-uint32_t WcsphPipeline::max_cell_count() const { return impl_->sorter.max_count(); }
-
 uint64_t WcsphPipeline::DeviceBytes() const {
   const Impl& m = *impl_;
-  return uint64_t(m.x.capacity()) * (23 * sizeof(float) + 2 * sizeof(uint32_t)) +
+  // Wcsph's own: 4 float arrays per particle (p / rho^2, the carried density, its scratch, its
+  // rate), the packed sweep state, and 2 per boundary sample (its pressures).
+  return m.PhysicalDeviceBytes() + uint64_t(m.x.capacity()) * 4 * sizeof(float) +
          uint64_t(m.packed_position.capacity()) * 2 * sizeof(float4) +
-         uint64_t(m.bx.capacity()) * (9 * sizeof(float) + 1) + m.sorter.DeviceBytes() +
-         m.boundary_sorter.DeviceBytes() + m.moving.DeviceBytes() + m.reduce_temp.capacity() +
-         m.rank_subset.DeviceBytes();
+         uint64_t(m.bx.capacity()) * 2 * sizeof(float) + m.reduce_temp.capacity();
 }
 
 }  // namespace dysa::cuda

@@ -15,8 +15,7 @@
 #include <vector>
 
 #include "cuda/gpu_types.h"
-#include "probe_gather.h"
-#include "rank_subset.h"
+#include "cuda/particle_readout.h"
 
 namespace dysa::cuda {
 
@@ -52,7 +51,9 @@ struct StepMaxima {
   float density = 0;        // kg/m^3, the largest density
 };
 
-class WcsphPipeline {
+// DownloadById, DownloadBelowRank, DownloadViewSubset, size, max_cell_count and GatherProbes are
+// ParticleReadout's.
+class WcsphPipeline : public ParticleReadout {
  public:
   explicit WcsphPipeline(int device);
   ~WcsphPipeline();
@@ -91,21 +92,7 @@ class WcsphPipeline {
   void Predict(float half);
   void CorrectorForces(float gravity, float hydrostatic, const ObstacleMotionTable& motion);
   StepOutcome Correct(float dt);
-  // Positions and velocities (xyz triples) and densities in particle-id order (id k at k);
-  // any pointer may be null (not copied).
-  void DownloadById(float* position, float* velocity, float* density) const;
-  // The particles of BelowRank(id, threshold) (threshold > 0) in id order, chosen and packed on
-  // the device (rank_subset.cuh): only they cross to the host.
-  RankSubsetCopy DownloadBelowRank(uint32_t threshold, bool position, bool velocity,
-                                   bool density) const;
-  size_t size() const;
-  // The most particles one grid cell held at the latest step's neighbour sort (read after the
-  // step, or for dfsph after Prepare).
-  uint32_t max_cell_count() const;
   uint64_t DeviceBytes() const;
-
-  // The probes' gather (probe_gather.h) over the particles, on the device.
-  void GatherProbes(const ProbeGatherPlan& plan, ProbeGather& out) const;
 
  private:
   struct Impl;

@@ -18,6 +18,8 @@
 
 namespace dysa {
 
+struct ViewSubsetRequest;  // dysa/core/view_selection.h
+
 // Time spent in one pass, in milliseconds: wall time on the CPU, the time between CUDA events
 // around the pass's kernels on a GPU.
 struct PassProfile {
@@ -100,6 +102,15 @@ class Simulation {
   // particles cross to the host; on ranks each rank sends only its particles of the subset.
   // Returns the particles written. Throws as ReadParticlesById.
   size_t ReadParticlesByIdBelowRank(uint32_t threshold, const ParticlesById& out) const;
+  // A view stream's subset (dysa/core/view_selection.h): the ids of the `budget` smallest keys
+  // of `request` on the current state, increasing, into `ids` (every candidate when budget >=
+  // the candidates), and the asked arrays of those particles at their ids' entries of `out`; the
+  // other entries are left as they are. The same ids on any device: on a GPU they are chosen and
+  // packed on the device, and only the chosen particles, the grid's per-cell counts (to the
+  // host, for request.weigh) and weights (back) cross; on the CPU ViewKeys chooses them.
+  // Returns ids.size(). Throws as ReadParticlesById, and std::invalid_argument without a weigher.
+  size_t ReadViewSubset(const ViewSubsetRequest& request, uint64_t budget,
+                        std::vector<uint32_t>& ids, const ParticlesById& out) const;
   // The values of `probes` for the current state, in ProbeColumns() order (probes.h), as
   // EvaluateProbes(probes, model(), state()) computes them. On a GPU they are evaluated on the
   // device, which sends back only the particles around each local probe and the sums, not the

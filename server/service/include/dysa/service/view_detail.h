@@ -32,6 +32,8 @@
 #include <span>
 #include <vector>
 
+#include "dysa/core/view_selection.h"
+
 namespace dysa::service {
 
 // A subscriber's camera, in the scene's frame (metres). A right-handed look-at: the view
@@ -48,10 +50,19 @@ struct StreamView {
   bool operator==(const StreamView&) const = default;
 };
 
-// The grid and the candidates' keys of one frame seen from one view.
+// The request that chooses a view's subset (dysa/core/view_selection.h): the grid over the
+// domain box (degenerate axes: the particles' bounds) and the view's per-cell weights (see
+// above). ViewOrder's on the host; Simulation::ReadViewSubset's on any device, where a GPU
+// chooses the same ids on the device. `view` must be valid. `in_view`, when given, receives per
+// cell whether it is in view at each selection (it must outlive the request's use).
+ViewSubsetRequest ViewRequest(const StreamView& view, std::array<double, 3> domain_min,
+                              std::array<double, 3> domain_max, uint32_t stride,
+                              std::vector<uint8_t>* in_view = nullptr);
+
+// The grid and the candidates' keys of one frame seen from one view, on the host.
 class ViewOrder {
  public:
-  static constexpr int kGrid = 32;                    // cells per axis over the domain box
+  static constexpr int kGrid = kViewGrid;             // cells per axis over the domain box
   static constexpr double kOutsideWeight = 1.0 / 16;  // a cell out of view: 1/4 of the spacing
 
   // `positions`: 3 per particle in id order (m); the box the grid spans (when degenerate, the
@@ -60,17 +71,15 @@ class ViewOrder {
             std::array<double, 3> domain_min, std::array<double, 3> domain_max, uint32_t stride);
 
   // Candidates: ids with id % stride == 0.
-  uint32_t candidates() const { return uint32_t(keys_.size()); }
+  uint32_t candidates() const { return keys_.candidates(); }
   // The `budget` smallest keys' ids, increasing (every candidate when budget >= candidates()).
-  std::vector<uint32_t> Select(uint64_t budget) const;
+  std::vector<uint32_t> Select(uint64_t budget) const { return keys_.Select(budget); }
   // Whether the particle's cell is (at least partly) inside the view frustum.
-  bool InView(uint32_t id) const { return in_view_[cell_of_[id / stride_]] != 0; }
+  bool InView(uint32_t id) const { return in_view_[keys_.cell_of(id / keys_.stride())] != 0; }
 
  private:
-  uint32_t stride_;
-  std::vector<float> keys_;        // per candidate k (id = k * stride)
-  std::vector<uint32_t> cell_of_;  // per candidate
-  std::vector<uint8_t> in_view_;   // per cell
+  std::vector<uint8_t> in_view_;  // per cell (filled while keys_ is built)
+  ViewKeys keys_;
 };
 
 }  // namespace dysa::service

@@ -1,0 +1,309 @@
+// The dfsph solver's passes as CUDA kernels (dfsph_pipeline.cu launches them), each the CPU code
+// of solvers/dfsph/bender_koschier_solver.cc and pressure_boundary.cc with the same name and the
+// same operations in the same order (dfsph_pipeline.h says where the GPU differs).
+#pragma once
+
+#include <cuda_runtime.h>
+
+#include <cstdint>
+
+#include "cuda/device_grid.cuh"
+#include "cuda/gpu_types.h"
+#include "cuda/sph_kernels.cuh"
+
+namespace dysa::cuda {
+// Each file that includes this gets its own copy of these kernels.
+namespace {
+
+using namespace sph;  // NOLINT: the shared half of these kernels
+
+// The largest density error, as a fraction of rho0, one iteration of the density solve
+// corrects (kMaxCorrection in bender_koschier_solver.cc).
+constexpr float kMaxCorrection = 0.05f;
+
+// m, the domain's length along each periodic axis, 0 along the others (Model::MinimumImage).
+struct Periods {
+  float length[3];
+};
+
+// A pair of the density pass: the other particle and grad W (1/m^4).
+struct Pair {
+  uint32_t other;
+  float gx, gy, gz;
+};
+
+// The per-particle arrays of the solves (Work in bender_koschier_solver.cc) and the lists.
+struct Solver {
+  float *alpha, *kappa, *error, *kappa_sum;
+  const uint32_t *fluid_begin, *wall_begin;
+  Pair *fluid_pairs, *wall_pairs;
+  // The walls' fluid neighbours (dfsph::BoundaryNeighbors), b's in [bn_begin[b], bn_begin[b+1]).
+  const uint32_t* bn_begin;
+  const uint32_t* bn_fluid;
+  float* bn_weight;
+  float* hydrostatic;  // Pa
+  float* kappa_b;      // kappa_b / rho of the current iteration
+};
+
+// The counts of pairs at distance > 0 within the support, fluid and wall, of each particle.
+__global__ void CountPairsKernel(DeviceGrid grid, DeviceGrid bgrid, Fluid f, Boundary b,
+                                 SphConstants c, uint32_t* fluid_count, uint32_t* wall_count,
+                                 uint32_t n) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= n) return;
+  const int3 cell = grid.SortedCell(i);
+  const F3 x{f.x[i], f.y[i], f.z[i]};
+  uint32_t fluid = 0, wall = 0;
+  ForEachWithin(grid, {f.x, f.y, f.z}, cell, x, c.support, [&](uint32_t, F3, float r) {
+    if (r > 0) ++fluid;
+  });
+  ForEachWithin(bgrid, {b.x, b.y, b.z}, cell, x, c.support, [&](uint32_t, F3, float r) {
+    if (r > 0) ++wall;
+  });
+  fluid_count[i] = fluid;
+  wall_count[i] = wall;
+}
+
+// DensityAndFactor: rho_i, alpha_i and the pairs.
+__global__ void DensityAndFactorKernel(DeviceGrid grid, DeviceGrid bgrid, Fluid f, Boundary b,
+                                       Solver s, SphConstants c, uint32_t* wall_owner, uint32_t n) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= n) return;
+  const int3 cell = grid.SortedCell(i);
+  const F3 x{f.x[i], f.y[i], f.z[i]};
+  const float rho0 = c.psi_scale;
+  float fluid = 0, squares = 0;
+  F3 grad{0, 0, 0};
+  uint32_t k = s.fluid_begin[i];
+  ForEachWithin(grid, {f.x, f.y, f.z}, cell, x, c.support, [&](uint32_t j, F3 xij, float r) {
+    fluid += KernelW(r, c);
+    const float gf = GradFactor(r, c);
+    const F3 g{xij.x * gf, xij.y * gf, xij.z * gf};
+    if (r > 0) s.fluid_pairs[k++] = Pair{j, g.x, g.y, g.z};
+    const F3 mg{c.mass * g.x, c.mass * g.y, c.mass * g.z};
+    grad.x += mg.x, grad.y += mg.y, grad.z += mg.z;
+    squares += Norm2(mg);
+  });
+  float wall = 0;
+  uint32_t kw = s.wall_begin[i];
+  ForEachWithin(bgrid, {b.x, b.y, b.z}, cell, x, c.support, [&](uint32_t o, F3 xib, float r) {
+    wall += b.volume[o] * KernelW(r, c);
+    const float gf = GradFactor(r, c);
+    const F3 g{xib.x * gf, xib.y * gf, xib.z * gf};
+    if (r > 0) {
+      wall_owner[kw] = i;
+      s.wall_pairs[kw++] = Pair{o, g.x, g.y, g.z};
+    }
+    const float psi = rho0 * b.volume[o];
+    grad.x += psi * g.x, grad.y += psi * g.y, grad.z += psi * g.z;
+  });
+  const float rho = (c.mass * fluid + rho0 * wall) * c.density_scale;
+  f.density[i] = rho;
+  const float denominator = Norm2(grad) + squares;
+  s.alpha[i] = denominator > 1e-6f * rho * rho / (c.support * c.support) ? rho / denominator : 0.0f;
+}
+
+// The walls' Shepard weights and hydrostatic pressure (ListBoundaryNeighbors).
+__global__ void BoundaryWeightsKernel(Fluid f, Boundary b, Solver s, SphConstants c, Periods period,
+                                      float gravity) {
+  const uint32_t o = blockIdx.x * blockDim.x + threadIdx.x;
+  if (o >= b.n) return;
+  float sum = 0, head = 0;
+  for (uint32_t k = s.bn_begin[o]; k < s.bn_begin[o + 1]; ++k) {
+    const uint32_t i = s.bn_fluid[k];
+    float d[3] = {b.x[o] - f.x[i], b.y[o] - f.y[i], b.z[o] - f.z[i]};
+    for (int a = 0; a < 3; ++a) {  // Model::MinimumImage
+      const float length = period.length[a];
+      if (length == 0) continue;
+      if (d[a] > length / 2) d[a] -= length;
+      if (d[a] < -length / 2) d[a] += length;
+    }
+    const float w = KernelW(sqrtf(Norm2({d[0], d[1], d[2]})), c);
+    s.bn_weight[k] = w;
+    sum += w;
+    head += w * f.density[i] * d[1];
+  }
+  const float inv = sum > 0 ? 1 / sum : 0.0f;
+  for (uint32_t k = s.bn_begin[o]; k < s.bn_begin[o + 1]; ++k) s.bn_weight[k] *= inv;
+  const float hydrostatic = gravity * head * inv;
+  s.hydrostatic[o] = hydrostatic < 0.0f ? 0.0f : hydrostatic;  // std::max(., 0)
+  s.kappa_b[o] = 0;
+}
+
+__global__ void HydrostaticAccelerationKernel(Fluid f, Boundary b, Solver s, SphConstants c,
+                                              float mu, uint32_t n) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= n) return;
+  F3 sum{0, 0, 0};
+  for (uint32_t k = s.wall_begin[i]; k < s.wall_begin[i + 1]; ++k) {
+    const Pair p = s.wall_pairs[k];
+    const float w = b.volume[p.other] * s.hydrostatic[p.other];
+    sum.x += w * p.gx, sum.y += w * p.gy, sum.z += w * p.gz;
+  }
+  const float rho = f.density[i];
+  const float scale = -c.psi_scale / (rho * rho * mu);
+  f.ax[i] = scale * sum.x, f.ay[i] = scale * sum.y, f.az[i] = scale * sum.z;
+}
+
+// D rho_i / Dt over the step's pairs (DensityRate).
+__device__ float DensityRate(const Fluid& f, const Boundary& b, const Solver& s,
+                             const SphConstants& c, uint32_t i) {
+  const F3 v{f.vx[i], f.vy[i], f.vz[i]};
+  float rate = 0;
+  for (uint32_t k = s.fluid_begin[i]; k < s.fluid_begin[i + 1]; ++k) {
+    const Pair p = s.fluid_pairs[k];
+    rate += c.mass * Dot({v.x - f.vx[p.other], v.y - f.vy[p.other], v.z - f.vz[p.other]},
+                         {p.gx, p.gy, p.gz});
+  }
+  for (uint32_t k = s.wall_begin[i]; k < s.wall_begin[i + 1]; ++k) {
+    const Pair p = s.wall_pairs[k];
+    // A moving obstacle's samples carry its velocity v_b: Psi_b (v_i - v_b) . grad W.
+    rate +=
+        c.psi_scale * b.volume[p.other] * Dot(RelativeToSample(b, v, p.other), {p.gx, p.gy, p.gz});
+  }
+  return rate;
+}
+
+// StartWarmStart's per-particle part: kappa_i from what the solve applied last step.
+__global__ void WarmStartKernel(Fluid f, Boundary b, Solver s, SphConstants c, float* carried,
+                                float dt, float scale, float bound, bool density_solve,
+                                unsigned long long* any, uint32_t n) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= n) return;
+  const float rho0 = c.psi_scale;
+  float kappa = 0;
+  if (carried[i] > 0) {
+    const float rate = DensityRate(f, b, s, c, i);
+    const bool compressing =
+        density_solve ? f.density[i] + dt * rate > rho0 : rate > 0 && f.density[i] >= rho0;
+    if (compressing) {
+      const float warm = scale * carried[i], cap = bound * s.alpha[i];
+      kappa = cap < warm ? cap : warm;  // std::min
+    }
+  }
+  s.kappa[i] = kappa;
+  carried[i] = 0;
+  if (kappa > 0) *any = 1;  // every writer writes the same value
+}
+
+// One iteration's error and kappa: the divergence solve (density_solve false) or the density
+// solve.
+__global__ void SolveErrorKernel(Fluid f, Boundary b, Solver s, SphConstants c, float dt,
+                                 float inv_dt_power, bool density_solve, uint32_t n) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= n) return;
+  const float rho0 = c.psi_scale;
+  if (density_solve) {
+    const float predicted = f.density[i] + dt * DensityRate(f, b, s, c, i);
+    const float difference = predicted - rho0;
+    const float excess = difference < 0.0f ? 0.0f : difference;  // std::max(., 0)
+    s.error[i] = excess;
+    const float cap = kMaxCorrection * rho0;
+    s.kappa[i] = (cap < excess ? cap : excess) * inv_dt_power * s.alpha[i];
+  } else {
+    float rate = 0;
+    if (f.density[i] >= rho0) {
+      const float r = DensityRate(f, b, s, c, i);
+      rate = r < 0.0f ? 0.0f : r;  // std::max(r, 0)
+    }
+    s.error[i] = rate;
+    s.kappa[i] = rate * s.alpha[i] * inv_dt_power;
+  }
+}
+
+__global__ void KappaOverRhoKernel(Fluid f, Solver s, uint32_t n) {
+  const uint32_t j = blockIdx.x * blockDim.x + threadIdx.x;
+  if (j < n) s.error[j] = s.kappa[j] / f.density[j];
+}
+
+// ExtrapolateKappa: kappa_b = sum_i w_bi kappa_i / rho_i.
+__global__ void ExtrapolateKappaKernel(Solver s, uint32_t nb) {
+  const uint32_t o = blockIdx.x * blockDim.x + threadIdx.x;
+  if (o >= nb) return;
+  float kappa = 0;
+  for (uint32_t k = s.bn_begin[o]; k < s.bn_begin[o + 1]; ++k) {
+    kappa += s.bn_weight[k] * s.error[s.bn_fluid[k]];
+  }
+  s.kappa_b[o] = kappa;
+}
+
+// ApplyKappa's per-particle part (s.error holds kappa / rho).
+__global__ void ApplyKappaKernel(Fluid f, Boundary b, Solver s, SphConstants c, float dt,
+                                 float* applied, uint32_t n) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= n) return;
+  const float ki = s.error[i];
+  F3 fluid{0, 0, 0}, wall{0, 0, 0};
+  for (uint32_t k = s.fluid_begin[i]; k < s.fluid_begin[i + 1]; ++k) {
+    const Pair p = s.fluid_pairs[k];
+    const float w = ki + s.error[p.other];
+    fluid.x += w * p.gx, fluid.y += w * p.gy, fluid.z += w * p.gz;
+  }
+  for (uint32_t k = s.wall_begin[i]; k < s.wall_begin[i + 1]; ++k) {
+    const Pair p = s.wall_pairs[k];
+    const float w = b.volume[p.other] * (ki + s.kappa_b[p.other]);
+    wall.x += w * p.gx, wall.y += w * p.gy, wall.z += w * p.gz;
+  }
+  f.vx[i] -= dt * (c.mass * fluid.x + c.psi_scale * wall.x);
+  f.vy[i] -= dt * (c.mass * fluid.y + c.psi_scale * wall.y);
+  f.vz[i] -= dt * (c.mass * fluid.z + c.psi_scale * wall.z);
+  s.kappa_sum[i] += s.kappa[i] * dt;
+  applied[i] += s.kappa[i];
+}
+
+__global__ void ScaleKernel(float* values, float scale, uint32_t n) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i < n) values[i] *= scale;
+}
+
+__global__ void AddGravityKernel(Fluid f, float gravity, uint32_t n) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= n) return;
+  f.ax[i] += 0.0f, f.ay[i] += gravity, f.az[i] += 0.0f;
+}
+
+__global__ void PredictVelocityKernel(Fluid f, float dt, uint32_t n) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= n) return;
+  f.vx[i] += f.ax[i] * dt, f.vy[i] += f.ay[i] * dt, f.vz[i] += f.az[i] * dt;
+}
+
+__global__ void PressureKernel(Fluid f, Solver s, float scale, uint32_t n) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i < n) f.pressure[i] = scale * s.kappa_sum[i] * f.density[i];
+}
+
+// IntegratePositions: the speed limit, the wall contact, x += v dt.
+__global__ void IntegrateKernel(Fluid f, SphConstants c, Surfaces surfaces, float dt, float limit,
+                                unsigned long long* limited, uint32_t n) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= n) return;
+  F3 v{f.vx[i], f.vy[i], f.vz[i]};
+  const float speed2 = Norm2(v);
+  if (speed2 > limit * limit) {
+    const float k = limit / sqrtf(speed2);
+    v.x *= k, v.y *= k, v.z *= k;
+    atomicAdd(limited, 1ull);  // an integer count: the same whatever the order
+  }
+  const F3 x{f.x[i], f.y[i], f.z[i]};
+  LimitApproachToSurfaces(c, surfaces, x, dt, v);
+  MoveAndStore(c, surfaces, f, i, x, v, dt);
+}
+
+__global__ void PairOtherKernel(const Pair* pairs, uint32_t* other, uint32_t count) {
+  const uint32_t k = blockIdx.x * blockDim.x + threadIdx.x;
+  if (k < count) other[k] = pairs[k].other;
+}
+
+__global__ void SpeedSquaredKernel(Fluid f, float* speed2, uint32_t n) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i < n) speed2[i] = Norm2({f.vx[i], f.vy[i], f.vz[i]});
+}
+
+__global__ void OwnerCountKernel(const uint32_t* keys, uint32_t* count, uint32_t n) {
+  const uint32_t k = blockIdx.x * blockDim.x + threadIdx.x;
+  if (k < n) atomicAdd(&count[keys[k]], 1u);  // integer counts: order-independent
+}
+
+}  // namespace
+}  // namespace dysa::cuda
