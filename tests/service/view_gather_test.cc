@@ -154,6 +154,7 @@ TEST(ViewGather, AViewKeyframeQuantisesOverEveryParticleGivenTheirBounds) {
   // Particles outside the domain widen the range: the bounds stand for the unsent ones.
   std::vector<float> p(3 * 1000);
   for (size_t i = 0; i < p.size(); ++i) p[i] = float(i % 97) / 50.0f - 0.5f;
+  p[3] = -3, p[4] = 5, p[5] = 7;  // particle 1, not sent, holds the extremes
   std::vector<uint32_t> ids;
   for (uint32_t k = 0; k < 1000; k += 7) ids.push_back(k);
   codec::StreamConfig config;
@@ -178,6 +179,8 @@ TEST(ViewGather, AViewKeyframeQuantisesOverEveryParticleGivenTheirBounds) {
   for (const uint32_t k : ids) std::copy_n(&p[3 * k], 3, &sparse[3 * k]);
   in.positions = sparse;
   EXPECT_EQ(codec::FrameEncoder(config).Encode(in), whole);
+  in.has_position_bounds = false;  // the sent particles' extremes alone: another range
+  EXPECT_NE(codec::FrameEncoder(config).Encode(in), whole);
 }
 
 }  // namespace
