@@ -84,6 +84,12 @@ void CheckIds(std::span<const uint32_t> ids, size_t count) {
 
 void WidenPositionsToAll(const FrameInput& f, Extremes& e) {
   const int64_t n = int64_t(f.positions.size() / 3);
+  if (f.has_position_bounds) {  // the caller reduced them where the particles live
+    for (int a = 0; a < 3; ++a) {
+      if (n > 0) e.lo[a] = f.position_lo[a], e.hi[a] = f.position_hi[a];
+    }
+    return;
+  }
   const float* p = f.positions.data();
   for (int a = 0; a < 3; ++a) {
     float mn = std::numeric_limits<float>::infinity();

@@ -30,7 +30,8 @@ size_t CheckInput(const FrameInput& f, uint32_t fields);
 // increasing, each below count. Throws std::invalid_argument naming the field.
 void CheckIds(std::span<const uint32_t> ids, size_t count);
 
-// Widens the position extremes to those of every particle of the frame, not just the sent ones.
+// Widens the position extremes to those of every particle of the frame, not just the sent ones:
+// f.position_lo/hi when the caller gave them (has_position_bounds), else a scan of f.positions.
 void WidenPositionsToAll(const FrameInput& f, Extremes& e);
 
 // Copies each component in `comps` of the kept particles (ids `kept` when it is not empty, else

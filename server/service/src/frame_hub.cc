@@ -216,6 +216,28 @@ uint32_t FrameHub::NeededThreshold() const {
   return widest;
 }
 
+FrameHub::Needs FrameHub::GatherNeeds() const {
+  std::lock_guard lock(mu_);
+  Needs needs;
+  for (const auto& g : groups_) {
+    const codec::StreamConfig& c = g->options.stream;
+    needs.fields |= c.fields;
+    if (g->view) {
+      needs.views.push_back({g->view, c.fields, c.detail_threshold, c.stride, c.keyframe_interval});
+      continue;
+    }
+    // The widest detail: 0 (every particle) wins.
+    if (!needs.plain) {
+      needs.plain_threshold = c.detail_threshold;
+    } else if (needs.plain_threshold != 0) {
+      needs.plain_threshold =
+          c.detail_threshold == 0 ? 0 : std::max(needs.plain_threshold, c.detail_threshold);
+    }
+    needs.plain = true;
+  }
+  return needs;
+}
+
 std::string FrameHub::FrameLimitRefusal(uint64_t total, uint32_t stride) const {
   const uint64_t count = (total + std::max(stride, 1u) - 1) / std::max(stride, 1u);
   if (count <= max_frame_particles_) return "";
@@ -441,10 +463,17 @@ void FrameHub::Publish(const FrameSnapshot& snapshot, bool force, bool discontin
     // A group whose detail sends particles the snapshot did not gather (its detail rose since,
     // or it is a view stream, which may pick any particle) waits for the next frame, which
     // gathers them.
+    // A view stream's own read is checked when it plans (ViewStream::Next).
     const uint32_t threshold = group->options.stream.detail_threshold;
-    if (snapshot.threshold != 0 &&
-        (threshold == 0 || threshold > snapshot.threshold || group->view)) {
+    if (!group->view &&
+        (!snapshot.plain_read ||
+         (snapshot.threshold != 0 && (threshold == 0 || threshold > snapshot.threshold)))) {
       missed = true;
+      continue;
+    }
+    if (group->view && !snapshot.complete && snapshot.view_reads.empty() &&
+        snapshot.threshold != 0) {
+      missed = true;  // a subset by rank only (GatherSnapshot without the hub): nothing to choose
       continue;
     }
     if (threshold == 0) {  // budgets chose a threshold below the limit in FitBudgetsTo
@@ -473,6 +502,7 @@ void FrameHub::Publish(const FrameSnapshot& snapshot, bool force, bool discontin
     // from the send instead skipped a frame whenever one came a hair early, so frames produced
     // at a multiple of the cap (50/s under a cap of 25) came at 2/3 of it, jitter deciding.
     const double max_fps = group->options.max_fps;
+    const auto due_before = group->next_due;
     if (max_fps > 0) {
       const auto period =
           std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / max_fps));
@@ -491,6 +521,14 @@ void FrameHub::Publish(const FrameSnapshot& snapshot, bool force, bool discontin
           group->view->Next(snapshot, fresh, discontinuity, group->options.stream.detail_threshold,
                             group->options.stream.stride, group->options.stream.keyframe_interval);
       if (!plan) continue;  // the subscriber has the whole frame
+      if (plan->missing) {
+        // The snapshot was read for another plan: as if this frame had not come (its cap and
+        // keyframe request stay for the frame read anew).
+        group->next_due = due_before;
+        if (keyframe_needed || discontinuity) group->keyframe_needed = true;
+        missed = true;
+        continue;
+      }
     }
     if (fresh) group->encoder.RequestKeyframe();
     group->last_snapshot = this_snapshot;
@@ -505,6 +543,13 @@ void FrameHub::Publish(const FrameSnapshot& snapshot, bool force, bool discontin
     if (fields & (codec::kSpeed | codec::kVelocity)) input.velocities = snapshot.velocities;
     if (fields & codec::kDensity) input.densities = snapshot.densities;
     if (plan) input.ids = plan->ids;
+    // Only the sent particles were read: the keyframe's range comes from every particle's
+    // extremes, reduced where they live (the encoder would otherwise scan stale entries).
+    if (plan && !snapshot.complete && snapshot.has_position_bounds) {
+      input.has_position_bounds = true;
+      input.position_lo = snapshot.position_lo;
+      input.position_hi = snapshot.position_hi;
+    }
 
     ++*frames_alive_;
     std::shared_ptr<EncodedFrame> encoded(new EncodedFrame,

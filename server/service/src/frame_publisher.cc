@@ -4,7 +4,10 @@
 
 #include <chrono>
 #include <cstdint>
+#include <memory>
 #include <utility>
+
+#include "view_stream.h"
 
 namespace dysa::service {
 
@@ -23,7 +26,11 @@ int64_t UnixMicros() {
 
 }  // namespace
 
-void GatherSnapshot(const Simulation& sim, uint32_t fields, uint32_t threshold, FrameSnapshot& s) {
+namespace {
+
+// The frame's header fields, and the arrays `fields` needs sized for every id (resizing keeps
+// what is there: nothing is written that is not sent).
+void PrepareSnapshot(const Simulation& sim, uint32_t fields, FrameSnapshot& s) {
   const size_t n = sim.particle_count();
   s.frame = sim.frame();
   s.step = sim.step();
@@ -38,16 +45,74 @@ void GatherSnapshot(const Simulation& sim, uint32_t fields, uint32_t threshold, 
   // asked for are read, in id order.
   const bool velocities = fields & (codec::kSpeed | codec::kVelocity);
   const bool densities = fields & codec::kDensity;
-  // Sized for every id (resizing keeps what is there: nothing is written that is not sent).
   s.positions.resize(3 * n);
   s.velocities.resize(velocities ? 3 * n : 0);
   s.densities.resize(densities ? n : 0);
+  s.complete = true;
+  s.plain_read = true;
+  s.view_reads.clear();
+  s.has_position_bounds = false;
+  s.particles_read = 0;
+}
+
+// The snapshot's arrays that `fields` (one stream's) needs.
+Simulation::ParticlesById ArraysFor(uint32_t fields, FrameSnapshot& s) {
+  Simulation::ParticlesById out{s.positions, {}, {}};
+  if (fields & (codec::kSpeed | codec::kVelocity)) out.velocity = s.velocities;
+  if (fields & codec::kDensity) out.density = s.densities;
+  return out;
+}
+
+}  // namespace
+
+void GatherSnapshot(const Simulation& sim, uint32_t fields, uint32_t threshold, FrameSnapshot& s) {
+  PrepareSnapshot(sim, fields, s);
   // When every subscriber sends a subset by rank, only those particles are read: on the CPU a
   // scan of the solver's arrays (the rank is a hash of the id, the copy is what costs), on a GPU
   // chosen and packed there, so only they cross to the host. The cost then scales with the
   // particles sent, so a scene far above the frame limit can be watched with a budget.
   s.threshold = threshold;
-  sim.ReadParticlesByIdBelowRank(threshold, {s.positions, s.velocities, s.densities});
+  s.complete = threshold == 0;
+  s.particles_read =
+      sim.ReadParticlesByIdBelowRank(threshold, {s.positions, s.velocities, s.densities});
+}
+
+void GatherSnapshot(const Simulation& sim, const FrameHub& hub, bool discontinuity,
+                    FrameSnapshot& s) {
+  const FrameHub::Needs needs = hub.GatherNeeds();
+  // A stream of every particle reads them all anyway: the view streams then choose from them on
+  // the host, as before (the same ids, ViewKeys either way).
+  // On a GPU the kept ids' read and the bounds still bring every particle to the host
+  // (Simulation::ReadParticlesByIds, ReadPositionBounds: no device gather by id or bounds
+  // reduction yet), which would cross twice what one full read does: the full read stays there
+  // until they run on the device; then this guard goes.
+  if (needs.views.empty() || (needs.plain && needs.plain_threshold == 0) ||
+      sim.device().is_cuda()) {
+    GatherSnapshot(sim, needs.fields, needs.plain_threshold, s);
+    return;
+  }
+  PrepareSnapshot(sim, needs.fields, s);
+  s.complete = false;
+  s.plain_read = needs.plain;
+  s.threshold = needs.plain_threshold;
+  if (needs.plain) {
+    s.particles_read += sim.ReadParticlesByIdBelowRank(needs.plain_threshold,
+                                                       {s.positions, s.velocities, s.densities});
+  }
+  // Each view stream reads what it sends (view_stream.h): a selection where the particles live,
+  // or the ids it keeps; never every particle.
+  for (const FrameHub::ViewNeed& v : needs.views) {
+    ViewRead r = v.view->Gather(sim, s, discontinuity, v.threshold, v.stride, v.keyframe_interval,
+                                ArraysFor(v.fields, s));
+    s.particles_read += r.particles_read;
+    s.view_reads.push_back(std::make_shared<const ViewRead>(std::move(r)));
+  }
+  // A view keyframe's positions are quantised over every particle's extremes (codec): 24 bytes,
+  // reduced where the particles live, instead of every position.
+  const Simulation::PositionBounds bounds = sim.ReadPositionBounds();
+  s.has_position_bounds = true;
+  s.position_lo = bounds.lo;
+  s.position_hi = bounds.hi;
 }
 
 FramePublisher::FramePublisher(FrameHub& hub, int threads) : hub_(hub) {

@@ -295,7 +295,7 @@ void SimulationHost::Publish(bool force, bool discontinuity) {
   const uint32_t fields = hub_.NeededFields();
   if (fields == 0) return;  // no one watches: nothing gathered, nothing encoded
   const auto start = Clock::now();
-  GatherSnapshot(*sim_, fields, hub_.NeededThreshold(), snapshot_);
+  GatherSnapshot(*sim_, hub_, discontinuity, snapshot_);
   gather_.Add(std::chrono::duration<double, std::milli>(Clock::now() - start).count());
   publisher_.Offer(snapshot_, force, discontinuity);
 }

@@ -80,6 +80,12 @@ struct FrameInput {
   std::span<const float> densities;   // count, kg/m^3; needed for density
   // With StreamConfig::explicit_ids: the particles to send, strictly increasing, each < count.
   std::span<const uint32_t> ids;
+  // With explicit_ids: when set, every particle's position extremes per axis (the server's
+  // Simulation::ReadPositionBounds), which a keyframe's position range is widened to instead of
+  // a scan of `positions`; the arrays then need valid entries only at `ids` (a view stream's
+  // frame reads only the particles it sends).
+  bool has_position_bounds = false;
+  std::array<float, 3> position_lo{}, position_hi{};
 };
 
 // The decoded content of a frame, in id order of the kept particles: id = k * stride, or ids[k]

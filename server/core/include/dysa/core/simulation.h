@@ -1,6 +1,8 @@
 // A running simulation: scene, parameters, state, the pass list of the step and its profile.
 #pragma once
 
+#include <array>
+#include <cstdint>
 #include <functional>
 #include <limits>
 #include <memory>
@@ -111,6 +113,22 @@ class Simulation {
   // Returns ids.size(). Throws as ReadParticlesById, and std::invalid_argument without a weigher.
   size_t ReadViewSubset(const ViewSubsetRequest& request, uint64_t budget,
                         std::vector<uint32_t>& ids, const ParticlesById& out) const;
+  // The particles `ids` (each below particle_count(), none twice): their asked arrays at their
+  // ids' entries of `out`, the other entries left as they are. What a view stream sends between
+  // two selections (the ids it kept), so that a frame reads what it sends, not every particle.
+  // On the CPU a scan of the storage's ids (the copy is what costs); on a GPU every particle
+  // still comes to the host first (no device gather by id yet). Returns ids.size(). Throws as
+  // ReadParticlesById, and std::out_of_range for an id past the particles.
+  size_t ReadParticlesByIds(std::span<const uint32_t> ids, const ParticlesById& out) const;
+  // Per axis the smallest and largest position of every particle, as floats (a NaN is skipped,
+  // as std::min and std::max skip it after the first value); lo +inf and hi -inf without
+  // particles. The codec quantises a view stream's keyframe over every particle's extremes
+  // (WidenPositionsToAll): this lets a frame that reads only the sent particles pass them on.
+  // On a GPU every position still comes to the host first (no device reduction wired yet).
+  struct PositionBounds {
+    std::array<float, 3> lo{}, hi{};
+  };
+  PositionBounds ReadPositionBounds() const;
   // The values of `probes` for the current state, in ProbeColumns() order (probes.h), as
   // EvaluateProbes(probes, model(), state()) computes them. On a GPU they are evaluated on the
   // device, which sends back only the particles around each local probe and the sums, not the

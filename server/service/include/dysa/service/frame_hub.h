@@ -28,6 +28,9 @@
 
 namespace dysa::service {
 
+struct ViewRead;  // view_stream.h
+class ViewStream;
+
 // One frame as subscribers see it: every array in particle-id order. Only the arrays some
 // subscriber needs are filled (FrameHub::NeededFields()).
 struct FrameSnapshot {
@@ -42,6 +45,20 @@ struct FrameSnapshot {
   // The particles the arrays hold: those of DetailRank(id) below it (0: every one). The others'
   // entries are stale (GatherSnapshot copies only what the widest subscribed detail sends).
   uint32_t threshold = 0;
+  // Whether the arrays hold every particle (a full read, or a snapshot made by hand): a view
+  // stream may then choose its subset on the host. Otherwise only what `threshold` says (when
+  // `plain_read`) and what `view_reads` list are valid.
+  bool complete = true;
+  bool plain_read = true;  // the streams without a camera had their read (`threshold`)
+  // What was read for each view stream (view_stream.h) when the snapshot is not complete.
+  std::vector<std::shared_ptr<const ViewRead>> view_reads;
+  // Every particle's position extremes (Simulation::ReadPositionBounds), set when the snapshot
+  // is not complete and a view stream is subscribed: its keyframes are quantised over them.
+  bool has_position_bounds = false;
+  std::array<float, 3> position_lo{}, position_hi{};
+  // Particles the simulation handed to the host for this snapshot (each read counted: a
+  // particle two view streams send counts twice). A full read counts every particle.
+  uint64_t particles_read = 0;
 };
 
 // The most particles one frame holds (the codec's frame limit, kMaxCount): a stream that would
@@ -101,7 +118,6 @@ class SubscriberLimitError : public std::runtime_error {
 
 class FrameHub;
 struct FrameGroup;
-class ViewStream;
 
 class Subscription {
  public:
@@ -161,6 +177,21 @@ class FrameHub {
   // The particles some subscriber's detail sends: those of DetailRank(id) below it; 0: every one
   // (a stream without a threshold). What GatherSnapshot copies.
   uint32_t NeededThreshold() const;
+  // What a frame must read for the streams subscribed now (GatherSnapshot): the streams without
+  // a camera (`plain`: some; their fields and the widest detail's threshold) and each view
+  // stream's group (its ViewStream reads for it, ViewStream::Gather).
+  struct ViewNeed {
+    std::shared_ptr<ViewStream> view;
+    uint32_t fields = 0, threshold = 0, stride = 1;
+    int keyframe_interval = 1;
+  };
+  struct Needs {
+    uint32_t fields = 0;  // every stream's
+    bool plain = false;
+    uint32_t plain_threshold = 0;
+    std::vector<ViewNeed> views;
+  };
+  Needs GatherNeeds() const;
   uint64_t frames_encoded() const;
   // Encoded frames alive (held by the hub, subscribers or writes in flight): at most two per
   // subscriber plus one per group, whatever the subscribers do.

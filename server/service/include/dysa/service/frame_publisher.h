@@ -34,6 +34,15 @@ namespace dysa::service {
 // they cross to the host (Simulation::ReadParticlesByIdBelowRank).
 void GatherSnapshot(const Simulation& sim, uint32_t fields, uint32_t threshold,
                     FrameSnapshot& snapshot);
+// Fills `snapshot` with what `hub`'s streams need of the simulation's current frame. With view
+// streams (FrameHub::SetStreamView) and no stream of every particle, only what each view stream
+// sends is read (ViewStream::Gather: its selection, chosen where the particles live, or the ids
+// it keeps, or its next refinement), with the streams without a camera's subset by rank and
+// every particle's position extremes (the codec's range for a view keyframe); otherwise as
+// above. `discontinuity`: the frame does not follow the previous one (FrameHub::Publish's).
+// snapshot.particles_read says how many particles were read.
+void GatherSnapshot(const Simulation& sim, const FrameHub& hub, bool discontinuity,
+                    FrameSnapshot& snapshot);
 
 // The time a per-frame stage took (gathering a frame, publishing it), as GetStatus shows it.
 struct StageTiming {
