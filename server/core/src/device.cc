@@ -3,7 +3,9 @@
 #include <charconv>
 #include <cstdio>
 
+#include "dysa/core/step_backend.h"
 #include "dysa/core/types.h"
+#include "gpu_backend.h"
 
 namespace dysa {
 
@@ -34,6 +36,11 @@ std::string DeviceInfo::Describe(const Device& device) const {
   std::snprintf(text, sizeof text, "%s %s, %.1f GiB, sm_%d", device.ToString().c_str(),
                 name.c_str(), double(memory_bytes) / double(1ull << 30), compute_capability);
   return text;
+}
+
+std::unique_ptr<StepBackend> CreateDeviceStepBackend(const Device& device,
+                                                     std::string_view solver) {
+  return CreateGpuBackend(device, solver);
 }
 
 }  // namespace dysa

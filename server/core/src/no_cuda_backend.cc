@@ -14,6 +14,8 @@ constexpr const char* kNotBuilt =
 
 bool CudaBackendBuilt() { return false; }
 
+int CudaDeviceCount() { return 0; }
+
 std::string DeviceUnavailableReason(const Device& device) {
   return device.is_cuda() ? kNotBuilt : "";
 }

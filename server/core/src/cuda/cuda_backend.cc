@@ -22,6 +22,11 @@
 #include "solvers/wcsph/becker_teschner_solver.h"
 
 namespace dysa {
+namespace cuda {
+// The CUDA GPUs this process sees; 0 when the runtime lists none (cuda_probe.cu).
+int CudaDeviceCount();
+}  // namespace cuda
+
 namespace {
 
 static_assert(sizeof(Vec3) == 3 * sizeof(float), "Vec3 arrays are copied as xyz triples");
@@ -363,19 +368,41 @@ class WcsphGpuBackend final : public PipelineBackend<cuda::WcsphPipeline> {
     return in;
   }
 
+  bool DownloadSortedCells(std::vector<uint32_t>& cells) const override {
+    cells.resize(pipeline_.size());
+    pipeline_.DownloadSortedCells(cells.data());
+    return true;
+  }
+
+  bool DownloadSolverArrays(std::vector<SolverArray>& solver_arrays) const override {
+    std::vector<Real> carried(pipeline_.size());
+    solver_arrays.clear();
+    if (pipeline_.DownloadCarriedDensity(carried.data())) {
+      solver_arrays.push_back({std::string(wcsph::kCarriedDensity), std::move(carried)});
+    }
+    return true;
+  }
+
+  void StageThroughPinnedMemory() override { pipeline_.UsePinnedStaging(true); }
+
   StepReport Step(const Model& model, State& state) override {
     const bool moving = model.HasMovingObstacles();
     const ForceInputs start = ForcesAt(model, state.time);
     const double obstacle_speed = start.obstacle_speed;
-    const cuda::StepMaxima maxima =
-        pipeline_.Forces(start.gravity, start.hydrostatic, start.motion);
-    if (pipeline_.max_cell_count() > NeighborGrid::kMaxParticlesPerCell) {
-      return Crowded(pipeline_.max_cell_count());
-    }
+    // On one of several processes the ghosts stay out of the maxima (ProcessShare).
+    pipeline_.SetOwnedLayers(state.share.layer_axis, state.share.owned_layers);
+    const cuda::StepMaxima local = pipeline_.Forces(start.gravity, start.hydrostatic, start.motion);
+    // The maxima and the fullest cell over the processes (ChooseStep's max_over_processes; the
+    // crowded stop in the same collective, so that every process stops or none): floats and
+    // counts convert to double exactly, so they are those of one process.
+    double maxima[4] = {double(local.speed2), double(local.acceleration2), double(local.density),
+                        double(pipeline_.max_cell_count())};
+    state.share.MaxOverProcesses(maxima);
+    if (maxima[3] > NeighborGrid::kMaxParticlesPerCell) return Crowded(uint32_t(maxima[3]));
     // ChooseTimeStepPass (cfl_time_step.cc) from the GPU's maxima.
-    const double speed = std::max(std::sqrt(double(maxima.speed2)), obstacle_speed);
-    const TimeStepLimits limits = CflLimits(model, speed, std::sqrt(double(maxima.acceleration2)),
-                                            /*acoustic=*/true, maxima.density);
+    const double speed = std::max(std::sqrt(maxima[0]), obstacle_speed);
+    const TimeStepLimits limits =
+        CflLimits(model, speed, std::sqrt(maxima[1]), /*acoustic=*/true, maxima[2]);
     state.dt = ChooseTimeStep(limits, state.max_dt);
     if (std::string warning = SupersonicWarning(model.params, speed); !warning.empty()) {
       state.warning = std::move(warning);
@@ -511,6 +538,8 @@ class DfsphGpuBackend final : public PipelineBackend<cuda::DfsphPipeline> {
 }  // namespace
 
 bool CudaBackendBuilt() { return true; }
+
+int CudaDeviceCount() { return cuda::CudaDeviceCount(); }
 
 std::string DeviceUnavailableReason(const Device& device) {
   if (!device.is_cuda()) return "";

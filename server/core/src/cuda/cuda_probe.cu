@@ -36,4 +36,9 @@ std::string ProbeCudaDevice(int index, GpuProperties* props) {
   return "";
 }
 
+int CudaDeviceCount() {
+  int count = 0;
+  return cudaGetDeviceCount(&count) == cudaSuccess ? count : 0;
+}
+
 }  // namespace dysa::cuda

@@ -2,8 +2,10 @@
 // kernels (wcsph_kernels.cuh, symplectic_kernels.cuh, particle_shifting.cuh).
 #include <cuda_runtime.h>
 
+#include <cstring>
 #include <cub/device/device_reduce.cuh>
 #include <string>
+#include <vector>
 
 #include "cuda/device_buffer.cuh"
 #include "cuda/device_grid.cuh"
@@ -18,6 +20,33 @@ namespace dysa::cuda {
 namespace {
 
 using namespace sph;  // NOLINT: this file is the wcsph half of those kernels
+
+// MaximaInputsKernel on one of several processes: a ghost (a particle sorted into a cell layer
+// along `axis` that this process does not own) counts as 0, which no maximum exceeds (the CPU's
+// start at 0), so the maxima are those of the owned particles; `density` receives the densities
+// so masked.
+__global__ void OwnedMaximaInputsKernel(Fluid f, DeviceGrid grid, const uint8_t* owned_layer,
+                                        int axis, float* speed2, float* acceleration2,
+                                        float* density, uint32_t n) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= n) return;
+  const int3 cell = grid.SortedCell(i);
+  const int layer = axis == 0 ? cell.x : (axis == 1 ? cell.y : cell.z);
+  const bool owned = owned_layer[layer] != 0;
+  speed2[i] = owned ? Norm2({f.vx[i], f.vy[i], f.vz[i]}) : 0.0f;
+  acceleration2[i] = owned ? Norm2({f.ax[i], f.ay[i], f.az[i]}) : 0.0f;
+  density[i] = owned ? f.density[i] : 0.0f;
+}
+
+// Copies `count` values into page-locked `staging` (grown as needed) and returns where they
+// landed; null for no values.
+template <class T>
+const T* Stage(PinnedBuffer<T>& staging, const T* values, size_t count) {
+  if (!values || count == 0) return nullptr;
+  staging.Resize(count);
+  std::memcpy(staging.data(), values, count * sizeof(T));
+  return staging.data();
+}
 
 }  // namespace
 
@@ -47,6 +76,16 @@ struct WcsphPipeline::Impl : PhysicalArrays {
   PinnedBuffer<float> maxima;
   PinnedBuffer<unsigned long long> flags;
   DeviceBuffer<unsigned char> reduce_temp;
+  // SetOwnedLayers's mask (empty: none) and the masked densities the maxima read.
+  std::vector<uint8_t> owned_host;
+  DeviceBuffer<uint8_t> owned_layers;
+  int owned_axis = 0;
+  DeviceBuffer<float> owned_density;
+  // UsePinnedStaging's buffers: positions and velocities (xyz), the carried density, ids; the
+  // download's densities and pressures too.
+  bool pinned_staging = false;
+  PinnedBuffer<float> stage_position, stage_velocity, stage_carried, stage_density, stage_pressure;
+  PinnedBuffer<uint32_t> stage_id;
   EventTimer timer;
   size_t pass = 0;
 
@@ -143,6 +182,12 @@ void WcsphPipeline::Upload(size_t n, const uint32_t* id, const float* position,
   DeviceScope scope(m.device);
   m.Allocate(n);
   cudaStream_t s = m.stream.get();
+  if (m.pinned_staging) {
+    id = Stage(m.stage_id, id, n);
+    position = Stage(m.stage_position, position, 3 * n);
+    velocity = Stage(m.stage_velocity, velocity, 3 * n);
+    carried_density = Stage(m.stage_carried, carried_density, n);
+  }
   m.EnqueueUpload(id, position, velocity);
   m.carried_ready = carried_density != nullptr;
   if (carried_density && n > 0) {
@@ -158,8 +203,51 @@ void WcsphPipeline::Download(uint32_t* id, float* position, float* velocity, flo
   Impl& m = *impl_;
   DeviceScope scope(m.device);
   cudaStream_t s = m.stream.get();
-  m.EnqueueDownload(id, position, velocity, density, pressure);
+  if (!m.pinned_staging) {
+    m.EnqueueDownload(id, position, velocity, density, pressure);
+    CheckCuda(cudaStreamSynchronize(s), "downloading particles");
+    return;
+  }
+  // Into the page-locked buffers, then on the host where the caller wants them.
+  const size_t n = m.n;
+  for (PinnedBuffer<float>* b : {&m.stage_position, &m.stage_velocity}) b->Resize(3 * n + 1);
+  for (PinnedBuffer<float>* b : {&m.stage_density, &m.stage_pressure}) b->Resize(n + 1);
+  m.stage_id.Resize(n + 1);
+  m.EnqueueDownload(id ? m.stage_id.data() : nullptr, position ? m.stage_position.data() : nullptr,
+                    velocity ? m.stage_velocity.data() : nullptr,
+                    density ? m.stage_density.data() : nullptr,
+                    pressure ? m.stage_pressure.data() : nullptr);
   CheckCuda(cudaStreamSynchronize(s), "downloading particles");
+  auto unstage = [n](auto* out, const auto& staging, size_t per_particle) {
+    if (out && n > 0) std::memcpy(out, staging.data(), n * per_particle * sizeof(*out));
+  };
+  unstage(id, m.stage_id, 1);
+  unstage(position, m.stage_position, 3);
+  unstage(velocity, m.stage_velocity, 3);
+  unstage(density, m.stage_density, 1);
+  unstage(pressure, m.stage_pressure, 1);
+}
+
+void WcsphPipeline::UsePinnedStaging(bool on) { impl_->pinned_staging = on; }
+
+void WcsphPipeline::SetOwnedLayers(int axis, const std::vector<uint8_t>& owned) {
+  Impl& m = *impl_;
+  if (owned == m.owned_host && axis == m.owned_axis) return;
+  DeviceScope scope(m.device);
+  m.owned_host = owned;
+  m.owned_axis = axis;
+  if (!owned.empty()) m.owned_layers.Assign(owned, m.stream.get());
+}
+
+void WcsphPipeline::DownloadSortedCells(uint32_t* cells) const {
+  Impl& m = *impl_;
+  if (m.n == 0) return;
+  DeviceScope scope(m.device);
+  cudaStream_t s = m.stream.get();
+  CheckCuda(cudaMemcpyAsync(cells, m.sorter.View().sorted_key, size_t(m.n) * sizeof(uint32_t),
+                            cudaMemcpyDeviceToHost, s),
+            "downloading the sorted cells");
+  CheckCuda(cudaStreamSynchronize(s), "downloading the sorted cells");
 }
 
 bool WcsphPipeline::DownloadCarriedDensity(float* carried_density) const {
@@ -245,10 +333,19 @@ StepMaxima WcsphPipeline::Forces(float gravity, float hydrostatic,
   StepMaxima result;
   if (n > 0) {
     const Fluid f = m.View();
-    MaximaInputsKernel<<<blocks, kBlock, 0, s>>>(f, m.speed2.data(), m.acceleration2.data(), n);
+    const float* density = m.density.data();
+    if (m.owned_host.empty()) {
+      MaximaInputsKernel<<<blocks, kBlock, 0, s>>>(f, m.speed2.data(), m.acceleration2.data(), n);
+    } else {
+      m.owned_density.Resize(n);
+      OwnedMaximaInputsKernel<<<blocks, kBlock, 0, s>>>(
+          f, m.sorter.View(), m.owned_layers.data(), m.owned_axis, m.speed2.data(),
+          m.acceleration2.data(), m.owned_density.data(), n);
+      density = m.owned_density.data();
+    }
     m.Max(m.speed2.data(), m.device_maxima.data());
     m.Max(m.acceleration2.data(), m.device_maxima.data() + 1);
-    m.Max(m.density.data(), m.device_maxima.data() + 2);
+    m.Max(density, m.device_maxima.data() + 2);
     m.maxima.CopyFrom(m.device_maxima, 3, s);
     CheckCuda(cudaGetLastError(), "launching the wcsph forces");
     CheckCuda(cudaStreamSynchronize(s), "running the wcsph forces");
@@ -256,6 +353,10 @@ StepMaxima WcsphPipeline::Forces(float gravity, float hydrostatic,
     result.speed2 = m.maxima.data()[0] > 0 ? m.maxima.data()[0] : 0.0f;
     result.acceleration2 = m.maxima.data()[1] > 0 ? m.maxima.data()[1] : 0.0f;
     result.density = m.maxima.data()[2] > 0 ? m.maxima.data()[2] : 0.0f;
+  } else {
+    // No particles here (a process's empty slab): the sort's cell maximum, which the caller
+    // reads next, is copied once the stream has passed it.
+    CheckCuda(cudaStreamSynchronize(s), "running the wcsph forces");
   }
   return result;
 }

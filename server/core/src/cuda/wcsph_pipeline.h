@@ -94,6 +94,19 @@ class WcsphPipeline : public ParticleReadout {
   StepOutcome Correct(float dt);
   uint64_t DeviceBytes() const;
 
+  // On one of several processes (server/distributed), which upload and download their owned
+  // particles and ghosts every step:
+  // The cell layers along `axis` this process owns, 1 per layer: a particle sorted into another
+  // (a ghost) counts as 0 in Forces's maxima, as the CPU's time_step pass skips it (its maxima
+  // start at 0). Empty: every particle counts (one process).
+  void SetOwnedLayers(int axis, const std::vector<uint8_t>& owned);
+  // The cell (NeighborGrid::CellIndex) of each particle at the latest neighbour sort, storage
+  // order (size() values).
+  void DownloadSortedCells(uint32_t* cells) const;
+  // Upload and Download copy through page-locked host buffers kept between calls (a memcpy on
+  // the host, then a DMA at the bus's speed), rather than from and into pageable memory.
+  void UsePinnedStaging(bool on);
+
  private:
   struct Impl;
   std::unique_ptr<Impl> impl_;

@@ -36,6 +36,10 @@ bool CudaBackendBuilt();
 // without CUDA, no driver, no GPU, an ordinal past the GPUs present). Never throws.
 std::string DeviceUnavailableReason(const Device& device);
 
+// The CUDA GPUs this process can use; 0 without CUDA (the build, the driver or a GPU). Never
+// throws.
+int CudaDeviceCount();
+
 // The device's name and memory. Throws ConfigError("device", DeviceUnavailableReason(...)) when
 // it cannot run.
 DeviceInfo QueryDevice(const Device& device);

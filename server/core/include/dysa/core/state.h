@@ -58,6 +58,10 @@ struct ProcessShare {
   // boundary particles may skip the others (their values are read only by other processes).
   int layer_axis = 0;
   std::vector<uint8_t> boundary_layers;
+  // For a step that sorts where the host cannot set `ghost` (a GPU: StepBackend): 1 per cell
+  // layer along `layer_axis` that this process owns; a particle sorted into another layer is a
+  // ghost, left out of the step's maxima. Empty: every particle is owned (one process).
+  std::vector<uint8_t> owned_layers;
 
   bool IsGhost(size_t i) const { return !ghost.empty() && ghost[i] != 0; }
   // Null when there are no ghosts: the skip flags of a reduction over the owned particles.

@@ -7,9 +7,11 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "dysa/core/device.h"
@@ -84,8 +86,26 @@ class StepBackend {
   virtual StepReport Step(const Model& model, State& state) = 0;
   // Device memory held, bytes.
   virtual uint64_t DeviceBytes() const = 0;
+  // For a driver that steps one process's owned particles and ghosts here (the ranks' device
+  // step, server/distributed): the cell (NeighborGrid::CellIndex) each particle was sorted into
+  // at the latest step's neighbour sort, storage order, into `cells` (resized); false where
+  // this backend does not keep them.
+  virtual bool DownloadSortedCells(std::vector<uint32_t>& /*cells*/) const { return false; }
+  // The driver uploads and downloads every step (the ranks' device step): copies go through
+  // page-locked host buffers kept between steps. Nothing to do where there is no device.
+  virtual void StageThroughPinnedMemory() {}
+  // The solver's carried arrays only, named as Solver::SaveArrays names them (those of
+  // DownloadCheckpointArrays); false where this backend does not read them alone.
+  virtual bool DownloadSolverArrays(std::vector<SolverArray>& /*solver_arrays*/) const {
+    return false;
+  }
   // The latest step's solver diagnostics.
   virtual SolverStats stats() const { return {}; }
 };
+
+// The backend `Simulation` steps `solver` with on CUDA `device` (gpu_backend.h), for a driver
+// outside core: the ranks' device step (server/distributed). Throws ConfigError("device", ...)
+// when the device cannot run or the solver has no GPU backend.
+std::unique_ptr<StepBackend> CreateDeviceStepBackend(const Device& device, std::string_view solver);
 
 }  // namespace dysa
