@@ -18,6 +18,7 @@
 #ifdef DYSA_WITH_MPI
 #include <memory>
 
+#include "dysa/distributed/rank_device.h"
 #include "mpi_communicator.h"
 #endif
 
@@ -117,7 +118,8 @@ int ReportError(const std::string& command, const std::exception& error, const s
 #ifdef DYSA_WITH_MPI
 constexpr const char* kMpiRunHelp =
     "\n\nUnder mpirun (mpirun -np N dysa run SCENE) the run is spread over the N ranks "
-    "(docs/distributed.md): wcsph, seed and dfsph, on the CPU.";
+    "(docs/distributed.md): wcsph, seed and dfsph on the CPU; wcsph (symplectic Euler) with "
+    "--device cuda, each rank on GPU local_rank % GPUs (cuda:N: all on N).";
 
 // `dysa run` under mpirun. Every rank parsed the same arguments, so a ConfigError is the same on
 // every rank: rank 0 reports it and all exit together. Any other error may be one rank's alone
@@ -126,7 +128,13 @@ int RunOnRanks(int argc, char** argv, const dysa::RunOptions& run, const std::st
   dysa::distributed::MpiSession session(&argc, &argv);
   const dysa::distributed::MpiCommunicator comm({.wait_limit_s = run.rank_timeout});
   try {
-    dysa::RunDistributed(run, comm, std::cout);
+    // GPU ranks: --device cuda (no index) spreads a host's ranks over its GPUs by local rank.
+    dysa::RunOptions options = run;
+    if (options.device.is_cuda()) {
+      options.device = dysa::distributed::DeviceOfRank(device, dysa::distributed::LocalRank(),
+                                                       dysa::CudaDeviceCount());
+    }
+    dysa::RunDistributed(options, comm, std::cout);
   } catch (const dysa::ConfigError& e) {
     // As RunOffline's errors: 2 for --device, 1 for a scene or parameter.
     const int status = e.field() == "device" ? 2 : 1;

@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "dysa/core/device.h"
 #include "dysa/core/probes.h"
 #include "dysa/distributed/distributed_simulation.h"
 #include "probe_writer.h"
@@ -43,15 +44,30 @@ std::string Hex(uint64_t v) {
 
 void RunDistributed(const RunOptions& options, const distributed::Communicator& comm,
                     std::ostream& out) {
-  if (options.device.is_cuda()) {
-    throw std::invalid_argument("--device: only cpu runs across ranks yet");
-  }
   Scene scene = LoadScene(options.scene);
   for (const std::string& assignment : options.sets) SetParamFromString(scene.params, assignment);
   if (options.threads > 0) omp_set_num_threads(options.threads);
   const int threads = options.threads > 0 ? options.threads : omp_get_max_threads();
+  const bool gpu = options.device.is_cuda();
+  if (gpu) {
+    // What GPU ranks run is the same on every rank; whether a rank can use its GPU may not be
+    // (another host), so all learn it before the first collective of the run.
+    distributed::DistributedSimulation::CheckSupported(scene, scene.params, options.device);
+    const std::string reason = DeviceUnavailableReason(options.device);
+    double unusable = reason.empty() ? 0 : 1;
+    comm.MaxInPlace({&unusable, 1});
+    if (unusable > 0) {
+      throw ConfigError("device", reason.empty() ? "another rank cannot use its GPU" : reason);
+    }
+  }
 
-  distributed::DistributedSimulation sim(std::move(scene), comm);
+  distributed::DistributedSimulation sim(std::move(scene), comm, options.device);
+  // Each rank's GPU (DeviceOfRank: by local rank where --device cuda has no index).
+  std::vector<int64_t> gpu_of_rank(size_t(comm.size()), 0);
+  if (gpu) {
+    gpu_of_rank[size_t(comm.rank())] = options.device.index;
+    comm.SumInPlace(gpu_of_rank);
+  }
   distributed::BalanceSettings balance;
   balance.threshold = options.balance_threshold;
   // Test-only (mpi_balance_test): DYSA_TEST_SLOW_RANK=RANK:MICROSECONDS slows that rank by as
@@ -113,6 +129,11 @@ void RunDistributed(const RunOptions& options, const distributed::Communicator& 
         << (options.steps ? std::to_string(*options.steps) + " steps"
                           : "until t = " + Number(end_time) + " s")
         << ", output in " << dir.string() << "\n";
+    if (gpu) {
+      out << "devices per rank:";
+      for (int64_t index : gpu_of_rank) out << " cuda:" << index;
+      out << "\n";
+    }
   }
   write_probes();
   if (options.vtk_every > 0) write_frame();

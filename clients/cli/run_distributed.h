@@ -21,9 +21,11 @@ class CollectiveError : public std::runtime_error {
 // RunOffline, written by process 0 from the particles of all (gathered in the storage order of
 // one process, so probes.csv and the frames are byte-identical to RunOffline's), and prints on
 // process 0 the per-pass times (the slowest process's), the throughput, the decomposition and
-// what it exchanged, and with options.print_hash the state hash. Throws std::invalid_argument
-// for --device cuda (not across processes yet), ConfigError as RunOffline and
-// DistributedSimulation, CollectiveError when the output cannot be written.
+// what it exchanged, and with options.print_hash the state hash. With a CUDA options.device
+// each rank steps on its GPU (DistributedSimulation; the caller chooses each rank's, as
+// distributed::DeviceOfRank). Throws ConfigError as RunOffline and DistributedSimulation (what
+// GPU ranks cannot run by field; "device" when a rank cannot use its GPU, on every rank),
+// CollectiveError when the output cannot be written.
 void RunDistributed(const RunOptions& options, const distributed::Communicator& comm,
                     std::ostream& out);
 

@@ -1,6 +1,7 @@
 // Tests of clients/cli/run_distributed.h on one process (SingleProcess): it steps to the same
-// times as `dysa run` and writes the same hash, probes.csv and VTK frames, byte for byte; a GPU
-// it refuses by flag.
+// times as `dysa run` and writes the same hash, probes.csv and VTK frames, byte for byte; what
+// GPU ranks cannot run, and a GPU that cannot run, it refuses by field (GPU ranks stepping:
+// distributed_gpu_test, mpi_gpu_ranks_test).
 // On MPI ranks: tests/distributed/mpi_ranks_test.sh (ctest -L mpi).
 #include "run_distributed.h"
 
@@ -14,6 +15,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "dysa/core/device.h"
+#include "dysa/core/types.h"
 #include "run_command.h"
 #include "support/temp_dir.h"
 
@@ -82,18 +85,37 @@ TEST(RunDistributedTest, WritesTheHashProbesAndFramesOfThePlainRun) {
 
 TEST(RunDistributedTest, TheSeedModelToo) { ExpectSameOutput(DYSA_RANKS_SEED_SCENE, 30); }
 
-TEST(RunDistributedTest, RefusesGpusByFlag) {
-  RunOptions options;
-  options.scene = DYSA_RANKS_SCENE;
-  options.steps = 1;
-  options.device = ParseDevice("cuda:0");
+// The field a ConfigError of RunDistributed names ("" for none, or another exception).
+std::string RefusedField(RunOptions options) {
   std::ostringstream out;
   try {
     RunDistributed(options, distributed::SingleProcess{}, out);
-    FAIL() << "--device cuda accepted";
-  } catch (const std::invalid_argument& e) {
-    EXPECT_THAT(e.what(), HasSubstr("--device"));
+  } catch (const ConfigError& e) {
+    return e.field();
   }
+  return "";
+}
+
+TEST(RunDistributedTest, GpuRanksRefuseWhatTheyCannotRunByField) {
+  RunOptions options;
+  options.scene = DYSA_RANKS_SEED_SCENE;
+  options.steps = 1;
+  options.device = ParseDevice("cuda:0");
+  // Refused before the device is looked at: the same on a machine with or without a GPU.
+  EXPECT_EQ(RefusedField(options), "solver");
+  options.scene = DYSA_RANKS_SCENE;
+  options.sets = {"time_integration=1"};
+  EXPECT_EQ(RefusedField(options), "time_integration");
+}
+
+TEST(RunDistributedTest, AGpuThatCannotRunIsRefusedByFlag) {
+  if (DeviceUnavailableReason(ParseDevice("cuda:0")).empty()) {
+    GTEST_SKIP() << "cuda:0 can run here: distributed_gpu_test checks GPU ranks";
+  }
+  const dysa::testing::TempDir dir("dysa_run_distributed");
+  RunOptions options = SmallRun(dir.path() / "out", DYSA_RANKS_SCENE, 1);
+  options.device = ParseDevice("cuda:0");
+  EXPECT_EQ(RefusedField(options), "device");
 }
 
 TEST(RunDistributedTest, AnOutputThatCannotBeWrittenIsAnErrorOfEveryRank) {

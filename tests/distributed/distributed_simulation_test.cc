@@ -7,11 +7,14 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <cstdlib>
 #include <string>
 
+#include "dysa/core/device.h"
 #include "dysa/core/scene.h"
 #include "dysa/core/simulation.h"
 #include "dysa/core/types.h"
+#include "dysa/distributed/rank_device.h"
 
 #if !defined(DYSA_RANKS_SCENE) || !defined(DYSA_RANKS_SEED_SCENE) || \
     !defined(DYSA_RANKS_DFSPH_SCENE)
@@ -155,6 +158,77 @@ TEST(DistributedSimulationTest, SolversNotSpreadAreRefusedByName) {
   } catch (const ConfigError& e) {
     EXPECT_EQ(e.field(), "solver");
     EXPECT_THAT(e.message(), HasSubstr("allowed: wcsph, seed, dfsph"));
+  }
+}
+
+TEST(DistributedSimulationTest, GpuRanksRefuseWhatTheyCannotRunByField) {
+  // Host-side checks, before any device is looked at (distributed_gpu_test steps on one).
+  const Device gpu{Device::Kind::kCuda, 0};
+  Scene scene = LoadScene(DYSA_RANKS_SCENE);
+  EXPECT_NO_THROW(DistributedSimulation::CheckSupported(scene, scene.params, gpu));
+  auto refused = [&](const Scene& s, const Params& params) -> std::string {
+    try {
+      DistributedSimulation::CheckSupported(s, params, gpu);
+    } catch (const ConfigError& e) {
+      EXPECT_THAT(e.message(), HasSubstr("GPU ranks"));
+      return e.field();
+    }
+    return "";
+  };
+  Params pc = scene.params;
+  pc.time_integration = 1;
+  EXPECT_EQ(refused(scene, pc), "time_integration");
+  EXPECT_NO_THROW(DistributedSimulation::CheckSupported(scene, pc, Device{}));
+  for (const char* solver : {"seed", "dfsph"}) {
+    Scene s = scene;
+    s.solver = solver;
+    EXPECT_EQ(refused(s, s.params), "solver") << solver;
+    EXPECT_NO_THROW(DistributedSimulation::CheckSupported(s, s.params, Device{})) << solver;
+  }
+}
+
+TEST(DistributedSimulationTest, AGpuThatCannotRunIsRefusedByFlag) {
+  if (DeviceUnavailableReason(Device{Device::Kind::kCuda, 0}).empty()) {
+    GTEST_SKIP() << "cuda:0 can run here: distributed_gpu_test steps on it";
+  }
+  const SingleProcess one;
+  try {
+    DistributedSimulation sim(LoadScene(DYSA_RANKS_SCENE), one, Device{Device::Kind::kCuda, 0});
+    FAIL() << "a GPU that cannot run accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.field(), "device");
+  }
+}
+
+TEST(DistributedSimulationTest, RanksMapToTheGpusOfTheirHostByLocalRank) {
+  // --device cuda without an index: local rank modulo the GPUs.
+  EXPECT_EQ(DeviceOfRank("cuda", 0, 2).index, 0);
+  EXPECT_EQ(DeviceOfRank("cuda", 1, 2).index, 1);
+  EXPECT_EQ(DeviceOfRank("cuda", 2, 2).index, 0);
+  EXPECT_EQ(DeviceOfRank("cuda", 3, 1).index, 0);  // 4 ranks sharing one GPU
+  EXPECT_TRUE(DeviceOfRank("cuda", 3, 4).is_cuda());
+  // No GPU: cuda:0, which the run then refuses saying why.
+  EXPECT_EQ(DeviceOfRank("cuda", 3, 0).index, 0);
+  // An index is taken as given on every rank; the CPU stays the CPU.
+  EXPECT_EQ(DeviceOfRank("cuda:1", 0, 4).index, 1);
+  EXPECT_EQ(DeviceOfRank("cuda:1", 3, 4).index, 1);
+  EXPECT_FALSE(DeviceOfRank("cpu", 3, 4).is_cuda());
+  EXPECT_THROW(DeviceOfRank("gpu", 0, 1), ConfigError);
+}
+
+TEST(DistributedSimulationTest, TheLocalRankComesFromTheLauncher) {
+  // mpirun sets OMPI_COMM_WORLD_LOCAL_RANK for each rank; other launchers their own variable.
+  const char* saved = std::getenv("OMPI_COMM_WORLD_LOCAL_RANK");
+  const std::string kept = saved ? saved : "";
+  setenv("OMPI_COMM_WORLD_LOCAL_RANK", "3", 1);
+  EXPECT_EQ(LocalRank(), 3);
+  setenv("OMPI_COMM_WORLD_LOCAL_RANK", "x", 1);  // not a number: the next launcher's, or 0
+  const int fallback = LocalRank();
+  EXPECT_GE(fallback, 0);
+  if (saved) {
+    setenv("OMPI_COMM_WORLD_LOCAL_RANK", kept.c_str(), 1);
+  } else {
+    unsetenv("OMPI_COMM_WORLD_LOCAL_RANK");
   }
 }
 

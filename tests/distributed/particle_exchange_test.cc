@@ -5,6 +5,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <cstdint>
 #include <stdexcept>
 #include <vector>
 
@@ -22,6 +23,26 @@ TEST(ParticleExchangeTest, OrderKeysAreTheCellAndTheRankWithinIt) {
   grid.Sort(points);
   EXPECT_THAT(OrderKeys(grid, points.size()),
               ElementsAre(OrderKey(0, 0), OrderKey(2, 0), OrderKey(2, 1), OrderKey(2, 2)));
+}
+
+TEST(ParticleExchangeTest, OrderKeysFromADevicesSortedCellsAreTheGrids) {
+  // A GPU's sort reports each sorted particle's cell index (StepBackend::DownloadSortedCells):
+  // the keys from those are the grid's.
+  NeighborGrid grid;
+  grid.Configure(Aabb{Vec3d::Zero(), Vec3d(3, 2, 2)}, 1);  // 3 x 2 x 2 cells
+  const std::vector<Vec3> points = {Vec3(2.5f, 1.5f, 0.5f), Vec3(0.5f, 0.5f, 1.5f),
+                                    Vec3(2.2f, 1.5f, 0.5f), Vec3(0.1f, 0.5f, 1.5f),
+                                    Vec3(1.5f, 0.5f, 0.5f)};
+  grid.Sort(points);
+  std::vector<uint32_t> cells(points.size());
+  for (size_t k = 0; k < points.size(); ++k) {
+    cells[k] = grid.CellIndex(grid.SortedCell(uint32_t(k)));
+  }
+  EXPECT_EQ(OrderKeys(cells), OrderKeys(grid, points.size()));
+  EXPECT_THAT(OrderKeys(std::vector<uint32_t>{4, 4, 7, 9, 9, 9}),
+              ElementsAre(OrderKey(4, 0), OrderKey(4, 1), OrderKey(7, 0), OrderKey(9, 0),
+                          OrderKey(9, 1), OrderKey(9, 2)));
+  EXPECT_TRUE(OrderKeys(std::vector<uint32_t>{}).empty());
 }
 
 LocalParticles ThreeParticles() {

@@ -57,8 +57,12 @@ double MsSince(Clock::time_point start) {
 
 }  // namespace
 
-DistributedSimulation::DistributedSimulation(Scene scene, const Communicator& comm)
-    : scene_(std::move(scene)), comm_(comm), refreshes_ghosts_(scene_.solver == "dfsph") {
+DistributedSimulation::DistributedSimulation(Scene scene, const Communicator& comm,
+                                             const Device& device)
+    : scene_(std::move(scene)),
+      comm_(comm),
+      device_(device),
+      refreshes_ghosts_(scene_.solver == "dfsph") {
   solver_ = FindSolver(scene_.solver).create();
   Configure(scene_.params);
   SpawnSlab();
@@ -95,14 +99,38 @@ void DistributedSimulation::CheckSupported(const Scene& scene, const Params& par
   (void)params;
 }
 
+void DistributedSimulation::CheckSupported(const Scene& scene, const Params& params,
+                                           const Device& device) {
+  CheckSupported(scene, params);
+  if (!device.is_cuda()) return;
+  // The device's step (distributed_device_step.cc) leaves the ghosts out of the CFL maxima and
+  // takes the ownership from its one sort. The seed sorts by predicted positions, the
+  // predictor-corrector sorts twice (and its ghosts' reach changes between the sorts), dfsph
+  // refreshes its ghosts inside its solves' iterations: none of that has a device hook yet.
+  if (scene.solver != "wcsph") {
+    throw ConfigError("solver", "'" + scene.solver +
+                                    "' does not run on GPU ranks yet (--device cuda across "
+                                    "processes runs wcsph); run it on CPU ranks (--device cpu)");
+  }
+  if (params.time_integration != 0) {
+    throw ConfigError("time_integration",
+                      "the predictor-corrector (1) does not run on GPU ranks yet (symplectic "
+                      "Euler, 0, does); run it on CPU ranks (--device cpu)");
+  }
+}
+
 void DistributedSimulation::SetParams(const Params& params) { Configure(params); }
 
 void DistributedSimulation::Configure(const Params& params) {
   const SolverInfo& info = FindSolver(scene_.solver);
-  CheckSupported(scene_, params);
+  CheckSupported(scene_, params, device_);
   BlockParticleCounts(scene_, params);
   model_ = MakeModel(scene_, params, info);
   passes_ = solver_->BuildPasses(model_);
+  if (device_.is_cuda() && !backend_) {
+    backend_ = CreateDeviceStepBackend(device_, scene_.solver);  // throws when it cannot run
+    backend_->StageThroughPinnedMemory();
+  }
   sort_pass_ = passes_.size();
   corrector_sort_pass_ = passes_.size();
   profile_.assign(1, {"exchange"});
@@ -114,6 +142,14 @@ void DistributedSimulation::Configure(const Params& params) {
   }
   profile_.push_back({"drop_ghosts"});
   if (sort_pass_ == passes_.size()) throw std::logic_error("the solver has no neighbour sort");
+  if (backend_) {
+    // The device's passes (the CPU solver's names) between the copies up and down.
+    profile_.assign(1, {"exchange"});
+    profile_.push_back({"upload"});
+    for (const std::string& name : backend_->Configure(model_)) profile_.push_back({name});
+    profile_.push_back({"download"});
+    profile_.push_back({"drop_ghosts"});
+  }
 
   // The layout every step sorts into (cell edge: the kernel support, the seed's smoothing radius).
   layout_.Configure(model_.domain, Real(model_.kernel_support), model_.periodic);
@@ -242,6 +278,7 @@ DistributedSimulation::StepOutcome DistributedSimulation::StepAt(double time, ui
 }
 
 bool DistributedSimulation::RunStep(double start_time, bool& finite) {
+  if (backend_) return RunDeviceStep(start_time, finite);
   auto start = Clock::now();
   Exchange();
   Record(0, MsSince(start));
@@ -261,14 +298,25 @@ bool DistributedSimulation::RunStep(double start_time, bool& finite) {
   }
   start = Clock::now();
   DropGhosts();
+  Record(profile_.size() - 1, MsSince(start));
+  FinishStep(compute_ms + profile_.back().last_ms, finite);
+  return true;
+}
+
+void DistributedSimulation::FinishStep(double passes_ms, bool& finite) {
   const BalanceSettings& balance = balancer_.settings();
+  double compute_ms = passes_ms;
   if (balance.slow_rank == comm_.rank() && balance.slow_us_per_particle > 0) {
     // Test-only: a deliberately slow process (BalanceSettings).
+    const auto start = Clock::now();
     std::this_thread::sleep_for(std::chrono::duration<double, std::micro>(
         balance.slow_us_per_particle * double(state_.particles.size())));
+    const double slept = MsSince(start);  // timed as a part of drop_ghosts
+    profile_.back().last_ms += slept;
+    profile_.back().total_ms += slept;
+    compute_ms += slept;
   }
-  Record(profile_.size() - 1, MsSince(start));
-  compute_ms += profile_.back().last_ms - collective_ms_;
+  compute_ms -= collective_ms_;
   // Never negative: a process that found its time < 0 would skip the balancer's step, and so
   // its collective at the end of the window, and the processes' collectives would mismatch
   // (collective_ms_ holds only waits timed inside the passes, so this is a guard).
@@ -278,7 +326,6 @@ bool DistributedSimulation::RunStep(double start_time, bool& finite) {
   double diverged = StateIsFinite(state_.particles) ? 0 : 1;
   comm_.MaxInPlace({&diverged, 1});
   finite = diverged == 0;
-  return true;
 }
 
 void DistributedSimulation::Exchange() {
@@ -377,17 +424,9 @@ bool DistributedSimulation::AfterSort(double start_time, bool second) {
              std::to_string(state_.step + 1) + " (t = " + std::to_string(start_time) +
              " s), past the ghost layers' slack of one: reduce the time step";
   } else if (uint64_t(owned) != total_) {
-    alarm_ = std::to_string(owned) + " of " + std::to_string(total_) +
-             " particles found an owner at step " + std::to_string(state_.step + 1) +
-             " (t = " + std::to_string(start_time) +
-             " s): a particle's sorted position moved past the ghost layers (" +
-             std::to_string(ghost_depth_) + " cells) from where it was exchanged";
+    alarm_ = OwnerAlarm(owned, start_time);
   } else if (crowded > NeighborGrid::kMaxParticlesPerCell) {
-    alarm_ = std::to_string(uint64_t(crowded)) +
-             " particles crowd one neighbour-grid cell at step " + std::to_string(state_.step + 1) +
-             " (t = " + std::to_string(start_time) + " s; at most " +
-             std::to_string(NeighborGrid::kMaxParticlesPerCell) +
-             " can, or each step costs O(n^2)): the fluid collapsed";
+    alarm_ = CrowdedAlarm(uint64_t(crowded), start_time);
   } else {
     // Outside the passes' timing, as the collectives above: not in collective_ms_, which is
     // taken off the passes' time.
@@ -401,6 +440,21 @@ bool DistributedSimulation::AfterSort(double start_time, bool second) {
   }
   DropGhosts();
   return false;
+}
+
+std::string DistributedSimulation::OwnerAlarm(int64_t owned, double start_time) const {
+  return std::to_string(owned) + " of " + std::to_string(total_) +
+         " particles found an owner at step " + std::to_string(state_.step + 1) +
+         " (t = " + std::to_string(start_time) +
+         " s): a particle's sorted position moved past the ghost layers (" +
+         std::to_string(ghost_depth_) + " cells) from where it was exchanged";
+}
+
+std::string DistributedSimulation::CrowdedAlarm(uint64_t count, double start_time) const {
+  return std::to_string(count) + " particles crowd one neighbour-grid cell at step " +
+         std::to_string(state_.step + 1) + " (t = " + std::to_string(start_time) + " s; at most " +
+         std::to_string(NeighborGrid::kMaxParticlesPerCell) +
+         " can, or each step costs O(n^2)): the fluid collapsed";
 }
 
 void DistributedSimulation::DropGhosts() {

@@ -77,11 +77,17 @@ void Permute(std::span<const size_t> order, std::vector<T>& data) {
 }  // namespace
 
 std::vector<uint64_t> OrderKeys(const NeighborGrid& grid, size_t count) {
-  std::vector<uint64_t> keys(count);
+  std::vector<uint32_t> cells(count);
+  for (size_t k = 0; k < count; ++k) cells[k] = grid.CellIndex(grid.SortedCell(uint32_t(k)));
+  return OrderKeys(cells);
+}
+
+std::vector<uint64_t> OrderKeys(std::span<const uint32_t> sorted_cells) {
+  std::vector<uint64_t> keys(sorted_cells.size());
   uint32_t previous = 0;
   uint32_t slot = 0;
-  for (size_t k = 0; k < count; ++k) {
-    const uint32_t cell = grid.CellIndex(grid.SortedCell(uint32_t(k)));
+  for (size_t k = 0; k < sorted_cells.size(); ++k) {
+    const uint32_t cell = sorted_cells[k];
     slot = k > 0 && cell == previous ? slot + 1 : 0;
     previous = cell;
     keys[k] = OrderKey(cell, slot);

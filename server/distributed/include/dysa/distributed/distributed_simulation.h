@@ -18,6 +18,14 @@
 // density diffusion and particle shifting; seed; dfsph (ghosts 3 layers deep, their velocities
 // refreshed from their owners after every velocity update inside the step: ghost_refresh.h; its
 // stopping tests' mean errors summed as fixed-point integers over the processes).
+//
+// On a GPU (a CUDA `device`: distributed_device_step.cc) each step's exchange stays on the host
+// as above; then the owned particles and ghosts, in key order, go up to the device through
+// page-locked buffers, the solver's CUDA pipeline steps them all (its stable sort by cell gives
+// the CPU's order), its CFL maxima skipping the ghosts (by the cell layers this process owns,
+// ProcessShare::owned_layers) and combined over the processes before dt is chosen, and they come
+// back; the cells of the device's sort give the ghost flags and the order keys, and the ghosts
+// are dropped. Supported there: wcsph with symplectic Euler (everything else refused by field).
 #pragma once
 
 #include <cstdint>
@@ -26,11 +34,13 @@
 #include <string>
 #include <vector>
 
+#include "dysa/core/device.h"
 #include "dysa/core/model.h"
 #include "dysa/core/scene.h"
 #include "dysa/core/simulation.h"
 #include "dysa/core/solver.h"
 #include "dysa/core/state.h"
+#include "dysa/core/step_backend.h"
 #include "dysa/distributed/balancer.h"
 #include "dysa/distributed/communicator.h"
 #include "dysa/distributed/ghost_refresh.h"
@@ -52,8 +62,9 @@ class DistributedSimulation {
  public:
   // Collective. Validates the scene (ConfigError) and what runs across processes so far
   // (wcsph, seed, dfsph: ConfigError naming "solver"), spawns its particles and
-  // keeps those of this process's slab. `comm` must outlive this.
-  DistributedSimulation(Scene scene, const Communicator& comm);
+  // keeps those of this process's slab. `comm` must outlive this. With a CUDA `device` the
+  // steps run there (what runs: CheckSupported; ConfigError("device", ...) when it cannot run).
+  DistributedSimulation(Scene scene, const Communicator& comm, const Device& device = {});
   ~DistributedSimulation();
 
   const Scene& scene() const { return scene_; }
@@ -97,6 +108,10 @@ class DistributedSimulation {
   // Throws ConfigError naming the field ("solver") when `scene` with
   // `params` cannot run across processes yet.
   static void CheckSupported(const Scene& scene, const Params& params);
+  // The same on `device`: on a GPU also ConfigError naming "solver" for a solver other than
+  // wcsph and "time_integration" for the predictor-corrector (not on GPU ranks yet).
+  static void CheckSupported(const Scene& scene, const Params& params, const Device& device);
+  const Device& device() const { return device_; }
   // Collective. The particles of all processes.
   uint64_t TotalParticles() const;
   // Collective. Every process's particles on process 0, in the storage order one process would
@@ -124,6 +139,15 @@ class DistributedSimulation {
   // and dt set); false when the sort found the state unfit to go on (alarm_ set).
   bool RunStep(double start_time, bool& finite);
   void Exchange();
+  // RunStep on the device (distributed_device_step.cc).
+  bool RunDeviceStep(double start_time, bool& finite);
+  // The compute time of the step just run (`passes_ms` less the waits in the collectives inside
+  // them) for the balance, after the test-only slow-down (BalanceSettings); then the
+  // finiteness of the particles over the processes into `finite`.
+  void FinishStep(double passes_ms, bool& finite);
+  // AfterSort's alarms: a cell holding `count` particles; `owned` of the particles owned.
+  std::string CrowdedAlarm(uint64_t count, double start_time) const;
+  std::string OwnerAlarm(int64_t owned, double start_time) const;
   // After the neighbour sort: the ghost flags in sorted order and the cells' occupancy.
   // `second`: the predictor-corrector's second sort (by the positions at t + dt/2).
   bool AfterSort(double start_time, bool second);
@@ -144,6 +168,10 @@ class DistributedSimulation {
 
   Scene scene_;
   const Communicator& comm_;
+  Device device_;
+  // The device's backend (null on the CPU) and the cells of its latest sort.
+  std::unique_ptr<StepBackend> backend_;
+  std::vector<uint32_t> sorted_cells_;
   Model model_;
   std::unique_ptr<Solver> solver_;
   std::vector<Pass> passes_;

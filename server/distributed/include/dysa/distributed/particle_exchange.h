@@ -39,6 +39,9 @@ inline uint64_t OrderKey(uint32_t cell, uint32_t slot) { return uint64_t{cell} <
 
 // The order keys of every particle of a state just sorted by `grid` (index k: sorted order).
 std::vector<uint64_t> OrderKeys(const NeighborGrid& grid, size_t count);
+// The same from the cell (NeighborGrid::CellIndex) of each particle in sorted order (a device's
+// sort: StepBackend::DownloadSortedCells).
+std::vector<uint64_t> OrderKeys(std::span<const uint32_t> sorted_cells);
 
 // What one exchange moved, for this process.
 struct ExchangeCounts {

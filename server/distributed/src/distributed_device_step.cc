@@ -1,0 +1,121 @@
+// DistributedSimulation's step on a GPU (distributed_simulation.h): the host's exchange, then
+// the solver's CUDA pipeline over this process's owned particles and ghosts.
+//
+// Why the bits are those of one process. The exchange leaves the particles in key order (the
+// order one process would hold them in, cell by cell); the device's neighbour sort is a stable
+// radix sort by the same cells (device_grid.cuh), so it puts them in the order the CPU's stable
+// counting sort does, and every cell an owned particle reads is complete (the ghost layers, as
+// on the CPU). The ghosts run every pass on the device (the CPU path skips those no owned
+// particle reads of them): their results are wrong near the halo's far edge, but nothing owned
+// reads them and they are dropped. What steers the step are the CFL maxima: the device leaves
+// out the particles sorted into layers this process does not own (ProcessShare::owned_layers,
+// the CPU's ghost flags) and the backend combines them, with the fullest cell, over the
+// processes (ProcessShare::max_over_processes) before it chooses dt.
+#include <algorithm>
+#include <chrono>
+#include <cstdint>
+#include <span>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "dysa/distributed/distributed_simulation.h"
+
+namespace dysa::distributed {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double MsSince(Clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+// The layer along `axis` of cell index `cell` (NeighborGrid::CellIndex) in a grid of `dims`.
+int LayerOf(uint32_t cell, const Eigen::Vector3i& dims, int axis) {
+  const uint32_t nx = uint32_t(dims.x()), ny = uint32_t(dims.y());
+  if (axis == 0) return int(cell % nx);
+  if (axis == 1) return int((cell / nx) % ny);
+  return int(cell / (nx * ny));
+}
+
+}  // namespace
+
+bool DistributedSimulation::RunDeviceStep(double start_time, bool& finite) {
+  auto start = Clock::now();
+  Exchange();
+  Record(0, MsSince(start));
+  collective_ms_ = 0;
+  const auto compute_start = Clock::now();
+  ProcessShare& share = state_.share;
+  const int me = comm_.rank();
+  share.layer_axis = axis_;
+  share.owned_layers.assign(size_t(slabs_->layers()), 0);
+  for (int l = 0; l < slabs_->layers(); ++l)
+    share.owned_layers[size_t(l)] = slabs_->OwnerOf(l) == me;
+  // The device sorts; the flags follow from its cells below.
+  share.ghost.clear();
+
+  start = Clock::now();
+  backend_->Upload(state_.particles, solver_->SaveArrays());
+  Record(1, MsSince(start));
+  const StepBackend::StepReport report = backend_->Step(model_, state_);
+  const size_t download_pass = profile_.size() - 2;
+  for (size_t k = 0; k < report.pass_ms.size() && k + 2 < download_pass; ++k) {
+    Record(k + 2, report.pass_ms[k]);
+  }
+
+  // Back to the host: the particles in the device's sorted order (moved, unless the step
+  // stopped before it integrated), the carried density, and the cells of the sort.
+  start = Clock::now();
+  backend_->Download(state_.particles);
+  std::vector<SolverArray> arrays;
+  if (!backend_->DownloadSolverArrays(arrays) || !backend_->DownloadSortedCells(sorted_cells_)) {
+    throw std::logic_error("the device backend does not read back what the ranks need");
+  }
+  Record(download_pass, MsSince(start));
+  const size_t n = state_.particles.size();
+  if (sorted_cells_.size() != n) throw std::logic_error("the device's sort lost particles");
+
+  // As AfterSort: a particle is owned where its sorted cell lies, a ghost elsewhere, and every
+  // particle has exactly one owner.
+  start = Clock::now();
+  const Eigen::Vector3i dims = layout_.dims();
+  share.ghost.assign(n, 0);
+  int64_t owned = 0;
+  for (size_t k = 0; k < n; ++k) {
+    const int layer = LayerOf(sorted_cells_[k], dims, axis_);
+    share.ghost[k] = uint8_t(std::min(255, slabs_->Distance(layer, me)));
+    owned += share.ghost[k] ? 0 : 1;
+  }
+  const auto wait = Clock::now();
+  comm_.SumInPlace({&owned, 1});
+  collective_ms_ += MsSince(wait);
+  // The ghosts dropped, the order keys of the owned particles from the sort's cells.
+  const std::vector<uint64_t> keys = OrderKeys(sorted_cells_);
+  std::vector<uint8_t> keep(n);
+  keys_.clear();
+  for (size_t k = 0; k < n; ++k) {
+    keep[k] = share.ghost[k] == 0;
+    if (keep[k]) keys_.push_back(keys[k]);
+  }
+  KeepParticles(keep, state_.particles, arrays);
+  solver_->RestoreArrays(arrays, state_.particles.size());
+  share.ghost.clear();
+  Record(profile_.size() - 1, MsSince(start));
+  // The same on every process: the crowded cell's count is a maximum over them (the backend's).
+  if (report.stopped) {
+    alarm_ = CrowdedAlarm(report.max_cell_count, start_time);
+    return false;
+  }
+  if (uint64_t(owned) != total_) {
+    // Cannot happen while the device sorts by the positions the exchange used (symplectic
+    // Euler); a guard, raised after the step (the CPU raises it before it integrates).
+    alarm_ = OwnerAlarm(owned, start_time);
+    return false;
+  }
+  FinishStep(MsSince(compute_start), finite);
+  return true;
+}
+
+}  // namespace dysa::distributed
