@@ -103,9 +103,6 @@ TEST(RunDistributedTest, GpuRanksRefuseWhatTheyCannotRunByField) {
   options.device = ParseDevice("cuda:0");
   // Refused before the device is looked at: the same on a machine with or without a GPU.
   EXPECT_EQ(RefusedField(options), "solver");
-  options.scene = DYSA_RANKS_SCENE;
-  options.sets = {"time_integration=1"};
-  EXPECT_EQ(RefusedField(options), "time_integration");
 }
 
 TEST(RunDistributedTest, AGpuThatCannotRunIsRefusedByFlag) {

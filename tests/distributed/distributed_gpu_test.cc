@@ -16,8 +16,9 @@
 #include "dysa/distributed/distributed_simulation.h"
 #include "support/gpu_test.h"
 
-#if !defined(DYSA_RANKS_SCENE) || !defined(DYSA_RANKS_PERIODIC_SCENE)
-#error "tests/CMakeLists.txt defines DYSA_RANKS_SCENE and DYSA_RANKS_PERIODIC_SCENE"
+#if !defined(DYSA_RANKS_SCENE) || !defined(DYSA_RANKS_PERIODIC_SCENE) || \
+    !defined(DYSA_RANKS_PC_SCENE)
+#error "tests/CMakeLists.txt defines DYSA_RANKS_SCENE, _PERIODIC_SCENE and _PC_SCENE"
 #endif
 
 namespace dysa::distributed {
@@ -67,10 +68,20 @@ TEST(DistributedGpuTest, ThePeriodicSlabAxisWithShiftingToo) {
   ExpectSameBits(LoadScene(DYSA_RANKS_PERIODIC_SCENE), 12, true);
 }
 
+TEST(DistributedGpuTest, ThePredictorCorrectorToo) {
+  SKIP_WITHOUT_GPU();
+  // Two sorts a step: the maxima by the first, owners and keys by the second, the half step's
+  // move checked between them.
+  ExpectSameBits(LoadScene(DYSA_RANKS_PC_SCENE), 12, true);
+}
+
 TEST(DistributedGpuTest, MovingObstaclesToo) {
   SKIP_WITHOUT_GPU();
   // Against the GPU's Simulation only: the CPU's agreement on this scene is not established.
   ExpectSameBits(dysa::testing::MovingDamScene("wcsph"), 8, false);
+  Scene pc = dysa::testing::MovingDamScene("wcsph");
+  SetParam(pc.params, "time_integration", 1);
+  ExpectSameBits(pc, 8, false);
 }
 
 TEST(DistributedGpuTest, ACheckpointRestoresOnTheGpuRanksAndStepsOn) {

@@ -1,6 +1,6 @@
 #!/bin/bash
-# ctest -L gpu (and -L mpi): GPU ranks. For each scene (wcsph, symplectic Euler:
-# ranks_dam_break.json, ranks_periodic.json), N steps of plain `dysa run` on the CPU give the
+# ctest -L gpu (and -L mpi): GPU ranks. For each scene (wcsph: ranks_dam_break.json,
+# ranks_periodic.json; ranks_predictor_corrector.json in its own test), N steps of plain `dysa run` on the CPU give the
 # reference state hash; `mpirun -np R dysa run SCENE --device cuda` on R = 1, 2, 3 ranks sharing
 # cuda:0 (each rank maps to GPU local_rank % GPUs) must end in that same hash, and write the
 # same probes.csv and VTK frames on every rank count (the GPU's, byte for byte); plain

@@ -11,9 +11,18 @@
 // out the particles sorted into layers this process does not own (ProcessShare::owned_layers,
 // the CPU's ghost flags) and the backend combines them, with the fullest cell, over the
 // processes (ProcessShare::max_over_processes) before it chooses dt.
+//
+// The predictor-corrector sorts twice; the ghosts reach 5 layers as on the CPU (those within 3
+// compute their rates there, all of them here), the maxima are taken after the first sort (by
+// its cells), and a particle's owner and order key come from the second (the last the device
+// made). The CPU's check that no particle moved more than one layer between the sorts (the
+// ghosts' slack) is made here after the step, from the first sort's cells by id
+// (StepBackend::DownloadFirstSortCells).
 #include <algorithm>
 #include <chrono>
+#include <climits>
 #include <cstdint>
+#include <cstdlib>
 #include <span>
 #include <stdexcept>
 #include <string>
@@ -88,8 +97,11 @@ bool DistributedSimulation::RunDeviceStep(double start_time, bool& finite) {
     share.ghost[k] = uint8_t(std::min(255, slabs_->Distance(layer, me)));
     owned += share.ghost[k] ? 0 : 1;
   }
+  const bool predictor = model_.params.time_integration == 1;
+  double moved = predictor && !report.stopped ? double(DeviceHalfStepMove()) : 0;
   const auto wait = Clock::now();
   comm_.SumInPlace({&owned, 1});
+  if (predictor) comm_.MaxInPlace({&moved, 1});
   collective_ms_ += MsSince(wait);
   // The ghosts dropped, the order keys of the owned particles from the sort's cells.
   const std::vector<uint64_t> keys = OrderKeys(sorted_cells_);
@@ -108,14 +120,45 @@ bool DistributedSimulation::RunDeviceStep(double start_time, bool& finite) {
     alarm_ = CrowdedAlarm(report.max_cell_count, start_time);
     return false;
   }
+  // Raised after the step (the CPU raises them before it integrates): the step is not counted.
+  if (moved > 1) {
+    alarm_ = MovedAlarm(int(moved), start_time);
+    return false;
+  }
   if (uint64_t(owned) != total_) {
-    // Cannot happen while the device sorts by the positions the exchange used (symplectic
-    // Euler); a guard, raised after the step (the CPU raises it before it integrates).
     alarm_ = OwnerAlarm(owned, start_time);
     return false;
   }
   FinishStep(MsSince(compute_start), finite);
   return true;
+}
+
+int DistributedSimulation::DeviceHalfStepMove() const {
+  std::vector<uint32_t> ids, cells;
+  if (!backend_->DownloadFirstSortCells(ids, cells) || ids.size() != cells.size()) {
+    throw std::logic_error("the device backend kept no first sort of the predictor-corrector");
+  }
+  // Each particle's layer at the first sort, by id; then against its layer at the second.
+  const Eigen::Vector3i dims = layout_.dims();
+  std::vector<std::pair<uint32_t, int>> first(ids.size());
+  for (size_t k = 0; k < ids.size(); ++k) first[k] = {ids[k], LayerOf(cells[k], dims, axis_)};
+  std::sort(first.begin(), first.end());
+  const ParticleArrays& p = state_.particles;
+  if (first.size() != p.size() || sorted_cells_.size() != p.size()) {
+    throw std::logic_error("the device's two sorts hold different particles");
+  }
+  const int layers = slabs_->layers();
+  int moved = 0;
+  for (size_t k = 0; k < p.size(); ++k) {
+    const auto at = std::lower_bound(first.begin(), first.end(), std::pair{p.id[k], INT_MIN});
+    if (at == first.end() || at->first != p.id[k]) {
+      throw std::logic_error("a particle of the device's second sort is not in its first");
+    }
+    int d = std::abs(LayerOf(sorted_cells_[k], dims, axis_) - at->second);
+    if (model_.periodic[axis_]) d = std::min(d, layers - d);
+    moved = std::max(moved, d);
+  }
+  return moved;
 }
 
 }  // namespace dysa::distributed

@@ -104,18 +104,13 @@ void DistributedSimulation::CheckSupported(const Scene& scene, const Params& par
   CheckSupported(scene, params);
   if (!device.is_cuda()) return;
   // The device's step (distributed_device_step.cc) leaves the ghosts out of the CFL maxima and
-  // takes the ownership from its one sort. The seed sorts by predicted positions, the
-  // predictor-corrector sorts twice (and its ghosts' reach changes between the sorts), dfsph
-  // refreshes its ghosts inside its solves' iterations: none of that has a device hook yet.
+  // takes the ownership from its last sort: wcsph, both time integrations. The seed sorts by
+  // predicted positions and stops on its own alarm, dfsph refreshes its ghosts inside its
+  // solves' iterations: neither has a device hook yet.
   if (scene.solver != "wcsph") {
     throw ConfigError("solver", "'" + scene.solver +
                                     "' does not run on GPU ranks yet (--device cuda across "
                                     "processes runs wcsph); run it on CPU ranks (--device cpu)");
-  }
-  if (params.time_integration != 0) {
-    throw ConfigError("time_integration",
-                      "the predictor-corrector (1) does not run on GPU ranks yet (symplectic "
-                      "Euler, 0, does); run it on CPU ranks (--device cpu)");
   }
 }
 
@@ -419,10 +414,7 @@ bool DistributedSimulation::AfterSort(double start_time, bool second) {
     state_.share.boundary_layers[l] = slabs_->Distance(l, comm_.rank()) <= reach + 1 ? 1 : 0;
   }
   if (maxima[1] > 1) {
-    alarm_ = "a particle moved " + std::to_string(int(maxima[1])) +
-             " cell layers in the predictor's half step at step " +
-             std::to_string(state_.step + 1) + " (t = " + std::to_string(start_time) +
-             " s), past the ghost layers' slack of one: reduce the time step";
+    alarm_ = MovedAlarm(int(maxima[1]), start_time);
   } else if (uint64_t(owned) != total_) {
     alarm_ = OwnerAlarm(owned, start_time);
   } else if (crowded > NeighborGrid::kMaxParticlesPerCell) {
@@ -448,6 +440,13 @@ std::string DistributedSimulation::OwnerAlarm(int64_t owned, double start_time) 
          " (t = " + std::to_string(start_time) +
          " s): a particle's sorted position moved past the ghost layers (" +
          std::to_string(ghost_depth_) + " cells) from where it was exchanged";
+}
+
+std::string DistributedSimulation::MovedAlarm(int layers, double start_time) const {
+  return "a particle moved " + std::to_string(layers) +
+         " cell layers in the predictor's half step at step " + std::to_string(state_.step + 1) +
+         " (t = " + std::to_string(start_time) +
+         " s), past the ghost layers' slack of one: reduce the time step";
 }
 
 std::string DistributedSimulation::CrowdedAlarm(uint64_t count, double start_time) const {

@@ -383,12 +383,21 @@ class WcsphGpuBackend final : public PipelineBackend<cuda::WcsphPipeline> {
     return true;
   }
 
+  bool DownloadFirstSortCells(std::vector<uint32_t>& ids,
+                              std::vector<uint32_t>& cells) const override {
+    if (!first_sort_kept_) return false;
+    ids = first_ids_;
+    cells = first_cells_;
+    return true;
+  }
+
   void StageThroughPinnedMemory() override { pipeline_.UsePinnedStaging(true); }
 
   StepReport Step(const Model& model, State& state) override {
     const bool moving = model.HasMovingObstacles();
     const ForceInputs start = ForcesAt(model, state.time);
     const double obstacle_speed = start.obstacle_speed;
+    first_sort_kept_ = false;
     // On one of several processes the ghosts stay out of the maxima (ProcessShare).
     pipeline_.SetOwnedLayers(state.share.layer_axis, state.share.owned_layers);
     const cuda::StepMaxima local = pipeline_.Forces(start.gravity, start.hydrostatic, start.motion);
@@ -412,7 +421,16 @@ class WcsphGpuBackend final : public PipelineBackend<cuda::WcsphPipeline> {
       cuda::StepOutcome outcome = pipeline_.Integrate(Real(state.dt));
       return StepReport{std::move(outcome.pass_ms), outcome.finite, 0};
     }
-    // The predictor-corrector (PredictHalfStep, the force passes at t + dt/2, CorrectStep).
+    // The predictor-corrector (PredictHalfStep, the force passes at t + dt/2, CorrectStep). On
+    // one of several processes the first sort's cells, which the second sort replaces, are kept
+    // for the driver's check of the half step's move (DownloadFirstSortCells).
+    first_sort_kept_ = !state.share.owned_layers.empty();
+    if (first_sort_kept_) {
+      first_ids_.resize(pipeline_.size());
+      first_cells_.resize(pipeline_.size());
+      pipeline_.Download(first_ids_.data(), nullptr, nullptr, nullptr, nullptr);
+      pipeline_.DownloadSortedCells(first_cells_.data());
+    }
     if (moving) MoveContactSurfaces(model, state.time, state.dt * 0.5, pipeline_);
     pipeline_.Predict(Real(state.dt * 0.5));
     const ForceInputs half = ForcesAt(model, state.time + state.dt * 0.5);
@@ -421,6 +439,10 @@ class WcsphGpuBackend final : public PipelineBackend<cuda::WcsphPipeline> {
     cuda::StepOutcome outcome = pipeline_.Correct(Real(state.dt));
     return StepReport{std::move(outcome.pass_ms), outcome.finite, 0};
   }
+
+ private:
+  bool first_sort_kept_ = false;
+  std::vector<uint32_t> first_ids_, first_cells_;
 };
 
 // Divergence-free SPH (Bender & Koschier 2015/2017) on the GPU: the passes and the solves'

@@ -91,6 +91,14 @@ class StepBackend {
   // at the latest step's neighbour sort, storage order, into `cells` (resized); false where
   // this backend does not keep them.
   virtual bool DownloadSortedCells(std::vector<uint32_t>& /*cells*/) const { return false; }
+  // The same for the first of a step's two sorts (wcsph's predictor-corrector, by the positions
+  // at t; DownloadSortedCells has the second's, at t + dt/2), with each particle's id, in that
+  // sort's order; kept only on one of several processes (ProcessShare::owned_layers set). False
+  // where the latest step did not keep them.
+  virtual bool DownloadFirstSortCells(std::vector<uint32_t>& /*ids*/,
+                                      std::vector<uint32_t>& /*cells*/) const {
+    return false;
+  }
   // The driver uploads and downloads every step (the ranks' device step): copies go through
   // page-locked host buffers kept between steps. Nothing to do where there is no device.
   virtual void StageThroughPinnedMemory() {}

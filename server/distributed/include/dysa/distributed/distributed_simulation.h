@@ -24,8 +24,9 @@
 // page-locked buffers, the solver's CUDA pipeline steps them all (its stable sort by cell gives
 // the CPU's order), its CFL maxima skipping the ghosts (by the cell layers this process owns,
 // ProcessShare::owned_layers) and combined over the processes before dt is chosen, and they come
-// back; the cells of the device's sort give the ghost flags and the order keys, and the ghosts
-// are dropped. Supported there: wcsph with symplectic Euler (everything else refused by field).
+// back; the cells of the device's (last) sort give the ghost flags and the order keys, and the
+// ghosts are dropped. Supported there: wcsph, with both time integrations (the seed and dfsph
+// refused by field).
 #pragma once
 
 #include <cstdint>
@@ -109,7 +110,7 @@ class DistributedSimulation {
   // `params` cannot run across processes yet.
   static void CheckSupported(const Scene& scene, const Params& params);
   // The same on `device`: on a GPU also ConfigError naming "solver" for a solver other than
-  // wcsph and "time_integration" for the predictor-corrector (not on GPU ranks yet).
+  // wcsph (not on GPU ranks yet).
   static void CheckSupported(const Scene& scene, const Params& params, const Device& device);
   const Device& device() const { return device_; }
   // Collective. The particles of all processes.
@@ -148,6 +149,10 @@ class DistributedSimulation {
   // AfterSort's alarms: a cell holding `count` particles; `owned` of the particles owned.
   std::string CrowdedAlarm(uint64_t count, double start_time) const;
   std::string OwnerAlarm(int64_t owned, double start_time) const;
+  std::string MovedAlarm(int layers, double start_time) const;
+  // The most cell layers (along the slab axis) a particle held here moved between the device's
+  // two sorts of the predictor-corrector (0 for a step that sorted once).
+  int DeviceHalfStepMove() const;
   // After the neighbour sort: the ghost flags in sorted order and the cells' occupancy.
   // `second`: the predictor-corrector's second sort (by the positions at t + dt/2).
   bool AfterSort(double start_time, bool second);
