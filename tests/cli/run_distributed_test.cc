@@ -20,8 +20,9 @@
 #include "run_command.h"
 #include "support/temp_dir.h"
 
-#if !defined(DYSA_RANKS_SCENE) || !defined(DYSA_RANKS_SEED_SCENE)
-#error "tests/CMakeLists.txt defines DYSA_RANKS_SCENE and DYSA_RANKS_SEED_SCENE (tests/distributed)"
+#if !defined(DYSA_RANKS_SCENE) || !defined(DYSA_RANKS_SEED_SCENE) || \
+    !defined(DYSA_RANKS_DFSPH_SCENE)
+#error "tests/CMakeLists.txt defines DYSA_RANKS_SCENE, _SEED_SCENE and _DFSPH_SCENE"
 #endif
 
 namespace dysa {
@@ -98,7 +99,7 @@ std::string RefusedField(RunOptions options) {
 
 TEST(RunDistributedTest, GpuRanksRefuseWhatTheyCannotRunByField) {
   RunOptions options;
-  options.scene = DYSA_RANKS_SEED_SCENE;
+  options.scene = DYSA_RANKS_DFSPH_SCENE;
   options.steps = 1;
   options.device = ParseDevice("cuda:0");
   // Refused before the device is looked at: the same on a machine with or without a GPU.

@@ -17,8 +17,8 @@
 #include "support/gpu_test.h"
 
 #if !defined(DYSA_RANKS_SCENE) || !defined(DYSA_RANKS_PERIODIC_SCENE) || \
-    !defined(DYSA_RANKS_PC_SCENE)
-#error "tests/CMakeLists.txt defines DYSA_RANKS_SCENE, _PERIODIC_SCENE and _PC_SCENE"
+    !defined(DYSA_RANKS_PC_SCENE) || !defined(DYSA_RANKS_SEED_SCENE)
+#error "tests/CMakeLists.txt defines DYSA_RANKS_SCENE, _PERIODIC_SCENE, _PC_SCENE, _SEED_SCENE"
 #endif
 
 namespace dysa::distributed {
@@ -73,6 +73,12 @@ TEST(DistributedGpuTest, ThePredictorCorrectorToo) {
   // Two sorts a step: the maxima by the first, owners and keys by the second, the half step's
   // move checked between them.
   ExpectSameBits(LoadScene(DYSA_RANKS_PC_SCENE), 12, true);
+}
+
+TEST(DistributedGpuTest, TheSeedToo) {
+  SKIP_WITHOUT_GPU();
+  // Sorted by its predicted positions, a fixed step: the owners from the predicted cells.
+  ExpectSameBits(LoadScene(DYSA_RANKS_SEED_SCENE), 10, true);
 }
 
 TEST(DistributedGpuTest, MovingObstaclesToo) {

@@ -178,7 +178,10 @@ TEST(DistributedSimulationTest, GpuRanksRefuseWhatTheyCannotRunByField) {
   Params pc = scene.params;
   pc.time_integration = 1;  // the predictor-corrector runs on GPU ranks too
   EXPECT_NO_THROW(DistributedSimulation::CheckSupported(scene, pc, gpu));
-  for (const char* solver : {"seed", "dfsph"}) {
+  Scene seed = scene;
+  seed.solver = "seed";  // the seed runs on GPU ranks too
+  EXPECT_NO_THROW(DistributedSimulation::CheckSupported(seed, seed.params, gpu));
+  for (const char* solver : {"dfsph"}) {
     Scene s = scene;
     s.solver = solver;
     EXPECT_EQ(refused(s, s.params), "solver") << solver;

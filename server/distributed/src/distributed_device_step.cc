@@ -12,6 +12,10 @@
 // the CPU's ghost flags) and the backend combines them, with the fullest cell, over the
 // processes (ProcessShare::max_over_processes) before it chooses dt.
 //
+// The seed sorts by its predicted positions: a particle is owned where its predicted cell lies
+// (the ghosts' slack, 2 layers, checked by the count of owners), and its step, of a fixed dt,
+// has no maxima.
+//
 // The predictor-corrector sorts twice; the ghosts reach 5 layers as on the CPU (those within 3
 // compute their rates there, all of them here), the maxima are taken after the first sort (by
 // its cells), and a particle's owner and order key come from the second (the last the device
@@ -99,9 +103,12 @@ bool DistributedSimulation::RunDeviceStep(double start_time, bool& finite) {
   }
   const bool predictor = model_.params.time_integration == 1;
   double moved = predictor && !report.stopped ? double(DeviceHalfStepMove()) : 0;
+  // The fullest cell over the processes (the seed's step completes past the limit; wcsph's stops
+  // and its backend combined the count already) and the half step's move.
+  double maxima[2] = {double(report.max_cell_count), moved};
   const auto wait = Clock::now();
   comm_.SumInPlace({&owned, 1});
-  if (predictor) comm_.MaxInPlace({&moved, 1});
+  comm_.MaxInPlace(maxima);
   collective_ms_ += MsSince(wait);
   // The ghosts dropped, the order keys of the owned particles from the sort's cells.
   const std::vector<uint64_t> keys = OrderKeys(sorted_cells_);
@@ -115,14 +122,14 @@ bool DistributedSimulation::RunDeviceStep(double start_time, bool& finite) {
   solver_->RestoreArrays(arrays, state_.particles.size());
   share.ghost.clear();
   Record(profile_.size() - 1, MsSince(start));
-  // The same on every process: the crowded cell's count is a maximum over them (the backend's).
-  if (report.stopped) {
-    alarm_ = CrowdedAlarm(report.max_cell_count, start_time);
+  // The same on every process (maxima and a sum over them). Raised after the step where it
+  // completed (the CPU raises them before it integrates): the step is not counted.
+  if (report.stopped || maxima[0] > NeighborGrid::kMaxParticlesPerCell) {
+    alarm_ = CrowdedAlarm(uint64_t(maxima[0]), start_time);
     return false;
   }
-  // Raised after the step (the CPU raises them before it integrates): the step is not counted.
-  if (moved > 1) {
-    alarm_ = MovedAlarm(int(moved), start_time);
+  if (maxima[1] > 1) {
+    alarm_ = MovedAlarm(int(maxima[1]), start_time);
     return false;
   }
   if (uint64_t(owned) != total_) {

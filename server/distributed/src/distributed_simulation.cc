@@ -104,13 +104,14 @@ void DistributedSimulation::CheckSupported(const Scene& scene, const Params& par
   CheckSupported(scene, params);
   if (!device.is_cuda()) return;
   // The device's step (distributed_device_step.cc) leaves the ghosts out of the CFL maxima and
-  // takes the ownership from its last sort: wcsph, both time integrations. The seed sorts by
-  // predicted positions and stops on its own alarm, dfsph refreshes its ghosts inside its
-  // solves' iterations: neither has a device hook yet.
-  if (scene.solver != "wcsph") {
+  // takes the ownership from its last sort: wcsph (both time integrations) and the seed (by its
+  // predicted positions, a fixed step). dfsph refreshes its ghosts inside its solves' iterations:
+  // no device hook for that yet.
+  if (scene.solver != "wcsph" && scene.solver != "seed") {
     throw ConfigError("solver", "'" + scene.solver +
                                     "' does not run on GPU ranks yet (--device cuda across "
-                                    "processes runs wcsph); run it on CPU ranks (--device cpu)");
+                                    "processes runs wcsph and seed); run it on CPU ranks "
+                                    "(--device cpu)");
   }
 }
 

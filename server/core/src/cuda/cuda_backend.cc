@@ -182,6 +182,20 @@ class SeedGpuBackend final : public PipelineBackend<cuda::SeedPipeline> {
     return StepReport{std::move(outcome.pass_ms), outcome.finite, outcome.limited,
                       pipeline_.max_cell_count()};
   }
+
+  bool DownloadSortedCells(std::vector<uint32_t>& cells) const override {
+    cells.resize(pipeline_.size());
+    pipeline_.DownloadSortedCells(cells.data());
+    return true;
+  }
+
+  // The seed carries no array from step to step.
+  bool DownloadSolverArrays(std::vector<SolverArray>& solver_arrays) const override {
+    solver_arrays.clear();
+    return true;
+  }
+
+  void StageThroughPinnedMemory() override { pipeline_.UsePinnedStaging(true); }
 };
 
 void AddObstacles(const Model& model, std::vector<cuda::SphereObstacle>& spheres,

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cstdlib>
+#include <cstring>
 #include <stdexcept>
 #include <string>
 
@@ -60,6 +61,10 @@ struct SeedPipeline::Impl : ParticleBuffers {
   PinnedBuffer<unsigned long long> flags;
   DeviceBuffer<unsigned long long> device_flags;
   EventTimer timer;
+  // UsePinnedStaging's buffers: ids, positions and velocities (xyz), densities and pressures.
+  bool pinned_staging = false;
+  PinnedBuffer<uint32_t> stage_id;
+  PinnedBuffer<float> stage_position, stage_velocity, stage_density, stage_pressure;
 
   Particles View() {
     return {x.data(),  y.data(),  z.data(),  vx.data(), vy.data(),
@@ -164,6 +169,18 @@ void SeedPipeline::Upload(size_t n, const uint32_t* id, const float* position,
   DeviceScope scope(m.device);
   m.Allocate(n);
   m.list_refused = false;
+  if (m.pinned_staging && n > 0) {
+    // Through the page-locked buffers: a host copy, then a DMA at the bus's speed.
+    m.stage_id.Resize(n);
+    m.stage_position.Resize(3 * n);
+    m.stage_velocity.Resize(3 * n);
+    std::memcpy(m.stage_id.data(), id, n * sizeof(uint32_t));
+    std::memcpy(m.stage_position.data(), position, 3 * n * sizeof(float));
+    std::memcpy(m.stage_velocity.data(), velocity, 3 * n * sizeof(float));
+    id = m.stage_id.data();
+    position = m.stage_position.data();
+    velocity = m.stage_velocity.data();
+  }
   m.EnqueueUpload(id, position, velocity);
   // As the densities and pressures (EnqueueUpload), the step's other outputs read zeros before
   // the first step.
@@ -179,11 +196,40 @@ void SeedPipeline::Download(uint32_t* id, float* position, float* velocity, floa
   Impl& m = *impl_;
   DeviceScope scope(m.device);
   const size_t n = m.n;
-  m.EnqueueDownload(id, position, velocity, density, pressure);
+  if (m.pinned_staging && n > 0) {
+    // The shared arrays through the page-locked buffers (UsePinnedStaging), the rest directly.
+    m.stage_id.Resize(n), m.stage_density.Resize(n), m.stage_pressure.Resize(n);
+    m.stage_position.Resize(3 * n), m.stage_velocity.Resize(3 * n);
+    m.EnqueueDownload(
+        id ? m.stage_id.data() : nullptr, position ? m.stage_position.data() : nullptr,
+        velocity ? m.stage_velocity.data() : nullptr, density ? m.stage_density.data() : nullptr,
+        pressure ? m.stage_pressure.data() : nullptr);
+    CheckCuda(cudaStreamSynchronize(m.stream.get()), "downloading particles");
+    if (id) std::memcpy(id, m.stage_id.data(), n * sizeof(uint32_t));
+    if (position) std::memcpy(position, m.stage_position.data(), 3 * n * sizeof(float));
+    if (velocity) std::memcpy(velocity, m.stage_velocity.data(), 3 * n * sizeof(float));
+    if (density) std::memcpy(density, m.stage_density.data(), n * sizeof(float));
+    if (pressure) std::memcpy(pressure, m.stage_pressure.data(), n * sizeof(float));
+  } else {
+    m.EnqueueDownload(id, position, velocity, density, pressure);
+  }
   if (predicted) DownloadInterleaved(m.px, m.py, m.pz, n, predicted, m.stream.get());
   if (near_density) m.near_density.CopyTo(near_density, n, m.stream.get());
   if (near_pressure) m.near_pressure.CopyTo(near_pressure, n, m.stream.get());
   CheckCuda(cudaStreamSynchronize(m.stream.get()), "downloading particles");
+}
+
+void SeedPipeline::UsePinnedStaging(bool on) { impl_->pinned_staging = on; }
+
+void SeedPipeline::DownloadSortedCells(uint32_t* cells) const {
+  Impl& m = *impl_;
+  if (m.n == 0) return;
+  DeviceScope scope(m.device);
+  cudaStream_t s = m.stream.get();
+  CheckCuda(cudaMemcpyAsync(cells, m.sorter.View().sorted_key, size_t(m.n) * sizeof(uint32_t),
+                            cudaMemcpyDeviceToHost, s),
+            "downloading the sorted cells");
+  CheckCuda(cudaStreamSynchronize(s), "downloading the sorted cells");
 }
 
 void SeedPipeline::MoveObstacles(const std::vector<SphereObstacle>& spheres,

@@ -78,6 +78,12 @@ class SeedPipeline : public ParticleReadout {
   void MoveObstacles(const std::vector<SphereObstacle>& spheres,
                      const std::vector<BoxObstacle>& boxes);
   StepOutcome Step();
+  // On one of several processes (server/distributed), which upload and download their owned
+  // particles and ghosts every step: the cell (NeighborGrid::CellIndex) of each particle at the
+  // latest sort (by the predicted positions), storage order (size() values); and Upload and
+  // Download through page-locked host buffers kept between calls.
+  void DownloadSortedCells(uint32_t* cells) const;
+  void UsePinnedStaging(bool on);
   // Device memory held, bytes (particles, the grid, the neighbour list, scratch).
   uint64_t DeviceBytes() const;
 

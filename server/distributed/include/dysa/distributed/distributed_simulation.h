@@ -25,7 +25,7 @@
 // the CPU's order), its CFL maxima skipping the ghosts (by the cell layers this process owns,
 // ProcessShare::owned_layers) and combined over the processes before dt is chosen, and they come
 // back; the cells of the device's (last) sort give the ghost flags and the order keys, and the
-// ghosts are dropped. Supported there: wcsph, with both time integrations (the seed and dfsph
+// ghosts are dropped. Supported there: wcsph (both time integrations) and the seed (dfsph
 // refused by field).
 #pragma once
 
@@ -109,8 +109,8 @@ class DistributedSimulation {
   // Throws ConfigError naming the field ("solver") when `scene` with
   // `params` cannot run across processes yet.
   static void CheckSupported(const Scene& scene, const Params& params);
-  // The same on `device`: on a GPU also ConfigError naming "solver" for a solver other than
-  // wcsph (not on GPU ranks yet).
+  // The same on `device`: on a GPU also ConfigError naming "solver" for dfsph (not on GPU ranks
+  // yet).
   static void CheckSupported(const Scene& scene, const Params& params, const Device& device);
   const Device& device() const { return device_; }
   // Collective. The particles of all processes.
