@@ -8,8 +8,10 @@
 #include <gtest/gtest.h>
 
 #include <cstdlib>
+#include <memory>
 #include <string>
 
+#include "distributed/host_device_backend.h"
 #include "dysa/core/device.h"
 #include "dysa/core/scene.h"
 #include "dysa/core/simulation.h"
@@ -158,6 +160,27 @@ TEST(DistributedSimulationTest, SolversNotSpreadAreRefusedByName) {
   } catch (const ConfigError& e) {
     EXPECT_EQ(e.field(), "solver");
     EXPECT_THAT(e.message(), HasSubstr("allowed: wcsph, seed, dfsph"));
+  }
+}
+
+TEST(DistributedSimulationTest, TheDevicePathGivesTheBitsOfSimulation) {
+  // The device step (distributed_device_step.cc) with a host stand-in for the GPU
+  // (host_device_backend.h): upload, the step, the cells read back, the keys from them. On 2
+  // and 3 ranks: mpi_device_step_test; on a GPU: distributed_gpu_test.
+  for (const char* path : {DYSA_RANKS_SCENE, DYSA_RANKS_SEED_SCENE}) {
+    const Scene scene = LoadScene(path);
+    const SingleProcess one;
+    DistributedSimulation spread(scene, one,
+                                 std::make_unique<dysa::testing::HostDeviceBackend>(scene.solver));
+    Simulation plain(scene);
+    for (int f = 0; f < 6; ++f) {
+      const double end = plain.time() + plain.model().FrameTime();
+      while (plain.time() < end) plain.Step(end);
+      while (spread.time() < end && spread.alarm().empty()) spread.Step(end);
+      ASSERT_EQ(spread.step(), plain.step()) << path << ", frame " << f;
+      ASSERT_EQ(spread.GlobalStateHash(), StateHash(plain.state())) << path << ", frame " << f;
+    }
+    EXPECT_EQ(spread.profile().at(1).name, "upload");
   }
 }
 

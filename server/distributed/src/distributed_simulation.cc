@@ -59,9 +59,19 @@ double MsSince(Clock::time_point start) {
 
 DistributedSimulation::DistributedSimulation(Scene scene, const Communicator& comm,
                                              const Device& device)
+    : DistributedSimulation(std::move(scene), comm, device, nullptr) {}
+
+DistributedSimulation::DistributedSimulation(Scene scene, const Communicator& comm,
+                                             std::unique_ptr<StepBackend> device_backend)
+    : DistributedSimulation(std::move(scene), comm, Device{}, std::move(device_backend)) {}
+
+DistributedSimulation::DistributedSimulation(Scene scene, const Communicator& comm,
+                                             const Device& device,
+                                             std::unique_ptr<StepBackend> device_backend)
     : scene_(std::move(scene)),
       comm_(comm),
       device_(device),
+      backend_(std::move(device_backend)),
       refreshes_ghosts_(scene_.solver == "dfsph") {
   solver_ = FindSolver(scene_.solver).create();
   Configure(scene_.params);

@@ -66,6 +66,10 @@ class DistributedSimulation {
   // keeps those of this process's slab. `comm` must outlive this. With a CUDA `device` the
   // steps run there (what runs: CheckSupported; ConfigError("device", ...) when it cannot run).
   DistributedSimulation(Scene scene, const Communicator& comm, const Device& device = {});
+  // As above with `device_backend` standing in for a GPU's backend: the device path of the step
+  // without a GPU (tests/distributed/host_device_backend.h).
+  DistributedSimulation(Scene scene, const Communicator& comm,
+                        std::unique_ptr<StepBackend> device_backend);
   ~DistributedSimulation();
 
   const Scene& scene() const { return scene_; }
@@ -136,6 +140,8 @@ class DistributedSimulation {
   uint64_t GlobalStateHash() const;
 
  private:
+  DistributedSimulation(Scene scene, const Communicator& comm, const Device& device,
+                        std::unique_ptr<StepBackend> device_backend);
   // The exchange, the passes and the dropping of the ghosts of one step from state_.time (cap
   // and dt set); false when the sort found the state unfit to go on (alarm_ set).
   bool RunStep(double start_time, bool& finite);
