@@ -441,7 +441,9 @@ def plot_spheric(path, curves, ref_t, ref_h):
         a.set_xlim(0, tmax)
         a.grid(alpha=0.3)
         a.legend(fontsize=7)
-    ax[0].set_title("SPHERIC Test 2: DualSPHysics 5.4 and the project, same dp")
+    codes = "DualSPHysics 5.4 and the project" if any(
+        label.startswith("dualsphysics") for label, _ in curves) else "the project's runs"
+    ax[0].set_title(f"SPHERIC Test 2: {codes}, same dp")
     fig.tight_layout()
     fig.savefig(path, dpi=90)
     plt.close(fig)
