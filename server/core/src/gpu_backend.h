@@ -39,7 +39,7 @@ class GpuBackend : public StepBackend {
   virtual RankSubsetCopy DownloadByIds(const uint32_t* ids, size_t count, bool position,
                                        bool velocity, bool density) const = 0;
   // Per axis the smallest (lo[a]) and largest (hi[a]) particle position, reduced on the device:
-  // 24 bytes cross (cuda/view_reads.cuh). NaN skipped, a zero extreme signed as the first zero
+  // 36 bytes cross (cuda/view_reads.cuh). NaN skipped, a zero extreme signed as the first zero
   // in storage order (Simulation::ReadPositionBounds' bits); lo +inf, hi -inf without particles.
   virtual void DownloadPositionBounds(float* lo, float* hi) const = 0;
 
