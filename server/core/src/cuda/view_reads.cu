@@ -7,26 +7,13 @@
 #include <limits>
 #include <stdexcept>
 
+#include "cuda/ordered_float.cuh"
 #include "cuda/view_reads.cuh"
 
 namespace dysa::cuda {
 namespace {
 
-// A float's bits mapped to an unsigned integer of the same order (negative floats reversed below
-// the positive ones; -0 just below +0), so integer minima and maxima reduce floats exactly, in
-// any order.
-__host__ __device__ uint32_t Ordered(uint32_t bits) {
-  return (bits & 0x80000000u) ? ~bits : (bits | 0x80000000u);
-}
-float FromOrdered(uint32_t u) {
-  const uint32_t bits = (u & 0x80000000u) ? (u & 0x7fffffffu) : ~u;
-  float f;
-  std::memcpy(&f, &bits, sizeof f);
-  return f;
-}
-constexpr uint32_t kOrderedPlusInf = 0xff800000u;   // Ordered(bits of +inf)
-constexpr uint32_t kOrderedMinusInf = 0x007fffffu;  // Ordered(bits of -inf)
-constexpr uint32_t kNoZero = 0xffffffffu;           // no zero seen (2 i + sign is below it)
+constexpr uint32_t kNoZero = 0xffffffffu;  // no zero seen (2 i + sign is below it)
 
 __device__ uint32_t WarpMin(uint32_t v) {
   for (int offset = 16; offset > 0; offset /= 2) {
