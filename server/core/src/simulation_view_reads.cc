@@ -27,18 +27,17 @@ size_t Simulation::ReadParticlesByIds(std::span<const uint32_t> ids,
   float* position = check(out.position, 3 * n, "position");
   float* velocity = check(out.velocity, 3 * n, "velocity");
   float* density = check(out.density, n, "density");
-  // Which ids are asked for, by id: the storage is in cell order, so the scan below finds each
-  // asked particle where it lies without an inverse permutation (which would cost a write per
-  // particle, as much as the scan).
-  std::vector<uint8_t> wanted(n, 0);
   for (const uint32_t id : ids) {
     if (id >= n) {
       throw std::out_of_range("ReadParticlesByIds: id " + std::to_string(id) + " of " +
                               std::to_string(n) + " particles");
     }
-    wanted[id] = 1;
   }
   if (ids.empty() || (!position && !velocity && !density)) return ids.size();
+  if (backend_ && host_stale_) {
+    // Where the particles live (the ranks: each sends only its asked particles).
+    if (backend_->DownloadByIds(ids, position, velocity, density)) return ids.size();
+  }
   const auto* gpu = dynamic_cast<const GpuBackend*>(backend_.get());
   if (gpu && host_stale_) {
     // No device gather by id yet: every asked array comes to the host, then the ids' entries.
@@ -53,6 +52,11 @@ size_t Simulation::ReadParticlesByIds(std::span<const uint32_t> ids,
     }
     return ids.size();
   }
+  // Which ids are asked for, by id: the storage is in cell order, so the scan below finds each
+  // asked particle where it lies without an inverse permutation (which would cost a write per
+  // particle, as much as the scan).
+  std::vector<uint8_t> wanted(n, 0);
+  for (const uint32_t id : ids) wanted[id] = 1;
   const ParticleArrays& s = state().particles;
 #pragma omp parallel for schedule(static)
   for (size_t i = 0; i < n; ++i) {
@@ -92,6 +96,11 @@ Simulation::PositionBounds BoundsOf(const float* xyz, size_t n) {
 
 Simulation::PositionBounds Simulation::ReadPositionBounds() const {
   const size_t n = particle_count_;
+  if (backend_ && host_stale_) {
+    // Reduced where the particles live (the ranks: 6 values each).
+    PositionBounds b;
+    if (backend_->DownloadPositionBounds(b.lo, b.hi)) return b;
+  }
   const auto* gpu = dynamic_cast<const GpuBackend*>(backend_.get());
   if (gpu && host_stale_) {
     // No device reduction wired yet: the positions come to the host (not the host copy).
