@@ -1,12 +1,13 @@
 // ctest -L mpi, run by mpirun on 2 and 3 ranks: a view stream's reads on the ranks
 // (DistributedSimulation::GatherParticlesByIds, PositionBounds, SelectViewSubset; the server's
 // Simulation through the ranks' backend) give one process's bits, and each rank sends only its
-// share: the asked particles it owns, 6 values of bounds, its cells' counts and its part of the
+// share: the asked particles it owns, 60 bytes of bounds, its cells' counts and its part of the
 // budget's smallest keys. Every rank runs the plain Simulation too (the test scene is small).
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <memory>
 #include <string>
 #include <vector>
@@ -101,15 +102,55 @@ TEST(MpiViewReadsTest, AReadByIdsTakesOnlyTheAskedParticlesFromEachRank) {
   for (size_t k = 0; k < ids.size(); ++k) runs.ExpectPlainValues(got, k, ids[k]);
 }
 
-TEST(MpiViewReadsTest, PositionBoundsMoveSixValuesPerRank) {
+TEST(MpiViewReadsTest, PositionBoundsMoveSixtyBytesPerRank) {
   TwoRuns runs;
   const Simulation::PositionBounds got = runs.spread.PositionBounds();
+  EXPECT_EQ(runs.comm.gathered, std::vector<size_t>{60});  // per axis 2 extremes, a zero's key
+  EXPECT_EQ(runs.comm.max_values, 0u);
+  EXPECT_EQ(runs.comm.all_to_all_bytes, 0u);
+  if (TestComm().rank() != 0) return;
   const Simulation::PositionBounds want = runs.plain.ReadPositionBounds();
   EXPECT_EQ(got.lo, want.lo);
   EXPECT_EQ(got.hi, want.hi);
-  EXPECT_TRUE(runs.comm.gathered.empty());
-  EXPECT_EQ(runs.comm.max_values, 6u);
-  EXPECT_EQ(runs.comm.all_to_all_bytes, 0u);
+}
+
+TEST(MpiViewReadsTest, AZeroExtremeTakesTheSignOfTheFirstZeroInStorageOrder) {
+  // One process signs a zero extreme as its first zero in storage order (a sequential scan's):
+  // on the ranks the first in order key, wherever it lives. A checkpoint's order is the storage
+  // order after its restore, on one process and on the ranks (the order key).
+  const Scene scene = LoadScene(DYSA_RANKS_SCENE);
+  Simulation plain(scene);
+  plain.StepFrame();  // the storage in cell order (x fastest), not the spawn's
+  Checkpoint c = plain.SaveCheckpoint();
+  // Two particles get y = 0, one +0 and one -0 (every other y stays above): the first in
+  // storage order far right (the last rank's slab along x), the second far left (rank 0's), so
+  // that the ranks' order is not the storage order.
+  const size_t n = c.id.size();
+  size_t first = 0, second = n - 1;
+  for (size_t i = 0; i < n; ++i) {
+    c.position[i][1] = std::max(c.position[i][1], Real(0.001));
+    if (i < n / 2 && c.position[i][0] > c.position[first][0]) first = i;
+    if (i >= n / 2 && c.position[i][0] < c.position[second][0]) second = i;
+  }
+  for (const float first_sign : {-1.0f, 1.0f}) {
+    c.position[first][1] = std::copysign(0.0f, first_sign);
+    c.position[second][1] = std::copysign(0.0f, -first_sign);
+    plain.RestoreCheckpoint(c);
+    DistributedSimulation spread(scene, TestComm());
+    spread.RestoreCheckpoint(c);
+    EXPECT_EQ(spread.particles().size() < c.id.size(), TestComm().size() > 1);
+    const Simulation::PositionBounds got = spread.PositionBounds();
+    if (TestComm().rank() != 0) continue;
+    const std::vector<uint32_t>& mine = spread.particles().id;
+    EXPECT_EQ(std::count(mine.begin(), mine.end(), c.id[first]), 0);  // another rank's
+    EXPECT_EQ(std::count(mine.begin(), mine.end(), c.id[second]), 1);
+    const Simulation::PositionBounds want = plain.ReadPositionBounds();
+    EXPECT_EQ(want.lo[1], 0.0f);
+    EXPECT_EQ(std::signbit(want.lo[1]), first_sign < 0);
+    EXPECT_EQ(std::signbit(got.lo[1]), std::signbit(want.lo[1])) << "first sign " << first_sign;
+    EXPECT_EQ(got.lo, want.lo);
+    EXPECT_EQ(got.hi, want.hi);
+  }
 }
 
 TEST(MpiViewReadsTest, AViewSubsetIsOneProcesssAndEachRankSendsItsShare) {

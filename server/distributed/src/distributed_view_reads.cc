@@ -133,27 +133,54 @@ ParticleArrays DistributedSimulation::GatherParticlesByIds(std::span<const uint3
 }
 
 Simulation::PositionBounds DistributedSimulation::PositionBounds() const {
-  // This process's extremes as Simulation's BoundsOf takes them (std::min and std::max skip a
-  // NaN after the first value; from +-inf, every NaN is skipped), then the maximum of the hi and
-  // of the negated lo over the processes: floats are exact as doubles, and so are their
-  // negations, so the result is one process's minimum and maximum.
+  // Per axis this process's extremes as Simulation's BoundsOf takes them (std::min and std::max
+  // skip a NaN; from +-inf, every NaN is skipped), and its first zero in key order (one
+  // process's storage order), whose sign a zero extreme takes there: 20 bytes an axis to
+  // process 0, which takes the extremes over the processes (exact) and, for a zero extreme, the
+  // sign of the zero first in key order.
   const ParticleArrays& p = state_.particles;
-  std::array<double, 6> m;
+  constexpr uint64_t kNoZero = std::numeric_limits<uint64_t>::max();
+  Bytes mine;
   for (int a = 0; a < 3; ++a) {
     float lo = std::numeric_limits<float>::infinity();
     float hi = -lo;
+    uint64_t zero_key = kNoZero;
+    float zero = 0;
     for (size_t i = 0; i < p.size(); ++i) {
-      lo = std::min(lo, p.position[i][a]);
-      hi = std::max(hi, p.position[i][a]);
+      const float x = p.position[i][a];
+      lo = std::min(lo, x);
+      hi = std::max(hi, x);
+      if (x == 0 && keys_[i] < zero_key) {
+        zero_key = keys_[i];
+        zero = x;
+      }
     }
-    m[a] = -double(lo);
-    m[3 + a] = double(hi);
+    Append(mine, lo);
+    Append(mine, hi);
+    Append(mine, zero_key);
+    Append(mine, zero);
   }
-  comm_.MaxInPlace(m);
+  const std::vector<Bytes> parts = comm_.GatherToRoot(mine);
   Simulation::PositionBounds b;
+  if (comm_.rank() != 0) return b;
+  constexpr size_t kAxis = 2 * sizeof(float) + sizeof(uint64_t) + sizeof(float);
   for (int a = 0; a < 3; ++a) {
-    b.lo[a] = float(-m[a]);
-    b.hi[a] = float(m[3 + a]);
+    float lo = std::numeric_limits<float>::infinity();
+    float hi = -lo;
+    uint64_t zero_key = kNoZero;
+    float zero = 0;
+    for (const Bytes& part : parts) {
+      const std::byte* at = part.data() + a * kAxis;
+      lo = std::min(lo, Read<float>(at));
+      hi = std::max(hi, Read<float>(at + 4));
+      const uint64_t key = Read<uint64_t>(at + 8);
+      if (key < zero_key) {
+        zero_key = key;
+        zero = Read<float>(at + 16);
+      }
+    }
+    b.lo[a] = lo == 0 ? zero : lo;
+    b.hi[a] = hi == 0 ? zero : hi;
   }
   return b;
 }

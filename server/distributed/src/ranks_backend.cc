@@ -83,14 +83,14 @@ class RanksBackend final : public StepBackend {
   }
 
   // A view stream's reads: each rank sends only what the view asks of its own particles.
-  std::optional<size_t> DownloadByIds(std::span<const uint32_t> ids, float* position,
-                                      float* velocity, float* density) const override {
+  std::optional<size_t> GatherByIds(std::span<const uint32_t> ids, float* position, float* velocity,
+                                    float* density) const override {
     const RankResult r = runner_->Send(ReadIdsCommand(ids, Fields(position, velocity, density)));
     ScatterById(r.particles, position, velocity, density);
     return ids.size();
   }
 
-  bool DownloadPositionBounds(std::array<float, 3>& lo, std::array<float, 3>& hi) const override {
+  bool ReducePositionBounds(std::array<float, 3>& lo, std::array<float, 3>& hi) const override {
     const Simulation::PositionBounds b = runner_->Send(PositionBoundsCommand()).bounds;
     lo = b.lo;
     hi = b.hi;

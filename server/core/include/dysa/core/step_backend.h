@@ -67,15 +67,15 @@ class StepBackend {
   //
   // The particles `ids` (each below the particle count): their asked arrays (null: not copied)
   // at their ids' entries; the other entries are left as they are. Returns ids.size().
-  virtual std::optional<size_t> DownloadByIds(std::span<const uint32_t> /*ids*/,
-                                              float* /*position*/, float* /*velocity*/,
-                                              float* /*density*/) const {
+  virtual std::optional<size_t> GatherByIds(std::span<const uint32_t> /*ids*/, float* /*position*/,
+                                            float* /*velocity*/, float* /*density*/) const {
     return std::nullopt;
   }
-  // Per axis every particle's smallest and largest position (a NaN skipped; +inf and -inf
-  // without particles), as Simulation::ReadPositionBounds takes them on the host.
-  virtual bool DownloadPositionBounds(std::array<float, 3>& /*lo*/,
-                                      std::array<float, 3>& /*hi*/) const {
+  // Per axis every particle's smallest and largest position as Simulation::ReadPositionBounds
+  // gives them (a NaN skipped, a zero extreme signed as the first zero in storage order; +inf
+  // and -inf without particles).
+  virtual bool ReducePositionBounds(std::array<float, 3>& /*lo*/,
+                                    std::array<float, 3>& /*hi*/) const {
     return false;
   }
   // The ids ViewKeys(every particle, request).Select(budget) chooses, into `ids` (increasing),

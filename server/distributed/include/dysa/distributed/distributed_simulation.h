@@ -128,9 +128,11 @@ class DistributedSimulation {
   // the asked arrays, bit for bit one process's); each process sends only the asked particles
   // it owns (4 bytes of id plus the asked arrays each). Empty elsewhere.
   ParticleArrays GatherParticlesByIds(std::span<const uint32_t> ids, uint32_t fields) const;
-  // Collective. Per axis the smallest and largest position of every particle, as
-  // Simulation::ReadPositionBounds gives them on one process (a NaN skipped; lo +inf and hi
-  // -inf without particles), on every process: one maximum over 6 doubles per process.
+  // Collective. On process 0 per axis the smallest and largest position of every particle, as
+  // Simulation::ReadPositionBounds gives them on one process (a NaN skipped; a zero extreme
+  // signed as the first zero in one process's storage order; lo +inf and hi -inf without
+  // particles); default-constructed elsewhere. Each process sends 60 bytes: per axis its
+  // extremes and its first zero (order key and sign).
   Simulation::PositionBounds PositionBounds() const;
   // Collective: every process passes the same box, stride, `budget` and `fields`; only process
   // 0's request.weigh is called (once), the others' may be empty. On process 0 the ids
