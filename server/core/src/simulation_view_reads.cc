@@ -34,6 +34,10 @@ size_t Simulation::ReadParticlesByIds(std::span<const uint32_t> ids,
     }
   }
   if (ids.empty() || (!position && !velocity && !density)) return ids.size();
+  if (backend_ && host_stale_) {
+    // Where the particles live (the ranks: each sends only its asked particles).
+    if (backend_->GatherByIds(ids, position, velocity, density)) return ids.size();
+  }
   const auto* gpu = dynamic_cast<const GpuBackend*>(backend_.get());
   if (gpu && host_stale_) {
     // Gathered and packed in the list's order on the device (only the ids' values cross, with
@@ -106,6 +110,11 @@ Simulation::PositionBounds BoundsOf(const float* xyz, size_t n) {
 
 Simulation::PositionBounds Simulation::ReadPositionBounds() const {
   const size_t n = particle_count_;
+  if (backend_ && host_stale_) {
+    // Reduced where the particles live (the ranks: 60 bytes each).
+    PositionBounds b;
+    if (backend_->ReducePositionBounds(b.lo, b.hi)) return b;
+  }
   const auto* gpu = dynamic_cast<const GpuBackend*>(backend_.get());
   if (gpu && host_stale_) {
     // Reduced on the device: 24 bytes cross, not the positions.
