@@ -3,6 +3,7 @@
 
   bench/peer_compare.py --case spheric2 --tag TAG --out DIR [--tmax S] [--repo ROOT]
                         --run DP PEER_DIR PROJECT_STEPS [--run ...]
+                        [--project-run LABEL DP PROJECT_STEPS ...]
   bench/peer_compare.py --case martinmoyce --tag TAG --out DIR [--repo ROOT]
                         --run DP PEER_DIR PROJECT_PROBES [--run ...]
 
@@ -12,6 +13,9 @@ this; see bench/README.md, "Against DualSPHysics".
 
 spheric2 (SPHERIC Test 2; definitions of ../shared/notes/spheric2.md, section 5):
   PROJECT_STEPS is accuracy_bench's spheric_test2_steps_DP.csv (every step's raw P1-P8, H1-H4).
+  --project-run adds another project run at DP (another solver or setting, e.g. dfsph) as the
+  code project_LABEL, measured the same way; its wall time, for the Pareto plot, is the row of
+  that DP in the accuracy_spheric_test2.csv beside its PROJECT_STEPS (accuracy_bench writes both).
   The peer's heights are its `swl` gauges (the dry reading, point0, counts as 0); its pressures
   are the `mesh` gauges' Shepard-corrected density at the point 1.5 h in front of the DBC
   boundary particles (the particle layer snapped to the lattice, as GenCase does), converted by
@@ -437,7 +441,9 @@ def plot_spheric(path, curves, ref_t, ref_h):
         a.set_xlim(0, tmax)
         a.grid(alpha=0.3)
         a.legend(fontsize=7)
-    ax[0].set_title("SPHERIC Test 2: DualSPHysics 5.4 and the project, same dp")
+    codes = "DualSPHysics 5.4 and the project" if any(
+        label.startswith("dualsphysics") for label, _ in curves) else "the project's runs"
+    ax[0].set_title(f"SPHERIC Test 2: {codes}, same dp")
     fig.tight_layout()
     fig.savefig(path, dpi=90)
     plt.close(fig)
@@ -486,12 +492,25 @@ PARETO_MEASURES = (
 )
 
 
+def read_accuracy_wall(steps_path, dp):
+    """The wall time of accuracy_bench's row for dp in the accuracy_spheric_test2.csv beside its
+    steps file; None where there is none."""
+    path = os.path.join(os.path.dirname(os.path.abspath(steps_path)), "accuracy_spheric_test2.csv")
+    if not os.path.exists(path):
+        return None
+    table = read_table(path, ",", required=("spacing_m", "wall_s"))
+    for spacing, wall in zip(table["spacing_m"], table["wall_s"]):
+        if abs(spacing - float(dp)) < 1e-9:
+            return float(wall)
+    return None
+
+
 def pareto_rows(rows, wall):
     """Wall time against the errors, one row per code and spacing that has both."""
     m = MARIN_PRESSURE
     out = []
     for r in rows:
-        if r["code"] not in ("dualsphysics", "project"):
+        if r["code"] != "dualsphysics" and not r["code"].startswith("project"):
             continue
         key = (r["code"], float(r["dp_m"]))
         if key not in wall:
@@ -516,7 +535,9 @@ def write_pareto(args, rows):
     if not os.path.exists(path):
         print(f"no {path}: no Pareto plot (peer_dualsphysics.sh writes it)")
         return None
-    points = pareto_rows(rows, read_throughput(path))
+    wall = read_throughput(path)
+    wall.update(getattr(args, "extra_wall", {}))
+    points = pareto_rows(rows, wall)
     csv_path = os.path.join(args.out, f"pareto_spheric2_{args.tag}.csv")
     keys = ["code", "dp_m", "wall_s"] + [k for k, _ in PARETO_MEASURES]
     with open(csv_path, "w", newline="") as f:
@@ -529,7 +550,8 @@ def write_pareto(args, rows):
     import matplotlib.pyplot as plt
     fig, ax = plt.subplots(1, len(PARETO_MEASURES), figsize=(13, 4))
     for a, (key, label) in zip(ax, PARETO_MEASURES):
-        for code, marker in (("dualsphysics", "s"), ("project", "o")):
+        codes = sorted({r["code"] for r in points}, key=lambda c: (c != "dualsphysics", c))
+        for code, marker in zip(codes, "so^vD<>"):
             pts = sorted((r["wall_s"], r[key], r["dp_m"]) for r in points
                          if r["code"] == code and r[key] is not None and not math.isnan(r[key]))
             if not pts:
@@ -575,25 +597,34 @@ def run_spheric(args, repo):
                      "(the project's gate)",
                      "P1_arrival_s": pub.get("kP1ArrivalMeasured"),
                      "P1_peak_1ms_pa": pub.get("kP1PeakMeasured")})
+    runs = []
     for dp, peer_dir, project_file in args.run:
         ps, note = read_peer_spheric(peer_dir)
-        js = read_project_steps(project_file)
-        for code, series, source in (
-                ("dualsphysics", ps, note),
-                ("project", js, "wall_pressure probes on the box (every step)")):
-            r = spheric_measures(series, ref_t, ref_h, args.tmax)
-            for p in ("P1", "P2"):
-                r[f"{p}_arrival_error_s"] = r[f"{p}_arrival_s"] - m[f"{p}_arrival_s"]
-            r.update({"code": code, "dp_m": dp, "pressure_source": source})
-            rows.append(r)
-            curves.append((f"{code} dp {dp}", series))
-            last = min(float(series[n][0][-1]) for n in series)
-            write_series(os.path.join(args.out, f"peer_series_spheric2_{code}_{dp}_{args.tag}.csv"),
-                         series, min(args.tmax, last) if args.tmax else last)
-            print(f"{code:13s} dp {dp}: P1 arrival {fmt(r['P1_arrival_s'])} s, 1 ms peak "
-                  f"{fmt(r['P1_peak_1ms_pa'])} Pa, 5 ms peak {fmt(r['P1_peak_5ms_pa'])} Pa; P2 "
-                  f"arrival {fmt(r['P2_arrival_s'])} s; H2/H4 RMS to 0.75 s "
-                  f"{fmt(r['H2_rms_to_0.75s'])}/{fmt(r['H4_rms_to_0.75s'])}")
+        runs.append((dp, "dualsphysics", ps, note))
+        runs.append((dp, "project", read_project_steps(project_file),
+                     "wall_pressure probes on the box (every step)"))
+    args.extra_wall = {}
+    for label, dp, project_file in args.project_run or []:
+        code = f"project_{label}"
+        runs.append((dp, code, read_project_steps(project_file),
+                     f"wall_pressure probes on the box (every step), {label}"))
+        wall = read_accuracy_wall(project_file, dp)
+        if wall is not None:
+            args.extra_wall[(code, float(dp))] = wall
+    for dp, code, series, source in runs:
+        r = spheric_measures(series, ref_t, ref_h, args.tmax)
+        for p in ("P1", "P2"):
+            r[f"{p}_arrival_error_s"] = r[f"{p}_arrival_s"] - m[f"{p}_arrival_s"]
+        r.update({"code": code, "dp_m": dp, "pressure_source": source})
+        rows.append(r)
+        curves.append((f"{code} dp {dp}", series))
+        last = min(float(series[n][0][-1]) for n in series)
+        write_series(os.path.join(args.out, f"peer_series_spheric2_{code}_{dp}_{args.tag}.csv"),
+                     series, min(args.tmax, last) if args.tmax else last)
+        print(f"{code:13s} dp {dp}: P1 arrival {fmt(r['P1_arrival_s'])} s, 1 ms peak "
+              f"{fmt(r['P1_peak_1ms_pa'])} Pa, 5 ms peak {fmt(r['P1_peak_5ms_pa'])} Pa; P2 "
+              f"arrival {fmt(r['P2_arrival_s'])} s; H2/H4 RMS to 0.75 s "
+              f"{fmt(r['H2_rms_to_0.75s'])}/{fmt(r['H4_rms_to_0.75s'])}")
     out_csv = os.path.join(args.out, f"peer_compare_spheric2_{args.tag}.csv")
     with open(out_csv, "w", newline="") as f:
         w = csv.writer(f)
@@ -655,19 +686,28 @@ def main(argv=None):
     here = os.path.dirname(os.path.abspath(__file__))
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--case", required=True, choices=("spheric2", "martinmoyce"))
-    p.add_argument("--run", nargs=3, action="append", required=True,
+    p.add_argument("--run", nargs=3, action="append", default=[],
                    metavar=("DP", "PEER_DIR", "PROJECT_FILE"))
+    p.add_argument("--project-run", nargs=3, action="append",
+                   metavar=("LABEL", "DP", "PROJECT_STEPS"),
+                   help="spheric2: another project run (e.g. a solver) at DP, as project_LABEL")
     p.add_argument("--out", required=True)
     p.add_argument("--tag", default="cpu", help="GPU name or cpu: the output files' suffix")
     p.add_argument("--tmax", type=float, default=None, help="end of the H errors (s)")
     p.add_argument("--repo", default=os.path.dirname(here), help="the repository's root")
     args = p.parse_args(argv)
-    for dp, _, _ in args.run:
+    if not args.run and not args.project_run:
+        p.error("give at least one --run (or, for spheric2, --project-run)")
+    if args.project_run and args.case != "spheric2":
+        p.error("--project-run is for --case spheric2")
+    dps = [("--run", r[0]) for r in args.run] + [("--project-run", r[1])
+                                                 for r in args.project_run or []]
+    for flag, dp in dps:
         try:
             if float(dp) <= 0:
                 raise ValueError
         except ValueError:
-            p.error(f"--run DP '{dp}' must be a positive number (m)")
+            p.error(f"{flag} DP '{dp}' must be a positive number (m)")
     os.makedirs(args.out, exist_ok=True)
     return run_spheric(args, args.repo) if args.case == "spheric2" else run_mm(args, args.repo)
 

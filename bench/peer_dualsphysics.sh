@@ -4,7 +4,7 @@
 #
 #   bench/peer_dualsphysics.sh --case spheric2|dambreak|martinmoyce --out DIR [--peer DIR]
 #                              [--dp LIST] [--tmax S] [--device gpu|cpu] [--threads N]
-#                              [--project-build DIR]
+#                              [--project-build DIR] [--project-solvers LIST]
 #
 # --peer: the directory with DualSPHysics5.4_linux64_sm90.xz, GenCase_linux64_v5.0.229.xz and
 #   the case XMLs (default ../shared/peers/dualsphysics from the repository's root; `.peer` on
@@ -19,6 +19,9 @@
 # --threads: CPU threads for both codes on the cpu device (default: all cores).
 # --project-build: the project's build directory (default build/release): bench/accuracy_bench
 #   and clients/cli/dysa.
+# --project-solvers: spheric2 only, a comma list of the project's solvers (default: the scene's,
+#   wcsph). The first is the row "project"; each further one runs accuracy_bench --solvers S
+#   beside it and is the row "project_S" of every output (e.g. wcsph,dfsph).
 #
 # For each spacing: GenCase + DualSPHysics, then the project on the same scene:
 #   spheric2     accuracy_bench --case spheric_test2 --spacings DP --end TMAX --step-series
@@ -42,6 +45,7 @@ tmax=""
 device=""
 threads=$(nproc)
 build="$repo/build/release"
+project_solvers=""
 
 die() {
   echo "peer_dualsphysics.sh: $*" >&2
@@ -60,8 +64,9 @@ while [[ $# -gt 0 ]]; do
     --device) need_value "$@"; device="$2"; shift 2 ;;
     --threads) need_value "$@"; threads="$2"; shift 2 ;;
     --project-build) need_value "$@"; build="$2"; shift 2 ;;
+    --project-solvers) need_value "$@"; project_solvers="$2"; shift 2 ;;
     -h | --help) sed -n '2,/^set -euo/p' "${BASH_SOURCE[0]}" | sed '$d; s/^# \{0,1\}//'; exit 0 ;;
-    *) die "unknown argument '$1' (allowed: --peer --case --out --dp --tmax --device --threads --project-build)" ;;
+    *) die "unknown argument '$1' (allowed: --peer --case --out --dp --tmax --device --threads --project-build --project-solvers)" ;;
   esac
 done
 
@@ -79,6 +84,19 @@ case "$device" in
   *) die "--device '$device' is not one of: gpu, cpu" ;;
 esac
 [[ "$threads" =~ ^[1-9][0-9]*$ ]] || die "--threads '$threads' must be a positive integer"
+extra_solvers=()
+if [[ -n "$project_solvers" ]]; then
+  [[ "$case_name" == spheric2 ]] || die "--project-solvers is for --case spheric2"
+  IFS=',' read -r -a solvers <<< "$project_solvers"
+  for s in "${solvers[@]}"; do
+    case "$s" in
+      wcsph | dfsph) ;;
+      *) die "--project-solvers value '$s' is not one of: wcsph, dfsph (the physical solvers)" ;;
+    esac
+  done
+  [[ "${solvers[0]}" == wcsph ]] || die "--project-solvers must start with wcsph (the scene's solver, the row \"project\")"
+  extra_solvers=("${solvers[@]:1}")
+fi
 [[ -d "$peer" ]] || die "--peer '$peer' is not a directory"
 peer=$(cd "$peer" && pwd)
 for f in DualSPHysics5.4_linux64_sm90.xz GenCase_linux64_v5.0.229.xz; do
@@ -230,6 +248,18 @@ for dp in "${dps[@]}"; do
       row project "$dp" "$jp" "$jp" "$js" "$jsim" "$(elapsed "$t0" "$t1")" "$jrun" "$project_nb" "$project_basis"
       steps_file=$(ls "$jdir"/spheric_test2_steps_*.csv)
       compare_args+=(--run "$dp" "$pdir" "$steps_file")
+      for s in "${extra_solvers[@]}"; do
+        sdir="$raw/project_${s}_dp$dp"
+        mkdir -p "$sdir"
+        t0=$(now)
+        "$accuracy_bench" --case spheric_test2 --spacings "$dp" --end "$tmax" --step-series \
+          --solvers "$s" "${project_dev[@]}" --out "$sdir" > "$sdir/accuracy_bench.log" 2>&1 ||
+          { tail -n 20 "$sdir/accuracy_bench.log" >&2; die "accuracy_bench --solvers $s failed at dp $dp (log: $sdir/accuracy_bench.log)"; }
+        t1=$(now)
+        read -r jp js jrun jsim < <(awk -F, 'NR == 2 { print $3, $4, $6, $7 }' "$sdir/accuracy_spheric_test2.csv")
+        row "project_$s" "$dp" "$jp" "$jp" "$js" "$jsim" "$(elapsed "$t0" "$t1")" "$jrun" "$project_nb" "$project_basis"
+        compare_args+=(--project-run "$s" "$dp" "$(ls "$sdir"/spheric_test2_steps_*.csv)")
+      done
       ;;
     dambreak)
       run_peer CaseDambreak_Def "$dp" "$pdir" -sv:none

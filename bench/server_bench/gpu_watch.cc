@@ -1,20 +1,23 @@
 // Part 5: a watched run on the GPU (issue "Watch any run from anywhere", item 4: the subset is
 // chosen where the particles live, and a watched run slows the simulation by at most 5%). For
 // each size, one host on --device (cuda:0 by default) steps a block of the thesis fluid
-// (LargeBlockOf, 2 steps a frame) as fast as it runs; after `warmup_frames`, windows of
-// `seconds` alternate between no subscriber and one budgeted subscriber (particle_budget:
-// `watch_percent` % of the particles), `rounds` watched windows between rounds + 1 unwatched
-// ones. The subscriber only receives (a remote viewer: its decoding costs the server's cores
-// nothing). Each watched window's step rate is compared with the mean of the two unwatched
-// windows around it, which cancels a linear drift of the step's cost as the block falls; the
-// median of those ratios is the slowdown. That comparison carries the flow's own changes of
-// step cost between windows; beside it, the share of the stepping thread's time the subset
-// read took in each watched window (gather ms x frames/s: the read runs on the thread that
-// steps, the encoding on the publisher's), whose median is the watching's direct cost. Per window:
+// (LargeBlockOf, 2 steps a frame) as fast as it runs. Every window replays the same frames: the
+// host is reset (the block re-spawned at rest: the same bits every time), runs from frame
+// kSkippedFrames to kSkippedFrames + N as fast as it can and is paused again, so watched and
+// unwatched windows do the same work and only the watching differs. N is what an uncounted
+// first window (with a subscriber: gRPC's first connection and threads start there) covers in
+// `seconds`. Windows alternate between no subscriber and one budgeted subscriber
+// (particle_budget: `watch_percent` % of the particles), `rounds` watched windows between
+// rounds + 1 unwatched ones; each watched window's time is compared with the mean of the two
+// unwatched windows around it, and the median of those ratios is the slowdown. The subscriber
+// only receives (a remote viewer: its decoding costs the server's cores nothing). Beside it, the
+// share of the stepping thread's time the subset read took in each watched window (gather ms x
+// frames/s: the read runs on the thread that steps, the encoding on the publisher's). Per window:
 // frames, steps, the rates, and the host's gather (a subset read: on a GPU only the kept particles
 // cross to the host) and publish times.
 #include <algorithm>
 #include <cstdio>
+#include <stdexcept>
 #include <string>
 #include <thread>
 #include <vector>
@@ -33,18 +36,42 @@ struct Window {
   double delivered_fps = 0, bytes_per_frame = 0;
 };
 
-// One window of `seconds` with `client` (null: unwatched) subscribed for the whole of it.
-Window RunWindow(SimulationHost& host, Client* client, double seconds) {
+// The frames a window skips after the reset before its clock starts (the first frame after a
+// reset is a keyframe for every subscriber; a watched window's client joins while paused).
+constexpr uint64_t kSkippedFrames = 2;
+
+// Waits until the host has completed frame `frame` (polling: the host has no frame callback).
+FrameMark WaitForFrame(SimulationHost& host, uint64_t frame) {
+  const auto deadline = Clock::now() + std::chrono::seconds(300);
+  while (Clock::now() < deadline) {
+    const uint64_t f = host.Status().frame;
+    if (f >= frame) return {f, Clock::now()};
+    std::this_thread::sleep_for(std::chrono::microseconds(200));
+  }
+  throw std::runtime_error("gpu_watch: frame " + std::to_string(frame) + " not reached in 300 s");
+}
+
+// One window: from a reset, with `client` (null: unwatched) subscribed, frames kSkippedFrames to
+// kSkippedFrames + `frames` timed (frames 0: for `seconds` instead, the calibrating window).
+Window RunWindow(SimulationHost& host, dysa::v1::Simulation::Stub& stub, Client* client,
+                 uint64_t frames, double seconds) {
   Window w;
   w.watched = client != nullptr;
-  const FrameMark begin = NextFrame(host);
+  Control(stub, &dysa::v1::Simulation::Stub::Resume, dysa::v1::ResumeRequest{});
+  const FrameMark begin = WaitForFrame(host, kSkippedFrames);
   const auto s0 = host.Status();
   const StageTotals t0 = Totals(s0);
   const uint64_t f0 = client ? client->frames.load() : 0;
   const uint64_t b0 = client ? client->bytes.load() : 0;
-  std::this_thread::sleep_for(std::chrono::duration<double>(seconds));
-  const FrameMark end = NextFrame(host);
+  FrameMark end;
+  if (frames > 0) {
+    end = WaitForFrame(host, begin.frame + frames);
+  } else {
+    std::this_thread::sleep_for(std::chrono::duration<double>(seconds));
+    end = NextFrame(host);
+  }
   const auto s1 = host.Status();
+  Control(stub, &dysa::v1::Simulation::Stub::Pause, dysa::v1::PauseRequest{});
   const StageTotals t1 = Totals(s1);
   const double elapsed = Seconds(end.at - begin.at);
   w.frames = end.frame - begin.frame;
@@ -55,9 +82,9 @@ Window RunWindow(SimulationHost& host, Client* client, double seconds) {
   w.gather_ms = per_call(t1.gather_ms - t0.gather_ms, t1.gather_calls - t0.gather_calls);
   w.publish_ms = per_call(t1.publish_ms - t0.publish_ms, t1.publish_calls - t0.publish_calls);
   if (client) {
-    const uint64_t frames = client->frames - f0;
-    w.delivered_fps = frames / elapsed;
-    w.bytes_per_frame = frames ? double(client->bytes - b0) / double(frames) : 0;
+    const uint64_t received = client->frames - f0;
+    w.delivered_fps = received / elapsed;
+    w.bytes_per_frame = received ? double(client->bytes - b0) / double(received) : 0;
   }
   return w;
 }
@@ -84,32 +111,41 @@ void GpuWatch(const std::vector<uint64_t>& sizes, double watch_percent, int roun
     dysa::v1::StreamFramesRequest watch;
     const double budget = std::clamp(double(particles) * watch_percent / 100, 1.0, 20e6);
     watch.set_particle_budget(uint32_t(budget));
-    Control(*stub, &dysa::v1::Simulation::Stub::Resume, dysa::v1::ResumeRequest{});
     std::string where = host.Status().device;  // "cuda:0 NVIDIA H200, 139.8 GiB, sm_90"
     std::replace(where.begin(), where.end(), ',', ';');
 
     std::vector<Window> windows;
-    for (int k = 0; k < 2 * rounds + 1; ++k) {
+    uint64_t frames = 0;  // each counted window's length, from the calibrating window
+    for (int k = -1; k < 2 * rounds + 1; ++k) {
+      Control(*stub, &dysa::v1::Simulation::Stub::Reset, dysa::v1::ResetRequest{});
       std::unique_ptr<Client> client;
-      if (k % 2) {
+      if (k % 2) {  // k = -1 too
         client = std::make_unique<Client>(Address(server), k, Mode::kReceive, watch);
         const auto deadline = Clock::now() + std::chrono::seconds(120);
-        while (client->frames == 0 && Clock::now() < deadline) {  // its first frame, a keyframe
+        // A paused host sends a joiner its frame, a keyframe.
+        while (client->frames == 0 && Clock::now() < deadline) {
           std::this_thread::sleep_for(std::chrono::milliseconds(5));
         }
       }
-      const Window w = RunWindow(host, client.get(), seconds);
+      const Window w = RunWindow(host, *stub, client.get(), frames, seconds);
       client.reset();
       const auto deadline = Clock::now() + std::chrono::seconds(60);
       while (host.Status().subscribers != 0 && Clock::now() < deadline) {
         std::this_thread::sleep_for(std::chrono::milliseconds(5));
       }
+      if (k < 0) {
+        frames = std::max<uint64_t>(w.frames, 4);
+        continue;
+      }
       windows.push_back(w);
       std::printf(
-          "gpu_watch %9llu particles  window %2d %-9s: %7.2f frames/s, %8.2f steps/s, gather "
-          "%.2f ms, publish %.2f ms, delivered %7.2f frames/s, %10.0f B/frame\n",
-          (unsigned long long)particles, k, w.watched ? "watched" : "unwatched", w.fps,
-          w.steps_per_s, w.gather_ms, w.publish_ms, w.delivered_fps, w.bytes_per_frame);
+          "gpu_watch %9llu particles  window %2d %-9s: frames %llu-%llu after a reset in %.3f s: "
+          "%7.2f frames/s, %8.2f steps/s, gather %.2f ms, publish %.2f ms, delivered %7.2f "
+          "frames/s, %10.0f B/frame\n",
+          (unsigned long long)particles, k, w.watched ? "watched" : "unwatched",
+          (unsigned long long)kSkippedFrames, (unsigned long long)(kSkippedFrames + w.frames),
+          w.frames / w.fps, w.fps, w.steps_per_s, w.gather_ms, w.publish_ms, w.delivered_fps,
+          w.bytes_per_frame);
       std::fflush(stdout);
       csv << where << "," << particles << "," << watch_percent << "," << uint32_t(budget) << ","
           << k << "," << (w.watched ? 1 : 0) << "," << w.frames << "," << w.steps << "," << w.fps
@@ -127,7 +163,8 @@ void GpuWatch(const std::vector<uint64_t>& sizes, double watch_percent, int roun
     const double median = Median(slowdowns);
     std::printf(
         "gpu_watch %9llu particles, a %.3g%% budget (%u particles a frame at most): step rate "
-        "slowed by %.1f%% (median of %zu watched windows; target at most 5%%: %s)\n",
+        "slowed by %.1f%% (median of %zu watched windows, each the same frames as its unwatched "
+        "neighbours; target at most 5%%: %s)\n",
         (unsigned long long)particles, watch_percent, uint32_t(budget), 100 * median,
         slowdowns.size(), median <= 0.05 ? "met" : "NOT met");
     std::printf(

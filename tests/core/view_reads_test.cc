@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <stdexcept>
 #include <vector>
@@ -67,6 +68,45 @@ TEST(ViewReads, PositionBoundsAreEveryParticlesExtremes) {
     EXPECT_EQ(b.lo[a], lo) << a;
     EXPECT_EQ(b.hi[a], hi) << a;
     EXPECT_LT(b.lo[a], b.hi[a]);
+  }
+}
+
+uint32_t Bits(float f) {
+  uint32_t u;
+  std::memcpy(&u, &f, sizeof u);
+  return u;
+}
+
+// The bounds of a state written by hand (a checkpoint restored): a NaN skipped wherever it
+// lies, an axis of NaNs alone +inf / -inf, and a zero extreme signed as the first zero in
+// storage order (what a sequential scan keeps, and the GPU's reduction), whatever the threads.
+TEST(ViewReads, PositionBoundsSkipNaNsAndSignAZeroAsTheFirstZeroInStorage) {
+  Simulation sim(testing::DamScene("wcsph"));
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const Checkpoint start = sim.SaveCheckpoint();
+  const size_t n = start.position.size();
+  ASSERT_GT(n, 100u);
+  for (const bool minus_first : {false, true}) {
+    Checkpoint c = start;
+    for (size_t i = 0; i < n; ++i) {
+      c.position[i] = Vec3(0.5f + 1e-3f * float(i % 7), 0.0f, nan);  // y: every value a zero
+    }
+    const float first = minus_first ? -0.0f : 0.0f, later = minus_first ? 0.0f : -0.0f;
+    c.position[0].x() = nan;
+    c.position[n / 3].x() = first;  // x's smallest: a zero, of both signs
+    c.position[n / 2].x() = later;
+    c.position[n - 1].x() = later;
+    c.position[n / 4].y() = first;  // y: the first zero decides both extremes
+    for (size_t i = 0; i < n / 4; ++i) c.position[i].y() = nan;
+    for (size_t i = n / 4 + 1; i < n; ++i) c.position[i].y() = later;
+    sim.RestoreCheckpoint(c);
+    const Simulation::PositionBounds b = sim.ReadPositionBounds();
+    EXPECT_EQ(Bits(b.lo[0]), Bits(first)) << minus_first;
+    EXPECT_EQ(b.hi[0], 0.5f + 1e-3f * 6.0f) << minus_first;
+    EXPECT_EQ(Bits(b.lo[1]), Bits(first)) << minus_first;
+    EXPECT_EQ(Bits(b.hi[1]), Bits(first)) << minus_first;
+    EXPECT_EQ(b.lo[2], std::numeric_limits<float>::infinity());
+    EXPECT_EQ(b.hi[2], -std::numeric_limits<float>::infinity());
   }
 }
 

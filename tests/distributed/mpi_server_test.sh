@@ -2,7 +2,8 @@
 # ctest -L mpi: dysa-server on 3 ranks (mpirun) is the same simulation as dysa-server on one
 # process, driven through the `dysa` client: after the same controls (step, a parameter change,
 # step back, reset, resume and pause) both report the same frame, step and state hash, and a
-# streamed frame (dysa record, npz) is byte-identical; a scene the ranks cannot run (fewer cell
+# streamed frame (dysa record, npz), of every particle and of a view stream (a camera with a
+# budget), is byte-identical; a scene the ranks cannot run (fewer cell
 # layers than ranks) is refused naming the field, the old scene running on; wcsph's
 # predictor-corrector (time_integration 1) and dfsph run on the ranks to the same hash.
 # Usage: mpi_server_test.sh DYSA DYSA_SERVER MPIEXEC SCENE. Exits 77 (skipped, saying why) when
@@ -99,6 +100,16 @@ on ranks record --frames 1 --fields velocity density --out "$out/ranks.npz" > /d
   fail "record on 3 ranks"
 cmp "$out/one.npz" "$out/ranks.npz" || fail "the streamed frames differ"
 echo "a streamed frame (positions, velocity, density): $(stat -c %s "$out/ranks.npz") bytes, identical"
+# A view stream (a camera and a budget): its frame is one process's, byte for byte. (Paused, the
+# status's hash has gathered the frame to rank 0 already, so the stream reads rank 0's copy; a
+# running server's view streams read each rank's share: mpi_view_reads_test.)
+view=(--particle-budget 500 --view "0.6,0.3,0.3,0.2,0.05,0.02" --fields velocity density)
+on one record --frames 1 "${view[@]}" --out "$out/one_view.npz" > /dev/null ||
+  fail "a view stream's record on one process"
+on ranks record --frames 1 "${view[@]}" --out "$out/ranks_view.npz" > /dev/null ||
+  fail "a view stream's record on 3 ranks"
+cmp "$out/one_view.npz" "$out/ranks_view.npz" || fail "the view streams' frames differ"
+echo "a view stream's frame: $(stat -c %s "$out/ranks_view.npz") bytes, identical"
 both reset
 same "reset"
 # Running, then paused: the pause lands on a frame, wherever the ranks' server was.

@@ -10,9 +10,11 @@
 #include <memory>
 #include <vector>
 
+#include "counting_comm.h"
 #include "dysa/core/scene.h"
 #include "dysa/core/simulation.h"
 #include "dysa/core/types.h"
+#include "view_reads_testing.h"
 
 #if !defined(DYSA_RANKS_SCENE) || !defined(DYSA_RANKS_SEED_SCENE) || \
     !defined(DYSA_RANKS_DFSPH_SCENE)
@@ -110,6 +112,44 @@ TEST(RanksBackendTest, ABudgetedReadTakesTheSubsetFromTheRanks) {
   EXPECT_EQ(p, q);
   EXPECT_EQ(v, w);
   EXPECT_EQ(d, e);
+}
+
+TEST(RanksBackendTest, AViewStreamsReadsComeFromTheRanks) {
+  // A view stream's reads straight after a step, while the particles live on the ranks: by
+  // ids, the position bounds and the view's subset, each taken where the particles live, write
+  // what one process writes, and move only what they send (mpi_view_reads_test: each of 2 and
+  // 3 ranks sends its share).
+  const Scene scene = LoadScene(DYSA_RANKS_SCENE);
+  SingleProcess one;
+  CountingComm counting(one);
+  Simulation spread(scene, Device{}, RanksBackendFactory(std::make_shared<RankRunner>(counting)));
+  Simulation plain(scene);
+  spread.StepFrame();
+  plain.StepFrame();
+  const size_t n = plain.particle_count();
+  std::vector<uint32_t> ids;
+  for (uint32_t k = 0; k < n; k += 10) ids.push_back(k);
+  std::vector<float> p(3 * n);
+  counting.Clear();
+  spread.ReadParticlesByIds(ids, {p, {}, {}});
+  EXPECT_EQ(counting.gathered, std::vector<size_t>{ids.size() * 16});  // id and position
+  counting.Clear();
+  spread.ReadPositionBounds();
+  EXPECT_EQ(counting.gathered, std::vector<size_t>{60});  // per axis 2 extremes, a zero's key
+  EXPECT_EQ(counting.max_values, 0u);
+  counting.Clear();
+  std::vector<uint32_t> chosen;
+  auto calls = std::make_shared<int>(0);
+  spread.ReadViewSubset(TestViewRequest({0, 0, 0}, {0.4, 0.2, 0.04}, 1, calls), 100, chosen,
+                        {p, {}, {}});
+  EXPECT_EQ(chosen.size(), 100u);
+  ASSERT_EQ(counting.gathered.size(), 3u);  // cells' counts, (key, id) pairs, the particles
+  EXPECT_EQ(counting.gathered[1], 100u * 8);
+  EXPECT_EQ(counting.gathered[2], 100u * 16);
+  ExpectSameViewReads(spread, plain);
+  spread.StepFrame();
+  plain.StepFrame();
+  ExpectSameViewReads(spread, plain);
 }
 
 TEST(RanksBackendTest, TheSeedToo) { ExpectSameBits(LoadScene(DYSA_RANKS_SEED_SCENE)); }

@@ -228,6 +228,56 @@ class SphericTest(unittest.TestCase):
         self.assertAlmostEqual(float(table["project"]["H4_rms_to_0.75s"]), 0.01, places=6)
         self.assertGreater(os.path.getsize(os.path.join(out, "pareto_spheric2_test.png")), 0)
 
+    def test_another_project_run_is_measured_alike_with_its_wall_time(self):
+        # A second project run (another solver) from its own directory: the same steps, so the
+        # same measures, under the code project_dfsph; its wall time comes from the
+        # accuracy_spheric_test2.csv accuracy_bench wrote beside the steps.
+        other = os.path.join(self.fx.root, "dfsph")
+        os.makedirs(other)
+        steps = os.path.join(other, "spheric_test2_steps_0.0100.csv")
+        Path(steps).write_text(Path(self.fx.steps).read_text())
+        Path(os.path.join(other, "accuracy_spheric_test2.csv")).write_text(
+            "solver,spacing_m,particles,steps,particle_steps,wall_s\n"
+            "dfsph,0.02,1,1,1,3.5\ndfsph,0.01,2,2,4,37.25\n")
+        out = os.path.join(self.fx.root, "out")
+        os.makedirs(out)
+        with open(os.path.join(out, "peer_throughput_spheric2_test.csv"), "w") as f:
+            f.write("code,case,dp_m,wall_s\ndualsphysics,spheric2,0.01,156\n"
+                    "project,spheric2,0.01,40\n")
+        rows, _ = self.fx.run("--project-run", "dfsph", "0.01", steps)
+        self.assertAlmostEqual(rows["project_dfsph"]["P1_arrival_s"], 0.4015, places=9)
+        self.assertAlmostEqual(rows["project_dfsph"]["P1_peak_1ms_pa"], 6500.0, places=5)
+        self.assertIn("dfsph", rows["project_dfsph"]["pressure_source"])
+        with open(os.path.join(out, "peer_compare_spheric2_test.csv")) as f:
+            codes = [t["code"] for t in csv.DictReader(f)]
+        self.assertEqual(codes, ["experiment", "dualsphysics", "project", "project_dfsph"])
+        with open(os.path.join(out, "pareto_spheric2_test.csv")) as f:
+            table = {r["code"]: r for r in csv.DictReader(f)}
+        self.assertEqual(float(table["project_dfsph"]["wall_s"]), 37.25)
+        self.assertEqual(float(table["project"]["wall_s"]), 40)
+        self.assertTrue(os.path.exists(
+            os.path.join(out, "peer_series_spheric2_project_dfsph_0.01_test.csv")))
+
+    def test_project_runs_alone_and_their_errors(self):
+        # Without the peer: the project's runs only (no Pareto without a throughput file).
+        out = os.path.join(self.fx.root, "alone")
+        rows = pc.main(["--case", "spheric2", "--tag", "test", "--tmax", "0.8", "--repo",
+                        self.fx.repo, "--out", out, "--project-run", "dfsph", "0.01",
+                        self.fx.steps])
+        self.assertEqual([r["code"] for r in rows][-1], "project_dfsph")
+        self.assertNotIn("dualsphysics", [r["code"] for r in rows])
+        for argv, message in (
+                (["--case", "spheric2"], "at least one --run"),
+                (["--case", "spheric2", "--project-run", "dfsph", "-0.01", self.fx.steps],
+                 "--project-run DP '-0.01' must be a positive number"),
+                (["--case", "martinmoyce", "--project-run", "dfsph", "0.01", self.fx.steps],
+                 "--project-run is for --case spheric2")):
+            proc = subprocess.run([sys.executable, str(_BENCH / "peer_compare.py"), "--repo",
+                                   self.fx.repo, "--out", out] + argv,
+                                  capture_output=True, text=True)
+            self.assertEqual(proc.returncode, 2, argv)
+            self.assertIn(message, proc.stderr)
+
     def test_no_pareto_without_throughput(self):
         _, out = self.fx.run()
         self.assertFalse(os.path.exists(os.path.join(out, "pareto_spheric2_test.csv")))

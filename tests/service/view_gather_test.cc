@@ -3,6 +3,10 @@
 // next refinement while paused, and every particle's position extremes (the codec's range for a
 // view keyframe) — and the bytes streamed are those of the full-read path (a snapshot of every
 // particle, the view chosen on the host) for the same states, frame by frame.
+// Built twice: view_gather_test on the CPU, and view_gather_gpu_test (DYSA_VIEW_GATHER_ON_CUDA,
+// label gpu, skipping with the reason without a GPU) with the simulation on cuda:0, where the
+// selection, the kept ids' gather and the bounds run on the device (cuda/view_subset.cu,
+// cuda/view_reads.cu) and the full-read path reads every particle from the device.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -15,9 +19,20 @@
 #include "dysa/core/simulation.h"
 #include "dysa/service/frame_hub.h"
 #include "dysa/service/frame_publisher.h"
+#include "support/gpu_test.h"
 
 namespace dysa::service {
 namespace {
+
+#ifdef DYSA_VIEW_GATHER_ON_CUDA
+const Device kDevice = dysa::testing::kGpu;
+#define SKIP_WITHOUT_DEVICE() SKIP_WITHOUT_GPU()
+#else
+const Device kDevice{};
+#define SKIP_WITHOUT_DEVICE() \
+  do {                        \
+  } while (0)
+#endif
 
 class Listener : public FrameListener {
  public:
@@ -95,9 +110,10 @@ void ExpectSameFrame(const EncodedFrame& a, const EncodedFrame& b, int f) {
 }
 
 TEST(ViewGather, RunningFramesReadOnlyTheSentParticlesAndStreamTheFullReadsBytes) {
+  SKIP_WITHOUT_DEVICE();
   const uint32_t every = codec::kPositions | codec::kVelocity | codec::kSpeed | codec::kDensity;
   for (const uint32_t fields : {uint32_t(codec::kPositions), every}) {
-    Simulation sim(Scene8000());
+    Simulation sim(Scene8000(), kDevice);
     const size_t n = sim.particle_count();
     Watcher full(sim, true, fields, 4), view(sim, false, fields, 4);
     int keyframes = 0;
@@ -123,7 +139,8 @@ TEST(ViewGather, RunningFramesReadOnlyTheSentParticlesAndStreamTheFullReadsBytes
 }
 
 TEST(ViewGather, PausedRefinementsReadTheNextLevelAndCompleteTheFrameWithTheSameBytes) {
-  Simulation sim(Scene8000());
+  SKIP_WITHOUT_DEVICE();
+  Simulation sim(Scene8000(), kDevice);
   sim.StepFrame();
   sim.StepFrame();
   const size_t n = sim.particle_count();
@@ -150,6 +167,7 @@ TEST(ViewGather, PausedRefinementsReadTheNextLevelAndCompleteTheFrameWithTheSame
   EXPECT_GE(refinements, 4);
 }
 
+#ifndef DYSA_VIEW_GATHER_ON_CUDA  // the codec alone: no simulation
 TEST(ViewGather, AViewKeyframeQuantisesOverEveryParticleGivenTheirBounds) {
   // Particles outside the domain widen the range: the bounds stand for the unsent ones.
   std::vector<float> p(3 * 1000);
@@ -182,6 +200,7 @@ TEST(ViewGather, AViewKeyframeQuantisesOverEveryParticleGivenTheirBounds) {
   in.has_position_bounds = false;  // the sent particles' extremes alone: another range
   EXPECT_NE(codec::FrameEncoder(config).Encode(in), whole);
 }
+#endif
 
 }  // namespace
 }  // namespace dysa::service

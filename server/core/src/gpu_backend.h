@@ -33,6 +33,15 @@ class GpuBackend : public StepBackend {
   // ids increasing, chosen and packed on the device (cuda/view_subset.cuh).
   virtual RankSubsetCopy DownloadViewSubset(const ViewSubsetRequest& request, uint64_t budget,
                                             bool position, bool velocity, bool density) const = 0;
+  // The particles `ids` (count of them, each below the particle count, in any order): their asked
+  // fields packed in the list's order (entry j is ids[j]'s; the copy's ids are `ids`), gathered
+  // on the device, so only they cross to the host (cuda/view_reads.cuh).
+  virtual RankSubsetCopy DownloadByIds(const uint32_t* ids, size_t count, bool position,
+                                       bool velocity, bool density) const = 0;
+  // Per axis the smallest (lo[a]) and largest (hi[a]) particle position, reduced on the device:
+  // 36 bytes cross (cuda/view_reads.cuh). NaN skipped, a zero extreme signed as the first zero
+  // in storage order (Simulation::ReadPositionBounds' bits); lo +inf, hi -inf without particles.
+  virtual void DownloadPositionBounds(float* lo, float* hi) const = 0;
 
  protected:
   DeviceInfo info_;

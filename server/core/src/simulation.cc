@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
@@ -168,6 +169,12 @@ size_t Simulation::ReadViewSubset(const ViewSubsetRequest& request, uint64_t bud
     ids.assign(c.ids, c.ids + c.count);
     ScatterSubset(c, to);
     return c.count;
+  }
+  if (host_stale_) {
+    // Chosen where the particles live (the ranks: each offers its own candidates).
+    const std::optional<size_t> chosen =
+        backend_->SelectViewSubset(request, budget, ids, to.position, to.velocity, to.density);
+    if (chosen) return *chosen;
   }
   // On the host: every particle in id order (the keys need every position), then the chosen.
   std::vector<float> position(3 * n), velocity(to.velocity ? 3 * n : 0),

@@ -27,32 +27,39 @@ size_t Simulation::ReadParticlesByIds(std::span<const uint32_t> ids,
   float* position = check(out.position, 3 * n, "position");
   float* velocity = check(out.velocity, 3 * n, "velocity");
   float* density = check(out.density, n, "density");
-  // Which ids are asked for, by id: the storage is in cell order, so the scan below finds each
-  // asked particle where it lies without an inverse permutation (which would cost a write per
-  // particle, as much as the scan).
-  std::vector<uint8_t> wanted(n, 0);
   for (const uint32_t id : ids) {
     if (id >= n) {
       throw std::out_of_range("ReadParticlesByIds: id " + std::to_string(id) + " of " +
                               std::to_string(n) + " particles");
     }
-    wanted[id] = 1;
   }
   if (ids.empty() || (!position && !velocity && !density)) return ids.size();
+  if (backend_ && host_stale_) {
+    // Where the particles live (the ranks: each sends only its asked particles).
+    if (backend_->GatherByIds(ids, position, velocity, density)) return ids.size();
+  }
   const auto* gpu = dynamic_cast<const GpuBackend*>(backend_.get());
   if (gpu && host_stale_) {
-    // No device gather by id yet: every asked array comes to the host, then the ids' entries.
-    std::vector<float> p(position ? 3 * n : 0), v(velocity ? 3 * n : 0), d(density ? n : 0);
-    ReadParticlesById({p, v, d});
-    for (const uint32_t k : ids) {
+    // Gathered and packed in the list's order on the device (only the ids' values cross, with
+    // the ids going up); scattered to the ids' entries here.
+    const RankSubsetCopy c = gpu->DownloadByIds(ids.data(), ids.size(), position != nullptr,
+                                                velocity != nullptr, density != nullptr);
+#pragma omp parallel for schedule(static)
+    for (size_t j = 0; j < c.count; ++j) {
+      const size_t k = c.ids[j];
       for (int a = 0; a < 3; ++a) {
-        if (position) position[3 * size_t(k) + a] = p[3 * size_t(k) + a];
-        if (velocity) velocity[3 * size_t(k) + a] = v[3 * size_t(k) + a];
+        if (position) position[3 * k + a] = c.position[3 * j + a];
+        if (velocity) velocity[3 * k + a] = c.velocity[3 * j + a];
       }
-      if (density) density[k] = d[k];
+      if (density) density[k] = c.density[j];
     }
     return ids.size();
   }
+  // Which ids are asked for, by id: the storage is in cell order, so the scan below finds each
+  // asked particle where it lies without an inverse permutation (which would cost a write per
+  // particle, as much as the scan).
+  std::vector<uint8_t> wanted(n, 0);
+  for (const uint32_t id : ids) wanted[id] = 1;
   const ParticleArrays& s = state().particles;
 #pragma omp parallel for schedule(static)
   for (size_t i = 0; i < n; ++i) {
@@ -69,9 +76,13 @@ size_t Simulation::ReadParticlesByIds(std::span<const uint32_t> ids,
 
 namespace {
 
-// The same reduction as the codec's WidenPositionsToAll over a full read (min and max of floats
-// are exact and skip a NaN the same way in any order), so a keyframe quantised over these bounds
-// has the bits of one quantised over every particle. `xyz`: n consecutive triples of floats.
+// The same reduction as the codec's WidenPositionsToAll over a full read: min and max of floats
+// are exact and skip a NaN the same way in any order. Only the sign of a zero extreme depends on
+// the order (std::min and std::max keep the first of equal values, and -0 == +0): it is taken
+// from the first zero in storage order, so the result is a sequential scan's of the storage
+// whatever the threads, and the GPU's (cuda/view_reads.cuh). A keyframe quantised over these
+// bounds has the bits of one quantised over every particle. `xyz`: n consecutive triples of
+// floats.
 Simulation::PositionBounds BoundsOf(const float* xyz, size_t n) {
   Simulation::PositionBounds b;
   for (int a = 0; a < 3; ++a) {
@@ -81,6 +92,13 @@ Simulation::PositionBounds BoundsOf(const float* xyz, size_t n) {
     for (size_t i = 0; i < n; ++i) {
       mn = std::min(mn, xyz[3 * i + a]);
       mx = std::max(mx, xyz[3 * i + a]);
+    }
+    if (mn == 0 || mx == 0) {
+      size_t i = 0;
+      while (xyz[3 * i + a] != 0) ++i;  // a zero extreme: some coordinate is zero
+      const float first_zero = xyz[3 * i + a];
+      if (mn == 0) mn = first_zero;
+      if (mx == 0) mx = first_zero;
     }
     b.lo[a] = mn;
     b.hi[a] = mx;
@@ -92,12 +110,17 @@ Simulation::PositionBounds BoundsOf(const float* xyz, size_t n) {
 
 Simulation::PositionBounds Simulation::ReadPositionBounds() const {
   const size_t n = particle_count_;
+  if (backend_ && host_stale_) {
+    // Reduced where the particles live (the ranks: 60 bytes each).
+    PositionBounds b;
+    if (backend_->ReducePositionBounds(b.lo, b.hi)) return b;
+  }
   const auto* gpu = dynamic_cast<const GpuBackend*>(backend_.get());
   if (gpu && host_stale_) {
-    // No device reduction wired yet: the positions come to the host (not the host copy).
-    std::vector<float> p(3 * n);
-    ReadParticlesById({p, {}, {}});
-    return BoundsOf(p.data(), n);
+    // Reduced on the device: 24 bytes cross, not the positions.
+    PositionBounds b;
+    gpu->DownloadPositionBounds(b.lo.data(), b.hi.data());
+    return b;
   }
   // Vec3 is three packed floats (Real = float): the storage is n triples.
   static_assert(sizeof(Vec3) == 3 * sizeof(float));

@@ -3,15 +3,28 @@
 // same build on the same kind of host).
 #include "dysa/distributed/rank_runner.h"
 
+#include <array>
 #include <cstring>
 #include <stdexcept>
 #include <string>
 #include <utility>
+#include <vector>
 
 namespace dysa::distributed {
 namespace {
 
-enum class Kind : uint8_t { kScene = 1, kConfigure, kUpload, kStep, kGather, kCheckpoint, kStop };
+enum class Kind : uint8_t {
+  kScene = 1,
+  kConfigure,
+  kUpload,
+  kStep,
+  kGather,
+  kCheckpoint,
+  kStop,
+  kReadIds,
+  kPositionBounds,
+  kViewSubset
+};
 
 class Writer {
  public:
@@ -116,11 +129,32 @@ Bytes GatherCommand(uint32_t threshold) {
   return w.Take();
 }
 Bytes CheckpointCommand() { return Writer(Kind::kCheckpoint).Take(); }
+
+Bytes ReadIdsCommand(std::span<const uint32_t> ids, uint32_t fields) {
+  Writer w(Kind::kReadIds);
+  w.Put(fields);
+  w.Put(uint64_t(ids.size()));
+  w.Raw(ids.data(), ids.size() * sizeof(uint32_t));
+  return w.Take();
+}
+
+Bytes PositionBoundsCommand() { return Writer(Kind::kPositionBounds).Take(); }
+
+Bytes ViewSubsetCommand(const ViewSubsetRequest& request, uint64_t budget, uint32_t fields) {
+  Writer w(Kind::kViewSubset);
+  w.Put(request.box_min);
+  w.Put(request.box_max);
+  w.Put(request.stride);
+  w.Put(budget);
+  w.Put(fields);
+  return w.Take();
+}
+
 Bytes StopCommand() { return Writer(Kind::kStop).Take(); }
 
-RankResult RankRunner::Send(Bytes command) {
+RankResult RankRunner::Send(Bytes command, const ViewWeigher* weigh) {
   comm_.Broadcast(command);
-  return Run(command);
+  return Run(command, weigh);
 }
 
 bool RankRunner::ServeOne() {
@@ -133,7 +167,7 @@ bool RankRunner::ServeOne() {
   }
 }
 
-RankResult RankRunner::Run(const Bytes& command) {
+RankResult RankRunner::Run(const Bytes& command, const ViewWeigher* weigh) {
   if (command.empty()) throw std::logic_error("an empty rank command");
   const Kind kind = Kind(command[0]);
   Reader r(command);
@@ -198,6 +232,29 @@ RankResult RankRunner::Run(const Bytes& command) {
     case Kind::kCheckpoint:
       result.checkpoint = sim_->SaveCheckpoint();
       break;
+    case Kind::kReadIds: {
+      const uint32_t fields = r.Get<uint32_t>();
+      std::vector<uint32_t> ids(r.Get<uint64_t>());
+      r.Raw(ids.data(), ids.size() * sizeof(uint32_t));
+      result.particles = sim_->GatherParticlesByIds(ids, fields);
+      break;
+    }
+    case Kind::kPositionBounds:
+      result.bounds = sim_->PositionBounds();
+      break;
+    case Kind::kViewSubset: {
+      ViewSubsetRequest request;
+      request.box_min = r.Get<std::array<double, 3>>();
+      request.box_max = r.Get<std::array<double, 3>>();
+      request.stride = r.Get<uint32_t>();
+      const uint64_t budget = r.Get<uint64_t>();
+      const uint32_t fields = r.Get<uint32_t>();
+      if (weigh) request.weigh = *weigh;
+      GatheredViewSubset subset = sim_->SelectViewSubset(request, budget, fields);
+      result.ids = std::move(subset.ids);
+      result.particles = std::move(subset.particles);
+      break;
+    }
     default:
       throw std::logic_error("an unknown rank command " + std::to_string(int(kind)));
   }

@@ -1,8 +1,10 @@
 #include "dysa/distributed/ranks_backend.h"
 
+#include <array>
 #include <stdexcept>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "dysa/core/neighbor_grid.h"
 
@@ -20,6 +22,11 @@ void ScatterById(const ParticleArrays& p, float* position, float* velocity, floa
     }
     if (density) density[k] = p.density[i];
   }
+}
+
+uint32_t Fields(const float* position, const float* velocity, const float* density) {
+  return (position ? uint32_t(kReadPosition) : 0u) | (velocity ? uint32_t(kReadVelocity) : 0u) |
+         (density ? uint32_t(kReadDensity) : 0u);
 }
 
 class RanksBackend final : public StepBackend {
@@ -73,6 +80,31 @@ class RanksBackend final : public StepBackend {
     const ParticleArrays p = std::move(runner_->Send(GatherCommand(threshold)).particles);
     ScatterById(p, position, velocity, density);
     return p.size();
+  }
+
+  // A view stream's reads: each rank sends only what the view asks of its own particles.
+  std::optional<size_t> GatherByIds(std::span<const uint32_t> ids, float* position, float* velocity,
+                                    float* density) const override {
+    const RankResult r = runner_->Send(ReadIdsCommand(ids, Fields(position, velocity, density)));
+    ScatterById(r.particles, position, velocity, density);
+    return ids.size();
+  }
+
+  bool ReducePositionBounds(std::array<float, 3>& lo, std::array<float, 3>& hi) const override {
+    const Simulation::PositionBounds b = runner_->Send(PositionBoundsCommand()).bounds;
+    lo = b.lo;
+    hi = b.hi;
+    return true;
+  }
+
+  std::optional<size_t> SelectViewSubset(const ViewSubsetRequest& request, uint64_t budget,
+                                         std::vector<uint32_t>& ids, float* position,
+                                         float* velocity, float* density) const override {
+    RankResult r = runner_->Send(
+        ViewSubsetCommand(request, budget, Fields(position, velocity, density)), &request.weigh);
+    ScatterById(r.particles, position, velocity, density);
+    ids = std::move(r.ids);
+    return ids.size();
   }
 
   bool gathers_probes() const override { return false; }

@@ -81,13 +81,10 @@ void GatherSnapshot(const Simulation& sim, const FrameHub& hub, bool discontinui
                     FrameSnapshot& s) {
   const FrameHub::Needs needs = hub.GatherNeeds();
   // A stream of every particle reads them all anyway: the view streams then choose from them on
-  // the host, as before (the same ids, ViewKeys either way).
-  // On a GPU the kept ids' read and the bounds still bring every particle to the host
-  // (Simulation::ReadParticlesByIds, ReadPositionBounds: no device gather by id or bounds
-  // reduction yet), which would cross twice what one full read does: the full read stays there
-  // until they run on the device; then this guard goes.
-  if (needs.views.empty() || (needs.plain && needs.plain_threshold == 0) ||
-      sim.device().is_cuda()) {
+  // the host, as before (the same ids, ViewKeys either way). On a GPU too, each view stream
+  // reads only what it sends: the selection, the kept ids' gather and the bounds all run on the
+  // device (Simulation::ReadViewSubset, ReadParticlesByIds, ReadPositionBounds).
+  if (needs.views.empty() || (needs.plain && needs.plain_threshold == 0)) {
     GatherSnapshot(sim, needs.fields, needs.plain_threshold, s);
     return;
   }

@@ -101,6 +101,13 @@ class PipelineBackend : public GpuBackend {
                                     bool position, bool velocity, bool density) const override {
     return pipeline_.DownloadViewSubset(request, budget, position, velocity, density);
   }
+  RankSubsetCopy DownloadByIds(const uint32_t* ids, size_t count, bool position, bool velocity,
+                               bool density) const override {
+    return pipeline_.DownloadByIds(ids, count, position, velocity, density);
+  }
+  void DownloadPositionBounds(float* lo, float* hi) const override {
+    pipeline_.DownloadPositionBounds(lo, hi);
+  }
   void GatherProbes(const ProbeGatherPlan& plan, ProbeGather& out) const override {
     pipeline_.GatherProbes(plan, out);
   }

@@ -46,8 +46,8 @@ struct SolveResult {
   bool capped = false;
 };
 
-// DownloadById, DownloadBelowRank, DownloadViewSubset, size, max_cell_count and GatherProbes are
-// ParticleReadout's.
+// DownloadById, DownloadBelowRank, DownloadViewSubset, DownloadByIds, DownloadPositionBounds,
+// size, max_cell_count and GatherProbes are ParticleReadout's.
 class DfsphPipeline : public ParticleReadout {
  public:
   explicit DfsphPipeline(int device);

@@ -80,6 +80,19 @@ RankSubsetCopy ParticleReadout::DownloadViewSubset(const ViewSubsetRequest& requ
                                        velocity, density, arrays_->stream.get());
 }
 
+RankSubsetCopy ParticleReadout::DownloadByIds(const uint32_t* ids, size_t count, bool position,
+                                              bool velocity, bool density) const {
+  DeviceScope scope(arrays_->device);
+  return arrays_->view_reads.DownloadByIds(SubsetParticlesOf(*arrays_), ids, count, position,
+                                           velocity, density, arrays_->stream.get());
+}
+
+void ParticleReadout::DownloadPositionBounds(float* lo, float* hi) const {
+  DeviceScope scope(arrays_->device);
+  arrays_->view_reads.DownloadPositionBounds(SubsetParticlesOf(*arrays_), lo, hi,
+                                             arrays_->stream.get());
+}
+
 size_t ParticleReadout::size() const { return arrays_->n; }
 
 uint32_t ParticleReadout::max_cell_count() const { return arrays_->sorter.max_count(); }
@@ -93,7 +106,8 @@ uint64_t ParticleBuffers::ParticleDeviceBytes() const {
   // 14 float arrays (positions, velocities, their permutation targets, densities, pressures)
   // and the two id arrays.
   return uint64_t(x.capacity()) * (14 * sizeof(float) + 2 * sizeof(uint32_t)) +
-         sorter.DeviceBytes() + rank_subset.DeviceBytes() + view_subset.DeviceBytes();
+         sorter.DeviceBytes() + rank_subset.DeviceBytes() + view_subset.DeviceBytes() +
+         view_reads.DeviceBytes();
 }
 
 }  // namespace dysa::cuda

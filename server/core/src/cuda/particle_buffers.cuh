@@ -2,7 +2,8 @@
 // the host, in one place: ids, positions, velocities, densities and pressures in the grid's
 // order, the permutation targets the neighbour sort swaps them with, the grid sorter, and the
 // read-outs (storage order here; particle-id order, a level of detail's subset, a view stream's
-// subset and the probes' gather through ParticleReadout, particle_readout.h).
+// subset, a list of ids, the position bounds and the probes' gather through ParticleReadout,
+// particle_readout.h).
 //
 // A pipeline's Impl derives from it (the physical solvers' through PhysicalArrays) and adds the
 // arrays only it has, so that its kernels' views and the templates over "a pipeline's state"
@@ -19,6 +20,7 @@
 #include "cuda/device_grid.cuh"
 #include "cuda/probe_gatherer.cuh"
 #include "cuda/rank_subset.cuh"
+#include "cuda/view_reads.cuh"
 #include "cuda/view_subset.cuh"
 
 namespace dysa::cuda {
@@ -62,11 +64,12 @@ struct ParticleBuffers {
   DeviceBuffer<float> density, pressure;
   GridSorter sorter;
   // ParticleReadout's: DownloadById's staging, the probes' gather, DownloadBelowRank's subset,
-  // DownloadViewSubset's.
+  // DownloadViewSubset's, DownloadByIds' and DownloadPositionBounds'.
   DeviceBuffer<float> frame_staging;
   ProbeGatherer probe_gatherer;
   RankSubset rank_subset;
   ViewSubset view_subset;
+  ViewReads view_reads;
 };
 
 }  // namespace dysa::cuda

@@ -1,7 +1,7 @@
 // What the host reads back from a GPU pipeline's particles whatever its solver (seed, wcsph,
 // dfsph): their count, the positions, velocities and densities in particle-id order, a level of
-// detail's subset, a view stream's subset, the probes' gather and the neighbour sort's fullest
-// cell. Each pipeline
+// detail's subset, a view stream's subset, a list of ids' particles, the position bounds, the
+// probes' gather and the neighbour sort's fullest cell. Each pipeline
 // derives from it and points it at its particle arrays (ParticleBuffers, particle_buffers.cuh).
 // A plain interface: the C++ compiler reads it without CUDA.
 #pragma once
@@ -29,6 +29,14 @@ class ParticleReadout {
   // A view stream's subset, chosen and packed on the device (view_subset.cuh).
   RankSubsetCopy DownloadViewSubset(const ViewSubsetRequest& request, uint64_t budget,
                                     bool position, bool velocity, bool density) const;
+  // The particles `ids` (count of them, each below size(), in any order), their asked fields
+  // packed in the list's order and gathered on the device (view_reads.cuh): only they cross.
+  RankSubsetCopy DownloadByIds(const uint32_t* ids, size_t count, bool position, bool velocity,
+                               bool density) const;
+  // Per axis the smallest (lo[a]) and largest (hi[a]) position, reduced on the device
+  // (view_reads.cuh): NaN skipped, a zero extreme signed as the first zero in storage order;
+  // lo +inf and hi -inf without particles.
+  void DownloadPositionBounds(float* lo, float* hi) const;
   size_t size() const;
   // The most particles one grid cell held at the latest step's neighbour sort (read after the
   // step, or for dfsph after Prepare).

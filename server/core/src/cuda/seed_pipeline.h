@@ -56,8 +56,8 @@ struct SeedStepConfig {
   std::vector<BoxObstacle> boxes;
 };
 
-// DownloadById, DownloadBelowRank, DownloadViewSubset, size, max_cell_count and GatherProbes are
-// ParticleReadout's.
+// DownloadById, DownloadBelowRank, DownloadViewSubset, DownloadByIds, DownloadPositionBounds,
+// size, max_cell_count and GatherProbes are ParticleReadout's.
 class SeedPipeline : public ParticleReadout {
  public:
   explicit SeedPipeline(int device);

@@ -7,25 +7,12 @@
 #include <cub/device/device_radix_sort.cuh>
 #include <cub/device/device_select.cuh>
 
+#include "cuda/ordered_float.cuh"
 #include "cuda/view_subset.cuh"
 #include "dysa/view_key.h"
 
 namespace dysa::cuda {
 namespace {
-
-// A float's bits mapped to an unsigned integer of the same order (negative floats reversed below
-// the positive ones), so integer atomicMin / atomicMax reduce floats exactly, in any order.
-__host__ __device__ uint32_t Ordered(uint32_t bits) {
-  return (bits & 0x80000000u) ? ~bits : (bits | 0x80000000u);
-}
-float FromOrdered(uint32_t u) {
-  const uint32_t bits = (u & 0x80000000u) ? (u & 0x7fffffffu) : ~u;
-  float f;
-  std::memcpy(&f, &bits, sizeof f);
-  return f;
-}
-constexpr uint32_t kOrderedPlusInf = 0xff800000u;   // Ordered(bits of +inf)
-constexpr uint32_t kOrderedMinusInf = 0x007fffffu;  // Ordered(bits of -inf)
 
 // bounds[a] = min, bounds[3 + a] = max of the particles' non-NaN coordinates on axis a (as
 // Ordered; NaN skipped as the host's std::min / std::max skip it). Grid-stride loop.

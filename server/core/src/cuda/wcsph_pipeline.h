@@ -51,8 +51,8 @@ struct StepMaxima {
   float density = 0;        // kg/m^3, the largest density
 };
 
-// DownloadById, DownloadBelowRank, DownloadViewSubset, size, max_cell_count and GatherProbes are
-// ParticleReadout's.
+// DownloadById, DownloadBelowRank, DownloadViewSubset, DownloadByIds, DownloadPositionBounds,
+// size, max_cell_count and GatherProbes are ParticleReadout's.
 class WcsphPipeline : public ParticleReadout {
  public:
   explicit WcsphPipeline(int device);

@@ -109,22 +109,26 @@ class Simulation {
   // the candidates), and the asked arrays of those particles at their ids' entries of `out`; the
   // other entries are left as they are. The same ids on any device: on a GPU they are chosen and
   // packed on the device, and only the chosen particles, the grid's per-cell counts (to the
-  // host, for request.weigh) and weights (back) cross; on the CPU ViewKeys chooses them.
+  // host, for request.weigh) and weights (back) cross; on the CPU ViewKeys chooses them; on
+  // ranks each rank keys its own candidates and sends only its cells' counts, its part of the
+  // budget's smallest keys and then its chosen particles (StepBackend::SelectViewSubset).
   // Returns ids.size(). Throws as ReadParticlesById, and std::invalid_argument without a weigher.
   size_t ReadViewSubset(const ViewSubsetRequest& request, uint64_t budget,
                         std::vector<uint32_t>& ids, const ParticlesById& out) const;
-  // The particles `ids` (each below particle_count(), none twice): their asked arrays at their
-  // ids' entries of `out`, the other entries left as they are. What a view stream sends between
-  // two selections (the ids it kept), so that a frame reads what it sends, not every particle.
-  // On the CPU a scan of the storage's ids (the copy is what costs); on a GPU every particle
-  // still comes to the host first (no device gather by id yet). Returns ids.size(). Throws as
-  // ReadParticlesById, and std::out_of_range for an id past the particles.
+  // The particles `ids` (each below particle_count(), none twice, any order): their asked arrays
+  // at their ids' entries of `out`, the others left as they are. What a view stream sends between
+  // two selections (the ids it kept), so that a frame reads what it sends, not every particle. On
+  // the CPU a scan of the storage's ids (the copy is what costs); on a GPU a gather on the device
+  // (cuda/view_reads.cuh): only the ids' particles cross; on ranks each rank sends only the
+  // asked particles it owns (StepBackend::GatherByIds). Returns ids.size(). Throws as
+  // ReadParticlesById, and std::out_of_range for an id past the particles (nothing written).
   size_t ReadParticlesByIds(std::span<const uint32_t> ids, const ParticlesById& out) const;
-  // Per axis the smallest and largest position of every particle, as floats (a NaN is skipped,
-  // as std::min and std::max skip it after the first value); lo +inf and hi -inf without
-  // particles. The codec quantises a view stream's keyframe over every particle's extremes
-  // (WidenPositionsToAll): this lets a frame that reads only the sent particles pass them on.
-  // On a GPU every position still comes to the host first (no device reduction wired yet).
+  // Per axis the smallest and largest position of every particle, as floats (NaN skipped, as
+  // std::min and std::max skip it; a zero extreme signed as the first zero in storage order, as
+  // a sequential scan's); lo +inf and hi -inf without particles. The codec quantises a view
+  // stream's keyframe over every particle's extremes (WidenPositionsToAll): this lets a frame that
+  // reads only the sent particles pass them on. On a GPU reduced on the device, the same bits; on
+  // ranks each rank reduces its own and rank 0 combines them (StepBackend::ReducePositionBounds).
   struct PositionBounds {
     std::array<float, 3> lo{}, hi{};
   };

@@ -5,6 +5,7 @@
 // in core (gpu_backend.h); the ranks' one in server/distributed (ranks_backend.h).
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <memory>
@@ -24,6 +25,7 @@ namespace dysa {
 
 struct ProbeGatherPlan;
 struct ProbeGather;
+struct ViewSubsetRequest;  // dysa/core/view_selection.h
 
 class StepBackend {
  public:
@@ -58,6 +60,33 @@ class StepBackend {
   virtual std::optional<size_t> DownloadByIdBelowRank(uint32_t /*threshold*/, float* /*position*/,
                                                       float* /*velocity*/,
                                                       float* /*density*/) const {
+    return std::nullopt;
+  }
+  // The reads of a view stream (Simulation::ReadParticlesByIds, ReadPositionBounds,
+  // ReadViewSubset), done where the particles live so that only what the view sends crosses.
+  // Each returns nothing (false) where this backend has no such read: Simulation then reads
+  // every particle and chooses on the host, as before.
+  //
+  // The particles `ids` (each below the particle count): their asked arrays (null: not copied)
+  // at their ids' entries; the other entries are left as they are. Returns ids.size().
+  virtual std::optional<size_t> GatherByIds(std::span<const uint32_t> /*ids*/, float* /*position*/,
+                                            float* /*velocity*/, float* /*density*/) const {
+    return std::nullopt;
+  }
+  // Per axis every particle's smallest and largest position as Simulation::ReadPositionBounds
+  // gives them (a NaN skipped, a zero extreme signed as the first zero in storage order; +inf
+  // and -inf without particles).
+  virtual bool ReducePositionBounds(std::array<float, 3>& /*lo*/,
+                                    std::array<float, 3>& /*hi*/) const {
+    return false;
+  }
+  // The ids ViewKeys(every particle, request).Select(budget) chooses, into `ids` (increasing),
+  // and their asked arrays at their ids' entries. Returns ids.size().
+  virtual std::optional<size_t> SelectViewSubset(const ViewSubsetRequest& /*request*/,
+                                                 uint64_t /*budget*/,
+                                                 std::vector<uint32_t>& /*ids*/,
+                                                 float* /*position*/, float* /*velocity*/,
+                                                 float* /*density*/) const {
     return std::nullopt;
   }
   // Whether GatherProbes runs where the particles are; otherwise Simulation downloads them and

@@ -32,6 +32,7 @@
 #include <cstdint>
 #include <limits>
 #include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -42,6 +43,7 @@
 #include "dysa/core/solver.h"
 #include "dysa/core/state.h"
 #include "dysa/core/step_backend.h"
+#include "dysa/core/view_selection.h"
 #include "dysa/distributed/balancer.h"
 #include "dysa/distributed/communicator.h"
 #include "dysa/distributed/ghost_refresh.h"
@@ -49,6 +51,17 @@
 #include "dysa/distributed/slabs.h"
 
 namespace dysa::distributed {
+
+// Which per-particle arrays a read by ids or a view's subset sends (GatherParticlesByIds,
+// SelectViewSubset): a combination of these bits; the id always goes.
+enum ReadFields : uint32_t { kReadPosition = 1, kReadVelocity = 2, kReadDensity = 4 };
+
+// A view stream's subset on process 0 (SelectViewSubset): the chosen ids, increasing, and their
+// particles in that order (id and the asked arrays; the others empty).
+struct GatheredViewSubset {
+  std::vector<uint32_t> ids;
+  ParticleArrays particles;
+};
 
 // What this process exchanged since the start.
 struct ExchangeTotals {
@@ -126,6 +139,30 @@ class DistributedSimulation {
   // Collective. As GatherParticles, only the particles of BelowRank(id, threshold) (threshold >
   // 0; dysa/detail_rank.h): each process chooses its own, so only they cross to process 0.
   ParticleArrays GatherParticlesBelowRank(uint32_t threshold) const;
+  // The reads of a view stream (a camera) on the ranks (distributed_view_reads.cc): each process
+  // sends only what was asked of its own particles, so what crosses scales with the view, not
+  // with the simulation.
+  //
+  // Collective: every process passes the same `ids` (each below the particle count) and
+  // `fields` (ReadFields bits). Process 0 gets those particles in the order of `ids` (id and
+  // the asked arrays, bit for bit one process's); each process sends only the asked particles
+  // it owns (4 bytes of id plus the asked arrays each). Empty elsewhere.
+  ParticleArrays GatherParticlesByIds(std::span<const uint32_t> ids, uint32_t fields) const;
+  // Collective. On process 0 per axis the smallest and largest position of every particle, as
+  // Simulation::ReadPositionBounds gives them on one process (a NaN skipped; a zero extreme
+  // signed as the first zero in one process's storage order; lo +inf and hi -inf without
+  // particles); default-constructed elsewhere. Each process sends 60 bytes: per axis its
+  // extremes and its first zero (order key and sign).
+  Simulation::PositionBounds PositionBounds() const;
+  // Collective: every process passes the same box, stride, `budget` and `fields`; only process
+  // 0's request.weigh is called (once), the others' may be empty. On process 0 the ids
+  // ViewKeys(every particle, request).Select(budget) chooses on one process, and their asked
+  // arrays; empty elsewhere. Each process sends its candidates' non-empty view cells (8 bytes
+  // each) and gets their weights back, then its min(budget, own candidates) smallest (key, id)
+  // pairs (8 bytes each; none when the budget takes every candidate), and finally only its
+  // chosen particles.
+  GatheredViewSubset SelectViewSubset(const ViewSubsetRequest& request, uint64_t budget,
+                                      uint32_t fields) const;
   // Collective. On process 0 the checkpoint one process's Simulation::SaveCheckpoint gives for
   // this state (its particles and solver arrays in that process's storage order), so that it
   // restores on any number of processes; empty elsewhere. Its frame is the one restored last.

@@ -9,12 +9,14 @@
 #include <cstdint>
 #include <memory>
 #include <span>
+#include <vector>
 
 #include "dysa/core/params.h"
 #include "dysa/core/scene.h"
 #include "dysa/core/simulation.h"
 #include "dysa/core/solver.h"
 #include "dysa/core/state.h"
+#include "dysa/core/view_selection.h"
 #include "dysa/distributed/communicator.h"
 #include "dysa/distributed/distributed_simulation.h"
 
@@ -30,12 +32,20 @@ Bytes StepCommand(double time, uint64_t step, double max_dt);
 // of BelowRank(id, threshold).
 Bytes GatherCommand(uint32_t threshold = 0);
 Bytes CheckpointCommand();  // a checkpoint on process 0
+// A view stream's reads (DistributedSimulation::GatherParticlesByIds, PositionBounds,
+// SelectViewSubset): `fields` are ReadFields bits. The subset's weigher is process 0's, passed
+// to Send.
+Bytes ReadIdsCommand(std::span<const uint32_t> ids, uint32_t fields);
+Bytes PositionBoundsCommand();
+Bytes ViewSubsetCommand(const ViewSubsetRequest& request, uint64_t budget, uint32_t fields);
 Bytes StopCommand();
 
 // What a command gave on process 0 (empty elsewhere).
 struct RankResult {
   DistributedSimulation::StepOutcome outcome;  // a step's
-  ParticleArrays particles;                    // a gather's
+  ParticleArrays particles;                    // a gather's, a read by ids', a view subset's
+  std::vector<uint32_t> ids;                   // a view subset's, increasing
+  Simulation::PositionBounds bounds;           // PositionBoundsCommand's
   Checkpoint checkpoint;                       // a checkpoint's
   bool stop = false;                           // Stop: the processes are done
 };
@@ -51,14 +61,15 @@ class RankRunner {
   const DistributedSimulation* simulation() const { return sim_.get(); }
 
   // Process 0: broadcasts `command` and performs it. A ConfigError (a scene or parameters that
-  // cannot run across processes) is thrown on every process alike, nothing applied.
-  RankResult Send(Bytes command);
+  // cannot run across processes) is thrown on every process alike, nothing applied. `weigh`:
+  // a ViewSubsetCommand's weigher (process 0 alone calls it).
+  RankResult Send(Bytes command, const ViewWeigher* weigh = nullptr);
   // The other processes: receives and performs one command; false once it was Stop. A
   // ConfigError is process 0's to report: here it is skipped (nothing applied here either).
   bool ServeOne();
 
  private:
-  RankResult Run(const Bytes& command);
+  RankResult Run(const Bytes& command, const ViewWeigher* weigh = nullptr);
 
   const Communicator& comm_;
   const BalanceSettings balance_;
