@@ -1,10 +1,14 @@
 // Tests of server/distributed/src/balancer.cc: the cuts from given per-layer work and process
-// speeds, and the balancer's decisions on one process.
+// speeds, and the balancer's decisions on one process and, with the other processes modelled, on
+// process 0 of three.
 #include "dysa/distributed/balancer.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <functional>
+#include <stdexcept>
 #include <vector>
 
 namespace dysa::distributed {
@@ -77,6 +81,81 @@ TEST(BalancerTest, OneProcessNeverReCuts) {
   EXPECT_EQ(balancer.report().windows, uint64_t(20 / balancer.settings().window));
   EXPECT_DOUBLE_EQ(balancer.report().first_ratio, 1.0);
   EXPECT_EQ(balancer.report().recuts, 0u);
+}
+
+// Process 0 of three whose collectives see the other two as `model` says: SumInPlace adds their
+// parts of the balancer's sum (the only collective Rebalance calls).
+class ModelledPeers final : public Communicator {
+ public:
+  explicit ModelledPeers(std::function<void(std::span<int64_t>)> model)
+      : model_(std::move(model)) {}
+  int rank() const override { return 0; }
+  int size() const override { return 3; }
+  void MaxInPlace(std::span<double>) const override { Unused(); }
+  void SumInPlace(std::span<int64_t> values) const override { model_(values); }
+  std::vector<Bytes> AllToAll(const std::vector<Bytes>&) const override { Unused(); }
+  std::vector<Bytes> GatherToRoot(std::span<const std::byte>) const override { Unused(); }
+  void Broadcast(Bytes&) const override { Unused(); }
+
+ private:
+  [[noreturn]] static void Unused() { throw std::logic_error("not a collective of the balancer"); }
+  std::function<void(std::span<int64_t>)> model_;
+};
+
+// Steps `windows` windows of three processes on the slabs' layers, of equal work, process p taking
+// step_ms(p, its work) a step, and returns the balancer of process 0 (the cuts in `slabs`).
+Balancer RunWindows(Slabs& slabs, int windows, const std::function<double(int, int64_t)>& step_ms) {
+  const int layers = slabs.layers();
+  const std::vector<int64_t> weights(size_t(layers), 10);
+  const auto work_of = [&](int p) {
+    int64_t w = 0;
+    for (int l = slabs.begin(p); l < slabs.begin(p + 1); ++l) w += weights[size_t(l)];
+    return w;
+  };
+  Balancer balancer;
+  const int window = balancer.settings().window;
+  const ModelledPeers peers([&](std::span<int64_t> sums) {
+    for (int p = 1; p < 3; ++p) {
+      for (int l = slabs.begin(p); l < slabs.begin(p + 1); ++l) sums[size_t(l)] += window * 10;
+      sums[size_t(layers + p)] += std::llround(window * step_ms(p, work_of(p)) * 1e6);
+      sums[size_t(layers + 3 + p)] += window * work_of(p);
+    }
+  });
+  for (int step = 0; step < windows * window; ++step) {
+    balancer.Record(step_ms(0, work_of(0)), slabs, 0, weights);
+    balancer.Rebalance(peers, slabs);
+  }
+  return balancer;
+}
+
+TEST(BalancerTest, AReCutThatBalancesStays) {
+  // Process 0 takes three times as long per unit of work: one re-cut gives it 2 of the 12
+  // layers (costs 60, 60 and 40 against 120, 40 and 40: max/mean 1.125 from 1.8), and it stays.
+  Slabs slabs(12, 3, false, 2);
+  const Balancer balancer = RunWindows(
+      slabs, 8, [](int p, int64_t work) { return (p == 0 ? 3e-3 : 1e-3) * double(work); });
+  EXPECT_EQ(balancer.report().recuts, 1u);
+  EXPECT_EQ(balancer.report().undone, 0u);
+  EXPECT_THAT(std::vector<int>(slabs.cuts().begin(), slabs.cuts().end()), ElementsAre(0, 2, 8, 12));
+  EXPECT_NEAR(balancer.report().first_ratio, 1.8, 1e-6);
+  EXPECT_NEAR(balancer.report().last_ratio, 1.125, 1e-6);
+}
+
+TEST(BalancerTest, StepTimesThatDoNotFollowTheWorkEmptyNoProcess) {
+  // Process 0 takes 1.3 ms a step and the others 1 ms whatever their work (a fixed cost per
+  // step; processes sharing one GPU): moving work away from it lowers nothing. Each re-cut is
+  // undone at the next window, re-cutting pauses for 1, 2, 4, ... windows, and process 0 keeps
+  // its third of the layers instead of being emptied step by step. (30 layers: a re-cut that
+  // promises more than the 5% margin exists.)
+  Slabs slabs(30, 3, false, 2);
+  const Balancer balancer =
+      RunWindows(slabs, 40, [](int p, int64_t) { return p == 0 ? 1.3 : 1.0; });
+  // 40 windows: re-cuts at windows 1, 4, 8, 14 and 24 (after pauses of 1, 2, 4 and 8
+  // windows; the fifth pause, 16 windows, outlasts the run), each undone at the next window.
+  EXPECT_EQ(balancer.report().recuts, 5u);
+  EXPECT_EQ(balancer.report().undone, 5u);
+  EXPECT_THAT(std::vector<int>(slabs.cuts().begin(), slabs.cuts().end()),
+              ElementsAre(0, 10, 20, 30));
 }
 
 TEST(BalancerTest, SetCutsChecksTheCuts) {

@@ -98,7 +98,7 @@ bool Balancer::Rebalance(const Communicator& comm, Slabs& slabs) {
   sums[size_t(layers + comm.rank())] = std::llround(time_ms_ * 1e6);
   sums[size_t(layers + processes + comm.rank())] = own_work_;
   comm.SumInPlace(sums);
-  Restart();
+  ClearWindow();
   const std::span<const int64_t> work(sums.data(), size_t(layers));
   const std::span<const int64_t> time(sums.data() + layers, size_t(processes));
   const std::span<const int64_t> done(sums.data() + layers + processes, size_t(processes));
@@ -118,6 +118,25 @@ bool Balancer::Rebalance(const Communicator& comm, Slabs& slabs) {
   if (report_.windows++ == 0) report_.first_ratio = ratio;
   report_.last_ratio = ratio;
   report_.ratio_sum += ratio;
+  // The previous window's re-cut, judged: where the step times do not follow the work (a fixed
+  // cost per step, processes sharing one GPU), moving work does not lower max/mean and the speed
+  // estimates drift (a process with less work looks slower per unit of work and is given still
+  // less). Such a re-cut is undone and re-cutting pauses, for twice as many windows each time.
+  if (checking_) {
+    checking_ = false;
+    if (ratio >= ratio_before_) {
+      slabs.SetCuts(cuts_before_);
+      ++report_.undone;
+      pause_windows_ = next_pause_;
+      next_pause_ = std::min(2 * next_pause_, kMostPausedWindows);
+      return true;
+    }
+    next_pause_ = 1;
+  }
+  if (pause_windows_ > 0) {
+    --pause_windows_;
+    return false;
+  }
   if (ratio <= settings_.threshold || work_timed == 0) return false;
   // Each process's speed: its time per unit of work, re-measured where it did at least half the
   // mean work (a process with little or no work times mostly its fixed costs, and would seem
@@ -138,12 +157,22 @@ bool Balancer::Rebalance(const Communicator& comm, Slabs& slabs) {
       CostRatio(work, speed, slabs.cuts())) {
     return false;
   }
+  cuts_before_.assign(slabs.cuts().begin(), slabs.cuts().end());
+  ratio_before_ = ratio;
+  checking_ = true;
   slabs.SetCuts(cuts);
   ++report_.recuts;
   return true;
 }
 
 void Balancer::Restart() {
+  ClearWindow();
+  checking_ = false;
+  pause_windows_ = 0;
+  next_pause_ = 1;
+}
+
+void Balancer::ClearWindow() {
   steps_ = 0;
   time_ms_ = 0;
   own_work_ = 0;

@@ -7,8 +7,10 @@
 // When the window's max/mean of the processes' step times exceeds `threshold`, the cuts move to
 // balance the estimated cost, each process's speed (its time per unit of work) times the work of
 // its slab, provided the new cuts promise a max/mean lower by `margin` (hysteresis: noise does
-// not shuffle the cuts). The cuts change no bit of the result (the order keys do not depend on
-// where a particle lives).
+// not shuffle the cuts). A re-cut is judged by the next window: where its max/mean is not lower,
+// the step times do not follow the work (fixed costs per step, processes sharing one GPU), the
+// cut is undone and re-cutting pauses for 1, 2, 4, ... windows. The cuts change no bit of the
+// result (the order keys do not depend on where a particle lives).
 #pragma once
 
 #include <cstdint>
@@ -42,6 +44,7 @@ struct BalanceReport {
   double ratio_sum = 0;  // / windows: the mean of the windows' max/mean
   uint64_t windows = 0;
   uint64_t recuts = 0;
+  uint64_t undone = 0;  // re-cuts undone: the next window's max/mean was not lower
 };
 
 // Cuts (speed.size() + 1 entries, from 0 to work.size()) that minimise the largest cost of a
@@ -65,10 +68,15 @@ class Balancer {
   // Collective, after every step (a sum over the processes at the end of each window only):
   // true when it moved the cuts.
   bool Rebalance(const Communicator& comm, Slabs& slabs);
-  // Forgets the window (new slabs: a restore, new parameters).
+  // Forgets the window, a re-cut's pending check and any pause (new slabs: a restore, new
+  // parameters).
   void Restart();
 
  private:
+  // The longest pause after undone re-cuts, in windows.
+  static constexpr int kMostPausedWindows = 64;
+  void ClearWindow();
+
   BalanceSettings settings_;
   BalanceReport report_;
   int steps_ = 0;
@@ -76,6 +84,12 @@ class Balancer {
   int64_t own_work_ = 0;       // ... and its work
   std::vector<int64_t> work_;  // per layer, of its slab's layers
   std::vector<double> speed_;  // each process's estimated time per unit of work
+  // The latest re-cut, checked at the next window's end: the cuts and max/mean before it.
+  bool checking_ = false;
+  double ratio_before_ = 0;
+  std::vector<int> cuts_before_;
+  int pause_windows_ = 0;  // windows left without re-cutting
+  int next_pause_ = 1;     // the next pause, doubled by each undone re-cut
 };
 
 }  // namespace dysa::distributed
