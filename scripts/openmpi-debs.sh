@@ -10,8 +10,8 @@
 #                                                packages) and set the environment
 #
 # unpack adds the names Debian's alternatives would give (mpirun, mpiexec, mpicxx, mpicc) and
-# prints the environment that relocates Open MPI to PREFIX (OPAL_PREFIX), lets it run as root,
-# and, where there is no ssh, gives a local launch an agent that exists. CMake's FindMPI then
+# prints the environment that relocates Open MPI to PREFIX (OPAL_PREFIX) and its PMIx plugins,
+# lets it run as root, and, where there is no ssh, gives a local launch an agent that exists. CMake's FindMPI then
 # finds it through PATH (docs/distributed.md, "GPU ranks").
 set -euo pipefail
 usage() {
@@ -38,6 +38,9 @@ case "$mode" in
     lib="$prefix/usr/lib/x86_64-linux-gnu"
     echo "export OPAL_PREFIX=$prefix/usr OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1" \
       "LD_LIBRARY_PATH=$lib/openmpi/lib:$lib\${LD_LIBRARY_PATH:+:\$LD_LIBRARY_PATH} PATH=$bin:\$PATH"
+    # PMIx loads its plugins from its build's path: where the machine has another PMIx there (the
+    # H100 machine had one whose zlib plugin did not load), ours.
+    echo "export PMIX_MCA_mca_base_component_path=$lib/pmix2/lib/pmix"
     command -v ssh > /dev/null || echo "export OMPI_MCA_plm_rsh_agent=false"
     ;;
   *) usage ;;
