@@ -528,15 +528,16 @@ def pareto_rows(rows, wall):
     return out
 
 
-def write_pareto(args, rows):
+def write_pareto(args, rows, extra_wall=None):
     """pareto_spheric2_TAG.csv/png: each code's wall time against its errors, where
-    peer_throughput_spheric2_TAG.csv (peer_dualsphysics.sh) is in --out; None without it."""
+    peer_throughput_spheric2_TAG.csv (peer_dualsphysics.sh) is in --out; None without it.
+    extra_wall: {(code, dp): wall s} of the --project-run runs, beside that file's."""
     path = os.path.join(args.out, f"peer_throughput_spheric2_{args.tag}.csv")
     if not os.path.exists(path):
         print(f"no {path}: no Pareto plot (peer_dualsphysics.sh writes it)")
         return None
     wall = read_throughput(path)
-    wall.update(getattr(args, "extra_wall", {}))
+    wall.update(extra_wall or {})
     points = pareto_rows(rows, wall)
     csv_path = os.path.join(args.out, f"pareto_spheric2_{args.tag}.csv")
     keys = ["code", "dp_m", "wall_s"] + [k for k, _ in PARETO_MEASURES]
@@ -603,14 +604,14 @@ def run_spheric(args, repo):
         runs.append((dp, "dualsphysics", ps, note))
         runs.append((dp, "project", read_project_steps(project_file),
                      "wall_pressure probes on the box (every step)"))
-    args.extra_wall = {}
+    extra_wall = {}  # (code, dp): wall s of the --project-run runs
     for label, dp, project_file in args.project_run or []:
         code = f"project_{label}"
         runs.append((dp, code, read_project_steps(project_file),
                      f"wall_pressure probes on the box (every step), {label}"))
         wall = read_accuracy_wall(project_file, dp)
         if wall is not None:
-            args.extra_wall[(code, float(dp))] = wall
+            extra_wall[(code, float(dp))] = wall
     for dp, code, series, source in runs:
         r = spheric_measures(series, ref_t, ref_h, args.tmax)
         for p in ("P1", "P2"):
@@ -634,7 +635,7 @@ def run_spheric(args, repo):
     png = os.path.join(args.out, f"peer_compare_spheric2_{args.tag}.png")
     plot_spheric(png, curves, ref_t, ref_h)
     print(f"wrote {out_csv} and {png}")
-    write_pareto(args, rows)
+    write_pareto(args, rows, extra_wall)
     return rows
 
 
