@@ -26,17 +26,67 @@ struct Periods {
   float length[3];
 };
 
-// A pair of the density pass: the other particle and grad W (1/m^4).
-struct Pair {
-  uint32_t other;
-  float gx, gy, gz;
+// The pair lists hold only the other particle's index (4 bytes a pair, not 16 with grad W): the
+// solves sweep them a dozen times a step, mostly moving bytes, so each sweep recomputes grad W
+// from the positions, which stay put from the density pass to the integration. The
+// recomputation repeats the density pass's float operations in its order, so grad W has the
+// same bits as the one the density pass summed (and the CPU stores).
+
+// What PairGradW needs of a grid (DeviceGrid::layout) to redo ForEachWithin's x_ij.
+struct Seams {
+  bool periodic[3];
+  float period[3];  // m
 };
+inline Seams SeamsOf(const DeviceGrid& grid) {
+  Seams seams;
+  for (int a = 0; a < 3; ++a) {
+    seams.periodic[a] = grid.layout.periodic[a];
+    seams.period[a] = grid.layout.period[a];
+  }
+  return seams;
+}
+
+// The shift along one axis that ForEachNeighborRun added to x_i for the run that held x_j: 0,
+// or +-L where the pair straddles a periodic axis's seam (the exact float the grid added, so
+// x_i + shift rounds as there). The grid shifts only from an edge cell to the opposite edge's
+// cell, and the density pass lists a pair only within the support, which is at most about a
+// third of L (NeighborGrid: 3 or more cells a periodic axis, none narrower than the support
+// but for 1e-6): so |x_i + shift - x_j| < L/3 for the grid's shift and > 2L/3 for the two
+// others, and x_i - x_j beyond +-L/2 tells which it was.
+__device__ float SeamShift(bool periodic, float period, float xi, float xj) {
+  if (!periodic) return 0.0f;
+  const float d = xi - xj;
+  if (d < -0.5f * period) return period;
+  if (d > 0.5f * period) return -period;
+  return 0.0f;
+}
+
+// GradW (sph_loops.h) at offset x_ij and distance r: x_ij dW/dr / r, zero at r = 0 (1/m^4).
+__device__ F3 GradW(F3 xij, float r, const SphConstants& c) {
+  const float gf = GradFactor(r, c);
+  return {xij.x * gf, xij.y * gf, xij.z * gf};
+}
+
+// grad W(x_i - x_j) of a listed pair, as the density pass computed it: ForEachWithin's
+// q = x_i + shift, x_ij = q - x_j, r = sqrt(|x_ij|^2) (Norm2's order), then GradW.
+__device__ F3 PairGradW(F3 xi, F3 xj, const Seams& seams, const SphConstants& c) {
+  const F3 q{xi.x + SeamShift(seams.periodic[0], seams.period[0], xi.x, xj.x),
+             xi.y + SeamShift(seams.periodic[1], seams.period[1], xi.y, xj.y),
+             xi.z + SeamShift(seams.periodic[2], seams.period[2], xi.z, xj.z)};
+  const F3 xij{q.x - xj.x, q.y - xj.y, q.z - xj.z};
+  return GradW(xij, sqrtf(Norm2(xij)), c);
+}
 
 // The per-particle arrays of the solves (Work in bender_koschier_solver.cc) and the lists.
 struct Solver {
   float *alpha, *kappa, *error, *kappa_sum;
   const uint32_t *fluid_begin, *wall_begin;
-  Pair *fluid_pairs, *wall_pairs;
+  uint32_t *fluid_pairs, *wall_pairs;  // the other particle (fluid) or sample (wall) of each pair
+  // The fluid's positions packed with kappa / rho of the solve's current iteration (KappaOverRho:
+  // x, y, z, kappa_j / rho_j): a fluid pair of the solves loads the other particle's x_j (and
+  // kappa_j / rho_j) in one 16-byte load. The same floats as f.x, f.y, f.z.
+  float4* packed;
+  Seams fluid_seams, wall_seams;  // of the fluid's and the boundary's grids
   // The walls' fluid neighbours (dfsph::BoundaryNeighbors), b's in [bn_begin[b], bn_begin[b+1]).
   const uint32_t* bn_begin;
   const uint32_t* bn_fluid;
@@ -45,14 +95,16 @@ struct Solver {
   float* kappa_b;      // kappa_b / rho of the current iteration
 };
 
-// The counts of pairs at distance > 0 within the support, fluid and wall, of each particle.
+// The counts of pairs at distance > 0 within the support, fluid and wall, of each particle, and
+// the packed positions of the step (Solver::packed).
 __global__ void CountPairsKernel(DeviceGrid grid, DeviceGrid bgrid, Fluid f, Boundary b,
                                  SphConstants c, uint32_t* fluid_count, uint32_t* wall_count,
-                                 uint32_t n) {
+                                 float4* packed, uint32_t n) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= n) return;
   const int3 cell = grid.SortedCell(i);
   const F3 x{f.x[i], f.y[i], f.z[i]};
+  packed[i] = make_float4(x.x, x.y, x.z, 0.0f);
   uint32_t fluid = 0, wall = 0;
   ForEachWithin(grid, {f.x, f.y, f.z}, cell, x, c.support, [&](uint32_t, F3, float r) {
     if (r > 0) ++fluid;
@@ -64,7 +116,8 @@ __global__ void CountPairsKernel(DeviceGrid grid, DeviceGrid bgrid, Fluid f, Bou
   wall_count[i] = wall;
 }
 
-// DensityAndFactor: rho_i, alpha_i and the pairs.
+// DensityAndFactor: rho_i, alpha_i and the pairs (their indices; the solves recompute grad W
+// with PairGradW, which repeats what ForEachWithin and GradW do here).
 __global__ void DensityAndFactorKernel(DeviceGrid grid, DeviceGrid bgrid, Fluid f, Boundary b,
                                        Solver s, SphConstants c, uint32_t* wall_owner, uint32_t n) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
@@ -77,9 +130,8 @@ __global__ void DensityAndFactorKernel(DeviceGrid grid, DeviceGrid bgrid, Fluid 
   uint32_t k = s.fluid_begin[i];
   ForEachWithin(grid, {f.x, f.y, f.z}, cell, x, c.support, [&](uint32_t j, F3 xij, float r) {
     fluid += KernelW(r, c);
-    const float gf = GradFactor(r, c);
-    const F3 g{xij.x * gf, xij.y * gf, xij.z * gf};
-    if (r > 0) s.fluid_pairs[k++] = Pair{j, g.x, g.y, g.z};
+    const F3 g = GradW(xij, r, c);
+    if (r > 0) s.fluid_pairs[k++] = j;
     const F3 mg{c.mass * g.x, c.mass * g.y, c.mass * g.z};
     grad.x += mg.x, grad.y += mg.y, grad.z += mg.z;
     squares += Norm2(mg);
@@ -88,11 +140,10 @@ __global__ void DensityAndFactorKernel(DeviceGrid grid, DeviceGrid bgrid, Fluid 
   uint32_t kw = s.wall_begin[i];
   ForEachWithin(bgrid, {b.x, b.y, b.z}, cell, x, c.support, [&](uint32_t o, F3 xib, float r) {
     wall += b.volume[o] * KernelW(r, c);
-    const float gf = GradFactor(r, c);
-    const F3 g{xib.x * gf, xib.y * gf, xib.z * gf};
+    const F3 g = GradW(xib, r, c);
     if (r > 0) {
       wall_owner[kw] = i;
-      s.wall_pairs[kw++] = Pair{o, g.x, g.y, g.z};
+      s.wall_pairs[kw++] = o;
     }
     const float psi = rho0 * b.volume[o];
     grad.x += psi * g.x, grad.y += psi * g.y, grad.z += psi * g.z;
@@ -134,11 +185,14 @@ __global__ void HydrostaticAccelerationKernel(Fluid f, Boundary b, Solver s, Sph
                                               float mu, uint32_t n) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= n) return;
+  const float4 pi = s.packed[i];
+  const F3 xi{pi.x, pi.y, pi.z};
   F3 sum{0, 0, 0};
   for (uint32_t k = s.wall_begin[i]; k < s.wall_begin[i + 1]; ++k) {
-    const Pair p = s.wall_pairs[k];
-    const float w = b.volume[p.other] * s.hydrostatic[p.other];
-    sum.x += w * p.gx, sum.y += w * p.gy, sum.z += w * p.gz;
+    const uint32_t o = s.wall_pairs[k];
+    const F3 g = PairGradW(xi, {b.x[o], b.y[o], b.z[o]}, s.wall_seams, c);
+    const float w = b.volume[o] * s.hydrostatic[o];
+    sum.x += w * g.x, sum.y += w * g.y, sum.z += w * g.z;
   }
   const float rho = f.density[i];
   const float scale = -c.psi_scale / (rho * rho * mu);
@@ -148,18 +202,21 @@ __global__ void HydrostaticAccelerationKernel(Fluid f, Boundary b, Solver s, Sph
 // D rho_i / Dt over the step's pairs (DensityRate).
 __device__ float DensityRate(const Fluid& f, const Boundary& b, const Solver& s,
                              const SphConstants& c, uint32_t i) {
+  const float4 pi = s.packed[i];
+  const F3 xi{pi.x, pi.y, pi.z};
   const F3 v{f.vx[i], f.vy[i], f.vz[i]};
   float rate = 0;
   for (uint32_t k = s.fluid_begin[i]; k < s.fluid_begin[i + 1]; ++k) {
-    const Pair p = s.fluid_pairs[k];
-    rate += c.mass * Dot({v.x - f.vx[p.other], v.y - f.vy[p.other], v.z - f.vz[p.other]},
-                         {p.gx, p.gy, p.gz});
+    const uint32_t j = s.fluid_pairs[k];
+    const float4 pj = s.packed[j];
+    const F3 g = PairGradW(xi, {pj.x, pj.y, pj.z}, s.fluid_seams, c);
+    rate += c.mass * Dot({v.x - f.vx[j], v.y - f.vy[j], v.z - f.vz[j]}, g);
   }
   for (uint32_t k = s.wall_begin[i]; k < s.wall_begin[i + 1]; ++k) {
-    const Pair p = s.wall_pairs[k];
+    const uint32_t o = s.wall_pairs[k];
+    const F3 g = PairGradW(xi, {b.x[o], b.y[o], b.z[o]}, s.wall_seams, c);
     // A moving obstacle's samples carry its velocity v_b: Psi_b (v_i - v_b) . grad W.
-    rate +=
-        c.psi_scale * b.volume[p.other] * Dot(RelativeToSample(b, v, p.other), {p.gx, p.gy, p.gz});
+    rate += c.psi_scale * b.volume[o] * Dot(RelativeToSample(b, v, o), g);
   }
   return rate;
 }
@@ -211,9 +268,10 @@ __global__ void SolveErrorKernel(Fluid f, Boundary b, Solver s, SphConstants c, 
   }
 }
 
+// kappa_j / rho_j into the packed positions' fourth float, which ApplyKappa reads with x_j.
 __global__ void KappaOverRhoKernel(Fluid f, Solver s, uint32_t n) {
   const uint32_t j = blockIdx.x * blockDim.x + threadIdx.x;
-  if (j < n) s.error[j] = s.kappa[j] / f.density[j];
+  if (j < n) s.packed[j].w = s.kappa[j] / f.density[j];
 }
 
 // ExtrapolateKappa: kappa_b = sum_i w_bi kappa_i / rho_i.
@@ -222,27 +280,31 @@ __global__ void ExtrapolateKappaKernel(Solver s, uint32_t nb) {
   if (o >= nb) return;
   float kappa = 0;
   for (uint32_t k = s.bn_begin[o]; k < s.bn_begin[o + 1]; ++k) {
-    kappa += s.bn_weight[k] * s.error[s.bn_fluid[k]];
+    kappa += s.bn_weight[k] * s.packed[s.bn_fluid[k]].w;
   }
   s.kappa_b[o] = kappa;
 }
 
-// ApplyKappa's per-particle part (s.error holds kappa / rho).
+// ApplyKappa's per-particle part (s.packed's fourth float holds kappa / rho).
 __global__ void ApplyKappaKernel(Fluid f, Boundary b, Solver s, SphConstants c, float dt,
                                  float* applied, uint32_t n) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= n) return;
-  const float ki = s.error[i];
+  const float4 pi = s.packed[i];
+  const F3 xi{pi.x, pi.y, pi.z};
+  const float ki = pi.w;
   F3 fluid{0, 0, 0}, wall{0, 0, 0};
   for (uint32_t k = s.fluid_begin[i]; k < s.fluid_begin[i + 1]; ++k) {
-    const Pair p = s.fluid_pairs[k];
-    const float w = ki + s.error[p.other];
-    fluid.x += w * p.gx, fluid.y += w * p.gy, fluid.z += w * p.gz;
+    const float4 pj = s.packed[s.fluid_pairs[k]];
+    const F3 g = PairGradW(xi, {pj.x, pj.y, pj.z}, s.fluid_seams, c);
+    const float w = ki + pj.w;
+    fluid.x += w * g.x, fluid.y += w * g.y, fluid.z += w * g.z;
   }
   for (uint32_t k = s.wall_begin[i]; k < s.wall_begin[i + 1]; ++k) {
-    const Pair p = s.wall_pairs[k];
-    const float w = b.volume[p.other] * (ki + s.kappa_b[p.other]);
-    wall.x += w * p.gx, wall.y += w * p.gy, wall.z += w * p.gz;
+    const uint32_t o = s.wall_pairs[k];
+    const F3 g = PairGradW(xi, {b.x[o], b.y[o], b.z[o]}, s.wall_seams, c);
+    const float w = b.volume[o] * (ki + s.kappa_b[o]);
+    wall.x += w * g.x, wall.y += w * g.y, wall.z += w * g.z;
   }
   f.vx[i] -= dt * (c.mass * fluid.x + c.psi_scale * wall.x);
   f.vy[i] -= dt * (c.mass * fluid.y + c.psi_scale * wall.y);
@@ -288,11 +350,6 @@ __global__ void IntegrateKernel(Fluid f, SphConstants c, Surfaces surfaces, floa
   const F3 x{f.x[i], f.y[i], f.z[i]};
   LimitApproachToSurfaces(c, surfaces, x, dt, v);
   MoveAndStore(c, surfaces, f, i, x, v, dt);
-}
-
-__global__ void PairOtherKernel(const Pair* pairs, uint32_t* other, uint32_t count) {
-  const uint32_t k = blockIdx.x * blockDim.x + threadIdx.x;
-  if (k < count) other[k] = pairs[k].other;
 }
 
 __global__ void SpeedSquaredKernel(Fluid f, float* speed2, uint32_t n) {

@@ -26,7 +26,9 @@ struct DfsphPipeline::Impl : PhysicalArrays {
   DeviceBuffer<float> density_stiffness, divergence_stiffness, stiffness2;
   DeviceBuffer<float> alpha, kappa, error, kappa_sum;
   DeviceBuffer<uint32_t> fluid_count, wall_count, fluid_begin, wall_begin;
-  DeviceBuffer<Pair> fluid_pairs, wall_pairs;
+  // The pairs' other particles (Solver): 4 bytes a pair, grad W recomputed where it is read.
+  DeviceBuffer<uint32_t> fluid_pairs, wall_pairs;
+  DeviceBuffer<float4> packed;  // Solver::packed
   DeviceBuffer<uint32_t> wall_owner, wall_owner_sorted, wall_b, wall_b_sorted;
   // The Boundary view's two pressure arrays, which no dfsph kernel uses.
   DeviceBuffer<float> bunused;
@@ -51,12 +53,21 @@ struct DfsphPipeline::Impl : PhysicalArrays {
   Fluid View() { return FluidOf(*this, nullptr); }
   Boundary BoundaryView() { return BoundaryOf(*this, bunused.data(), bunused.data()); }
   Solver SolverView() {
-    return {alpha.data(),       kappa.data(),
-            error.data(),       kappa_sum.data(),
-            fluid_begin.data(), wall_begin.data(),
-            fluid_pairs.data(), wall_pairs.data(),
-            bn_begin.data(),    wall_owner_sorted.data(),
-            bn_weight.data(),   hydrostatic.data(),
+    return {alpha.data(),
+            kappa.data(),
+            error.data(),
+            kappa_sum.data(),
+            fluid_begin.data(),
+            wall_begin.data(),
+            fluid_pairs.data(),
+            wall_pairs.data(),
+            packed.data(),
+            SeamsOf(sorter.View()),
+            SeamsOf(boundary_sorter.View()),
+            bn_begin.data(),
+            wall_owner_sorted.data(),
+            bn_weight.data(),
+            hydrostatic.data(),
             kappa_b.data()};
   }
   Surfaces SurfaceView() { return SurfacesOf(*this); }
@@ -215,6 +226,7 @@ void DfsphPipeline::Upload(size_t n, const uint32_t* id, const float* position,
   for (DeviceBuffer<uint32_t>* b : {&m.fluid_count, &m.wall_count, &m.fluid_begin, &m.wall_begin}) {
     b->Resize(size_t(count) + 1);
   }
+  m.packed.Resize(count);
   cudaStream_t s = m.s();
   m.EnqueueUpload(id, position, velocity);
   if (n > 0) {
@@ -270,7 +282,8 @@ float DfsphPipeline::Prepare(float gravity, uint32_t max_per_cell,
   m.BeginPass();  // density: count the pairs, lay the lists out, fill them
   if (n > 0) {
     CountPairsKernel<<<m.Blocks(n), kBlock, 0, s>>>(grid, bgrid, m.View(), m.BoundaryView(), c,
-                                                    m.fluid_count.data(), m.wall_count.data(), n);
+                                                    m.fluid_count.data(), m.wall_count.data(),
+                                                    m.packed.data(), n);
     CheckCuda(cudaMemsetAsync(m.fluid_count.data() + n, 0, sizeof(uint32_t), s), "a count");
     CheckCuda(cudaMemsetAsync(m.wall_count.data() + n, 0, sizeof(uint32_t), s), "a count");
     m.ExclusiveSum(m.fluid_count.data(), m.fluid_begin.data(), n);
@@ -304,8 +317,10 @@ float DfsphPipeline::Prepare(float gravity, uint32_t max_per_cell,
             "clearing counts");
   if (wall_total > 0) {
     // The b of every wall pair, then a stable sort by b: b's fluid neighbours in fluid order.
-    PairOtherKernel<<<m.Blocks(wall_total), kBlock, 0, s>>>(m.wall_pairs.data(), m.wall_b.data(),
-                                                            wall_total);
+    // (A copy: the sort overwrites both of its key buffers.)
+    CheckCuda(cudaMemcpyAsync(m.wall_b.data(), m.wall_pairs.data(), wall_total * sizeof(uint32_t),
+                              cudaMemcpyDeviceToDevice, s),
+              "copying the walls' pairs");
     cub::DoubleBuffer<uint32_t> keys(m.wall_b.data(), m.wall_b_sorted.data());
     cub::DoubleBuffer<uint32_t> values(m.wall_owner.data(), m.wall_owner_sorted.data());
     size_t bytes = 0;
@@ -430,11 +445,12 @@ StepOutcome DfsphPipeline::Integrate(float dt, float speed_limit) {
 uint64_t DfsphPipeline::DeviceBytes() const {
   const Impl& m = *impl_;
   // Dfsph's own: 7 float arrays (the warm starts and their scratch, alpha, kappa, the error,
-  // the kappa sum) and 4 count arrays per particle, the pair lists and the walls' transpose,
-  // and 3 floats and 2 counts per boundary sample.
+  // the kappa sum), the packed positions and 4 count arrays per particle, the pair lists (an
+  // index a pair) and the walls' transpose, and 3 floats and 2 counts per boundary sample.
   return m.PhysicalDeviceBytes() +
          uint64_t(m.x.capacity()) * (7 * sizeof(float) + 4 * sizeof(uint32_t)) +
-         uint64_t(m.fluid_pairs.capacity() + m.wall_pairs.capacity()) * sizeof(Pair) +
+         uint64_t(m.packed.capacity()) * sizeof(float4) +
+         uint64_t(m.fluid_pairs.capacity() + m.wall_pairs.capacity()) * sizeof(uint32_t) +
          uint64_t(m.wall_owner.capacity()) * 4 * sizeof(uint32_t) +
          uint64_t(m.bn_weight.capacity()) * sizeof(float) +
          uint64_t(m.bx.capacity()) * (3 * sizeof(float) + 2 * sizeof(uint32_t)) + m.temp.capacity();

@@ -4,10 +4,12 @@
 //
 // The passes are the CPU's, each kernel with the CPU's operations in the CPU's order, and the
 // pair lists of the density pass are laid out as the CPU's (per particle in the grid's order; the
-// walls' transpose in fluid order, by a stable sort). One thing differs: the solves' stopping
-// test sums the particles' errors in a fixed tree order on the GPU, not serially, so the
-// iteration counts may differ from the CPU's by one now and then; the GPU's own runs stay
-// bit-identical (no atomics in any sum).
+// walls' transpose in fluid order, by a stable sort), but hold only the other particle: the
+// solves recompute each pair's grad W from the positions with the density pass's operations
+// (PairGradW, dfsph_kernels.cuh), 4 bytes a pair read instead of 16. One thing differs: the
+// solves' stopping test sums the particles' errors in a fixed tree order on the GPU, not
+// serially, so the iteration counts may differ from the CPU's by one now and then; the GPU's own
+// runs stay bit-identical (no atomics in any sum).
 #pragma once
 
 #include <cstddef>

@@ -10,12 +10,14 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <map>
 #include <tuple>
 
 #include "dysa/core/scene.h"
 #include "dysa/core/simulation.h"
 #include "sph_loops.h"
+#include "support/gpu_test.h"
 #include "support/with_threads.h"
 
 namespace dysa {
@@ -102,6 +104,66 @@ TEST(DfsphPairListTest, ListsEveryPairWithinTheSupportOnce) {
   EXPECT_EQ(found, pairs.other.size());
   EXPECT_GT(found, 20 * n);  // a 3D block: about 30 neighbours each
   EXPECT_GT(data.boundary_pairs.other.size(), 0u);
+}
+
+// The GPU's pair lists keep only the other particle and recompute grad W where the solves read
+// it (PairGradW in cuda/dfsph_kernels.cuh), from the positions, which stay put from the density
+// pass to the integration; the GPU's dfsph is bit-identical to the CPU only if that gives the
+// density pass's bits. This is PairGradW's arithmetic in host code: x_ij = (x_i + shift) - x_j
+// with ForEachNeighborRun's shift across a periodic axis's seam told by x_i - x_j beyond +-L/2,
+// r = sqrt(|x_ij|^2), GradW.
+Vec3 RecomputedGradW(const NeighborGrid& grid, const Vec3& xi, const Vec3& xj,
+                     const PhysicalKernel<Real>& kernel) {
+  Vec3 q;
+  for (int a = 0; a < 3; ++a) {
+    Real shift = 0;
+    if (grid.periodic()[a]) {
+      const Real d = xi[a] - xj[a], period = grid.periods()[a];
+      if (d < -0.5f * period) shift = period;
+      if (d > 0.5f * period) shift = -period;
+    }
+    q[a] = xi[a] + shift;
+  }
+  const Vec3 xij(q.x() - xj.x(), q.y() - xj.y(), q.z() - xj.z());
+  return GradW(xij, std::sqrt(xij.squaredNorm()), kernel);
+}
+
+// Every listed gradient, fluid and wall, is the recomputation's to the bit: across walls and
+// obstacles, the Wendland kernel, and the periodic channel (3 cells along z, the tightest).
+TEST(DfsphPairListTest, EveryGradientIsRecomputedBitForBitFromThePositions) {
+  for (const Scene& scene : {DamScene(), dysa::testing::WendlandDamScene("dfsph"),
+                             dysa::testing::PeriodicScene("dfsph")}) {
+    Simulation sim(scene);
+    for (int i = 0; i < 40; ++i) sim.Step();
+    const State& state = sim.state();
+    const BenderKoschierData& data = DataOf(sim);
+    const PhysicalKernel<Real> kernel = sim.model().Kernel();
+    const NeighborGrid& walls = data.boundary->grid();
+    size_t across_seam = 0, mismatches = 0;
+    const auto check = [&](const NeighborGrid& grid, const NeighborPairs& pairs, size_t i) {
+      // The positions the density pass read: the grid's copy (the step has moved the particles).
+      const Vec3 xi(state.grid.xs()[i], state.grid.ys()[i], state.grid.zs()[i]);
+      for (size_t k = pairs.begin[i]; k < pairs.begin[i + 1]; ++k) {
+        const uint32_t j = pairs.other[k];
+        const Vec3 xj(grid.xs()[j], grid.ys()[j], grid.zs()[j]);
+        const Vec3 g = RecomputedGradW(grid, xi, xj, kernel);
+        if ((xi - xj).cwiseAbs().maxCoeff() > 2 * kernel.support) ++across_seam;
+        if (std::memcmp(g.data(), pairs.grad_w[k].data(), sizeof(Vec3)) != 0 && ++mismatches < 5) {
+          ADD_FAILURE() << "pair (" << i << ", " << j << "): " << g.transpose() << " listed as "
+                        << pairs.grad_w[k].transpose();
+        }
+      }
+    };
+    for (size_t i = 0; i < state.particles.size(); ++i) {
+      check(state.grid, data.fluid_pairs, i);
+      check(walls, data.boundary_pairs, i);
+    }
+    EXPECT_EQ(mismatches, 0u);
+    EXPECT_GT(data.boundary_pairs.other.size(), 0u);
+    if (state.grid.periodic()[0]) {
+      EXPECT_GT(across_seam, 0u);  // the seams were crossed
+    }
+  }
 }
 
 TEST(DfsphPairListTest, TheLayoutDoesNotDependOnTheThreadCount) {
