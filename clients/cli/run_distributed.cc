@@ -19,6 +19,7 @@
 #include "dysa/core/device.h"
 #include "dysa/core/probes.h"
 #include "dysa/distributed/distributed_simulation.h"
+#include "dysa/distributed/rank_device.h"
 #include "probe_writer.h"
 #include "vtk_writer.h"
 
@@ -53,21 +54,13 @@ void RunDistributed(const RunOptions& options, const distributed::Communicator& 
     // What GPU ranks run is the same on every rank; whether a rank can use its GPU may not be
     // (another host), so all learn it before the first collective of the run.
     distributed::DistributedSimulation::CheckSupported(scene, scene.params, options.device);
-    const std::string reason = DeviceUnavailableReason(options.device);
-    double unusable = reason.empty() ? 0 : 1;
-    comm.MaxInPlace({&unusable, 1});
-    if (unusable > 0) {
-      throw ConfigError("device", reason.empty() ? "another rank cannot use its GPU" : reason);
-    }
+    distributed::CheckRankDevicesUsable(comm, options.device);
   }
 
   distributed::DistributedSimulation sim(std::move(scene), comm, options.device);
   // Each rank's GPU (DeviceOfRank: by local rank where --device cuda has no index).
-  std::vector<int64_t> gpu_of_rank(size_t(comm.size()), 0);
-  if (gpu) {
-    gpu_of_rank[size_t(comm.rank())] = options.device.index;
-    comm.SumInPlace(gpu_of_rank);
-  }
+  const std::vector<Device> gpu_of_rank =
+      gpu ? distributed::DevicesOfRanks(comm, options.device) : std::vector<Device>{};
   distributed::BalanceSettings balance;
   balance.threshold = options.balance_threshold;
   // Test-only (mpi_balance_test): DYSA_TEST_SLOW_RANK=RANK:MICROSECONDS slows that rank by as
@@ -131,7 +124,7 @@ void RunDistributed(const RunOptions& options, const distributed::Communicator& 
         << ", output in " << dir.string() << "\n";
     if (gpu) {
       out << "devices per rank:";
-      for (int64_t index : gpu_of_rank) out << " cuda:" << index;
+      for (const Device& device : gpu_of_rank) out << " " << device.ToString();
       out << "\n";
     }
   }

@@ -106,7 +106,9 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1, 1024));
   app.add_option("--device", device_arg,
                  "Where the simulation steps: cpu (OpenMP), cuda (= cuda:0) or cuda:N, a CUDA GPU "
-                 "(scenes whose solver has no GPU backend are refused)")
+                 "(scenes whose solver has no GPU backend are refused). Under mpirun each rank "
+                 "steps on a GPU: cuda maps a host's ranks to its GPUs by local rank, cuda:N puts "
+                 "all on N (wcsph and seed; dfsph refused)")
       ->capture_default_str();
   app.add_option("--frame-rate", frame_rate,
                  "Frames simulated per wall second at most; 0: as fast as possible")
@@ -153,6 +155,12 @@ int main(int argc, char** argv) {
   app.add_flag("--paused", paused, "Start paused");
   CLI11_PARSE(app, argc, argv);
 
+#ifdef DYSA_WITH_MPI
+  const bool on_ranks = dysa::service::LaunchedByMpirun();
+#else
+  const bool on_ranks = false;
+#endif
+
   // Phase 2: inputs. Every error here names its flag or field and exits 2.
   dysa::service::HostOptions host_options;
   dysa::service::ServerOptions server_options;
@@ -161,7 +169,9 @@ int main(int argc, char** argv) {
     try {
       host_options.device = dysa::ParseDevice(device_arg);
       // Refuses to start without the GPU, naming what is missing (driver, GPU, ordinal, build).
-      dysa::QueryDevice(host_options.device);
+      // Under mpirun each rank's GPU is its own (by local rank) and all ranks learn together
+      // whether every one can use its GPU, once MPI runs (ServerRanks), so that none exits alone.
+      if (!on_ranks) dysa::QueryDevice(host_options.device);
     } catch (const dysa::ConfigError& e) {
       throw std::runtime_error("--device " + device_arg + ": " + e.message());
     }
@@ -186,17 +196,6 @@ int main(int argc, char** argv) {
   server_options.listen = listen;
   server_options.protect_watch = protect_watch;
 
-#ifdef DYSA_WITH_MPI
-  const bool on_ranks = dysa::service::LaunchedByMpirun();
-#else
-  const bool on_ranks = false;
-#endif
-  if (on_ranks && host_options.device.is_cuda()) {
-    std::cerr << "dysa-server: error: --device " << device_arg
-              << ": under mpirun the server's ranks step on the CPU (--device cpu)\n";
-    return 2;
-  }
-
   // Phase 3: signals. Blocked before any thread starts, so every thread inherits the mask and
   // only the signal thread receives them (from here on, also during start-up). MPI's own
   // threads, started next, too.
@@ -209,14 +208,25 @@ int main(int argc, char** argv) {
   if (on_ranks) {
     try {
       ranks = std::make_unique<dysa::service::ServerRanks>(&argc, &argv, balance_threshold,
-                                                           rank_timeout);
+                                                           rank_timeout, device_arg);
     } catch (const std::exception& e) {
       std::cerr << "dysa-server: error: " << e.what() << "\n";
       return 1;
     }
+    if (!ranks->device_error().empty()) {
+      // Some rank cannot use its GPU: every rank knows it (ServerRanks); rank 0 says why.
+      if (ranks->rank() == 0) {
+        std::cerr << "dysa-server: error: --device " << device_arg << ": " << ranks->device_error()
+                  << "\n";
+      }
+      return 2;
+    }
     if (ranks->rank() != 0) return ranks->Serve(threads, Log);
     host_options.backend = ranks->backend();
-    Log("rank 0 of " + std::to_string(ranks->size()) + ": stepping on every rank");
+    // Rank 0's own GPU (its simulation thread waits on it and gathers frames).
+    host_options.device = ranks->device();
+    Log("rank 0 of " + std::to_string(ranks->size()) + ": stepping on every rank" +
+        (host_options.device.is_cuda() ? ", each on its GPU" : ""));
   }
 #endif
 

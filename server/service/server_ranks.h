@@ -9,6 +9,7 @@
 #include <memory>
 #include <string>
 
+#include "dysa/core/device.h"
 #include "dysa/core/simulation.h"
 
 namespace dysa::service {
@@ -19,8 +20,11 @@ class ServerRanks {
   // std::runtime_error when MPI cannot. The ranks move their slab cuts when the max/mean of
   // their step times over a window exceeds `balance_threshold` (balancer.h). A rank that waits
   // longer than `rank_timeout` seconds in one collective (another rank hangs) ends the job
-  // (MpiCommunicator).
-  ServerRanks(int* argc, char*** argv, double balance_threshold, double rank_timeout);
+  // (MpiCommunicator). `device`: the --device text; with a CUDA device each rank steps on its
+  // GPU (DeviceOfRank: "cuda" by local rank, "cuda:N" all on N). When any rank cannot use its
+  // GPU every rank learns it before anything else is collective (device_error).
+  ServerRanks(int* argc, char*** argv, double balance_threshold, double rank_timeout,
+              const std::string& device = "cpu");
   // Rank 0: tells the other ranks to stop, so that they end with it; then finalises MPI.
   ~ServerRanks();
   ServerRanks(const ServerRanks&) = delete;
@@ -28,6 +32,11 @@ class ServerRanks {
 
   int rank() const;
   int size() const;
+  // This rank's device (HostOptions::device on rank 0).
+  Device device() const;
+  // Empty, or why some rank cannot use its GPU (the same on every rank: none may serve or step;
+  // each exits 2, rank 0 saying why).
+  const std::string& device_error() const;
   // Rank 0: the backend factory for HostOptions::backend.
   Simulation::BackendFactory backend() const;
   // The other ranks: serves rank 0's commands with `threads` OpenMP threads (0: the default)

@@ -1,19 +1,23 @@
 // Tests of the server's simulation on ranks (server/distributed/src/ranks_backend.cc,
 // rank_runner.cc) on one process (SingleProcess): a Simulation stepping on the ranks' backend
 // gives the bits of a plain Simulation through frames, parameter changes, checkpoints and
-// resets, and what the ranks cannot run is refused by field, nothing applied. On 3 MPI ranks
-// under dysa-server: mpi_server_test.sh (ctest -L mpi).
+// resets, and what the ranks cannot run is refused by field, nothing applied; the same on GPU
+// ranks with the host stand-in for the GPU (host_device_backend.h), dfsph refused there. On 3
+// MPI ranks under dysa-server: mpi_server_test.sh (ctest -L mpi); on 3 GPU ranks:
+// mpi_gpu_server_test.sh (ctest -L gpu).
 #include "dysa/distributed/ranks_backend.h"
 
 #include <gtest/gtest.h>
 
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "counting_comm.h"
 #include "dysa/core/scene.h"
 #include "dysa/core/simulation.h"
 #include "dysa/core/types.h"
+#include "host_device_backend.h"
 #include "view_reads_testing.h"
 
 #if !defined(DYSA_RANKS_SCENE) || !defined(DYSA_RANKS_SEED_SCENE) || \
@@ -27,6 +31,21 @@ namespace {
 struct OnRanks {
   SingleProcess one;
   std::shared_ptr<RankRunner> runner = std::make_shared<RankRunner>(one);
+  Simulation::BackendFactory factory() { return RanksBackendFactory(runner); }
+};
+
+// GPU ranks (`mpirun dysa-server --device cuda`) on one process, the host stand-in
+// (host_device_backend.h) in the GPU's place: the server's path through the device step
+// (distributed_device_step.cc) without a GPU.
+struct OnGpuRanks {
+  OnGpuRanks() {
+    runner->set_device_stand_in([](const std::string& solver) {
+      return std::make_unique<dysa::testing::HostDeviceBackend>(solver);
+    });
+  }
+  SingleProcess one;
+  std::shared_ptr<RankRunner> runner = std::make_shared<RankRunner>(
+      one, BalanceSettings{}, std::vector<Device>{ParseDevice("cuda:0")});
   Simulation::BackendFactory factory() { return RanksBackendFactory(runner); }
 };
 
@@ -44,11 +63,12 @@ void ExpectSameState(const Simulation& ranks, const Simulation& plain, const cha
   ASSERT_EQ(PositionsById(ranks), PositionsById(plain)) << where;
 }
 
-void ExpectSameBits(const Scene& scene) {
-  OnRanks ranks;
+template <class Ranks = OnRanks>
+void ExpectSameBits(const Scene& scene, const char* described = "cpu, 1 rank") {
+  Ranks ranks;
   Simulation spread(scene, Device{}, ranks.factory());
   Simulation plain(scene);
-  EXPECT_EQ(spread.DeviceDescription(), "cpu, 1 rank");
+  EXPECT_EQ(spread.DeviceDescription(), described);
   ExpectSameState(spread, plain, "start");
   for (int f = 0; f < 3; ++f) {
     spread.StepFrame();
@@ -210,6 +230,70 @@ TEST(RanksBackendTest, WhatTheRanksCannotRunIsRefusedByField) {
   sim.StepFrame();
   plain.StepFrame();
   ExpectSameState(sim, plain, "the predictor-corrector");
+}
+
+// The server's GPU ranks: through frames, a checkpoint inside a frame restored, a parameter
+// change and a reset, one process's bits (wcsph, both time integrations, and the seed).
+TEST(RanksBackendTest, OnGpuRanksTheServersPathGivesTheBitsOfOneProcess) {
+  ExpectSameBits<OnGpuRanks>(LoadScene(DYSA_RANKS_SCENE), "cuda:0, 1 rank");
+  ExpectSameBits<OnGpuRanks>(LoadScene(DYSA_RANKS_SEED_SCENE), "cuda:0, 1 rank");
+  OnGpuRanks ranks;
+  const Scene scene = LoadScene(DYSA_RANKS_SCENE);
+  Simulation sim(scene, Device{}, ranks.factory());
+  Simulation plain(scene);
+  Params p = sim.params();
+  p.time_integration = 1;  // the predictor-corrector, on the device's two sorts
+  ASSERT_FALSE(sim.SetParams(p));
+  ASSERT_FALSE(plain.SetParams(p));
+  for (int f = 0; f < 2; ++f) {
+    sim.StepFrame();
+    plain.StepFrame();
+  }
+  ExpectSameState(sim, plain, "the predictor-corrector on GPU ranks");
+}
+
+// What GPU ranks cannot run is refused as `dysa run --device cuda` under mpirun refuses it
+// (DistributedSimulation::CheckSupported with the device: the same field and message), before
+// any rank is told; the running scene steps on unchanged. On CPU ranks dfsph runs (DfsphToo).
+TEST(RanksBackendTest, OnGpuRanksDfsphIsRefusedByFieldAndTheSceneStepsOn) {
+  OnGpuRanks ranks;
+  const Scene scene = LoadScene(DYSA_RANKS_SCENE);
+  Simulation sim(scene, Device{}, ranks.factory());
+  Simulation plain(scene);
+  sim.StepFrame();
+  plain.StepFrame();
+  Scene dfsph = LoadScene(DYSA_RANKS_DFSPH_SCENE);
+  Scene swapped = scene;  // `dysa load SCENE --solver dfsph`
+  swapped.solver = "dfsph";
+  for (const Scene& refused : {dfsph, swapped}) {
+    std::string runs_message;
+    try {
+      DistributedSimulation::CheckSupported(refused, refused.params, ParseDevice("cuda:0"));
+    } catch (const ConfigError& e) {
+      runs_message = e.message();
+    }
+    ASSERT_NE(runs_message, "") << "dysa run's check accepts dfsph on GPU ranks";
+    try {
+      Simulation loaded(refused, Device{}, ranks.factory());
+      FAIL() << "dfsph ran on GPU ranks";
+    } catch (const ConfigError& e) {
+      EXPECT_EQ(e.field(), "solver");
+      EXPECT_EQ(e.message(), runs_message);
+    }
+    ASSERT_NE(ranks.runner->simulation(), nullptr);
+    EXPECT_EQ(ranks.runner->simulation()->scene().solver, "wcsph");  // no rank was told
+  }
+  sim.StepFrame();
+  plain.StepFrame();
+  ExpectSameState(sim, plain, "after the refusals");
+  // A parameter change is checked on the device too, and applied.
+  Params p = sim.params();
+  p.kinematic_viscosity = 2e-6;
+  ASSERT_FALSE(sim.SetParams(p));
+  ASSERT_FALSE(plain.SetParams(p));
+  sim.StepFrame();
+  plain.StepFrame();
+  ExpectSameState(sim, plain, "a parameter changed after the refusals");
 }
 
 }  // namespace

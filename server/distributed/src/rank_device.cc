@@ -1,8 +1,12 @@
 #include "dysa/distributed/rank_device.h"
 
+#include <algorithm>
 #include <charconv>
+#include <cstdint>
 #include <cstdlib>
 #include <cstring>
+
+#include "dysa/core/types.h"
 
 namespace dysa::distributed {
 
@@ -24,6 +28,36 @@ int LocalRank() {
     if (error == std::errc() && last == end && rank >= 0) return rank;
   }
   return 0;
+}
+
+void CheckRankDevicesUsable(const Communicator& comm, const Device& device) {
+  if (!device.is_cuda()) return;
+  const std::string reason = DeviceUnavailableReason(device);
+  double unusable = reason.empty() ? 0 : 1;
+  comm.MaxInPlace({&unusable, 1});
+  if (unusable > 0) {
+    throw ConfigError("device", reason.empty() ? "another rank cannot use its GPU" : reason);
+  }
+}
+
+std::vector<Device> DevicesOfRanks(const Communicator& comm, const Device& device) {
+  std::vector<int64_t> index(size_t(comm.size()), 0);
+  index[size_t(comm.rank())] = device.index;
+  comm.SumInPlace(index);
+  std::vector<Device> devices(index.size(), device);
+  for (size_t r = 0; r < index.size(); ++r) devices[r].index = int(index[r]);
+  return devices;
+}
+
+std::string DescribeRankDevices(std::span<const Device> devices) {
+  if (devices.empty()) return "cpu";
+  const bool same = std::all_of(devices.begin(), devices.end(), [&](const Device& d) {
+    return d.kind == devices[0].kind && d.index == devices[0].index;
+  });
+  if (same) return devices[0].ToString();
+  std::string text;
+  for (const Device& d : devices) text += (text.empty() ? "" : " ") + d.ToString();
+  return text;
 }
 
 }  // namespace dysa::distributed

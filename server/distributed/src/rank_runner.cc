@@ -162,7 +162,10 @@ bool RankRunner::ServeOne() {
   comm_.Broadcast(command);
   try {
     return !Run(command).stop;
-  } catch (const ConfigError&) {
+  } catch (const ConfigError& e) {
+    // A GPU that failed here (its memory, its driver) may have failed on this process alone,
+    // while the others wait for it in the scene's collectives: not for process 0 to report.
+    if (e.field() == "device") throw std::runtime_error(std::string("--device: ") + e.what());
     return true;  // process 0 throws the same and reports it
   }
 }
@@ -182,7 +185,17 @@ RankResult RankRunner::Run(const Bytes& command, const ViewWeigher* weigh) {
     scene.solver = r.Text();
     r.Values(scene.params);
     try {
-      sim_ = std::make_unique<DistributedSimulation>(std::move(scene), comm_);
+      // GPU ranks (on a stand-in in tests). Process 0 refused what they cannot run before it
+      // sent the scene (CheckRunsOnRanks with device()); the old simulation stays until the new
+      // one is built.
+      const Device device = this->device();
+      if (device.is_cuda() && stand_in_) {
+        std::unique_ptr<StepBackend> stand_in = stand_in_(scene.solver);
+        sim_ =
+            std::make_unique<DistributedSimulation>(std::move(scene), comm_, std::move(stand_in));
+      } else {
+        sim_ = std::make_unique<DistributedSimulation>(std::move(scene), comm_, device);
+      }
       sim_->set_balance(balance_);
     } catch (const std::invalid_argument& e) {
       throw ConfigError("processes", e.what());  // more ranks than the grid has layers

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "dysa/core/neighbor_grid.h"
+#include "dysa/distributed/rank_device.h"
 
 namespace dysa::distributed {
 namespace {
@@ -33,17 +34,19 @@ class RanksBackend final : public StepBackend {
  public:
   RanksBackend(std::shared_ptr<RankRunner> runner, const Scene& scene)
       : runner_(std::move(runner)), scene_(scene) {
-    CheckRunsOnRanks(scene_, scene_.params, runner_->comm().size());
+    CheckRunsOnRanks(scene_, scene_.params, runner_->comm().size(), runner_->device());
     runner_->Send(SceneCommand(scene_));
   }
 
+  // "cpu, 3 ranks", "cuda:0, 3 ranks" (all on one GPU), "cuda:0 cuda:1, 2 ranks".
   std::string Describe(const Device&) const override {
     const int n = runner_->comm().size();
-    return "cpu, " + std::to_string(n) + (n == 1 ? " rank" : " ranks");
+    return DescribeRankDevices(runner_->devices()) + ", " + std::to_string(n) +
+           (n == 1 ? " rank" : " ranks");
   }
 
   void CheckParams(const Params& params) const override {
-    CheckRunsOnRanks(scene_, params, runner_->comm().size());
+    CheckRunsOnRanks(scene_, params, runner_->comm().size(), runner_->device());
   }
 
   std::vector<std::string> Configure(const Model& model) override {
@@ -143,8 +146,11 @@ class RanksBackend final : public StepBackend {
 
 }  // namespace
 
-void CheckRunsOnRanks(const Scene& scene, const Params& params, int processes) {
-  DistributedSimulation::CheckSupported(scene, params);
+void CheckRunsOnRanks(const Scene& scene, const Params& params, int processes,
+                      const Device& device) {
+  // What `dysa run` under mpirun refuses too: a solver not made to run across processes, and on
+  // GPU ranks one the device's step does not run (dfsph).
+  DistributedSimulation::CheckSupported(scene, params, device);
   if (scene.source_json.empty()) {
     throw ConfigError("scene", "'" + scene.name +
                                    "' was built in code, not read from JSON text: the ranks "

@@ -7,8 +7,10 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <span>
+#include <string>
 #include <vector>
 
 #include "dysa/core/params.h"
@@ -16,6 +18,7 @@
 #include "dysa/core/simulation.h"
 #include "dysa/core/solver.h"
 #include "dysa/core/state.h"
+#include "dysa/core/step_backend.h"
 #include "dysa/core/view_selection.h"
 #include "dysa/distributed/communicator.h"
 #include "dysa/distributed/distributed_simulation.h"
@@ -52,11 +55,24 @@ struct RankResult {
 
 class RankRunner {
  public:
-  // `comm` must outlive this. Each scene's simulation re-balances with `balance`.
-  explicit RankRunner(const Communicator& comm, BalanceSettings balance = {})
-      : comm_(comm), balance_(balance) {}
+  // Builds a stand-in for a GPU's step backend for a solver (tests: host_device_backend.h).
+  using DeviceStandIn = std::function<std::unique_ptr<StepBackend>(const std::string& solver)>;
+
+  // `comm` must outlive this. Each scene's simulation re-balances with `balance` and steps on
+  // this process's entry of `devices` (every process's device by rank, DevicesOfRanks: GPU
+  // ranks, distributed_device_step.cc); empty: every process on the CPU.
+  explicit RankRunner(const Communicator& comm, BalanceSettings balance = {},
+                      std::vector<Device> devices = {})
+      : comm_(comm), balance_(balance), devices_(std::move(devices)) {}
 
   const Communicator& comm() const { return comm_; }
+  // This process's device (the CPU without `devices`) and every process's, by rank.
+  Device device() const { return devices_.empty() ? Device{} : devices_[size_t(comm_.rank())]; }
+  const std::vector<Device>& devices() const { return devices_; }
+  // Tests: on GPU ranks each scene's simulation steps on `stand_in`'s backend instead of the
+  // GPU's (the device path of the step without a GPU). What runs is still checked against
+  // device() (CheckRunsOnRanks).
+  void set_device_stand_in(DeviceStandIn stand_in) { stand_in_ = std::move(stand_in); }
   // The simulation of the latest scene; null before the first.
   const DistributedSimulation* simulation() const { return sim_.get(); }
 
@@ -65,7 +81,9 @@ class RankRunner {
   // a ViewSubsetCommand's weigher (process 0 alone calls it).
   RankResult Send(Bytes command, const ViewWeigher* weigh = nullptr);
   // The other processes: receives and performs one command; false once it was Stop. A
-  // ConfigError is process 0's to report: here it is skipped (nothing applied here either).
+  // ConfigError is process 0's to report: here it is skipped (nothing applied here either),
+  // except one naming "device": a GPU that failed on this process alone (process 0 checked
+  // what runs), which throws std::runtime_error so that the job ends instead of waiting.
   bool ServeOne();
 
  private:
@@ -73,6 +91,8 @@ class RankRunner {
 
   const Communicator& comm_;
   const BalanceSettings balance_;
+  const std::vector<Device> devices_;
+  DeviceStandIn stand_in_;
   std::unique_ptr<DistributedSimulation> sim_;
 };
 
