@@ -104,6 +104,10 @@ struct Row {
   double ms_per_step = 0;
   double simulated_per_wall = 0;  // simulated seconds per wall second
   double neighbours = 0;
+  // dfsph: the solves' iterations per step (each is two sweeps over the pairs and a sum the host
+  // waits for), what its density_solve time is made of.
+  double density_iterations = 0;
+  double divergence_iterations = 0;
   uint64_t device_bytes = 0;
   std::vector<dysa::PassProfile> passes;
   double particle_steps_per_s() const { return double(particles) / (ms_per_step * 1e-3); }
@@ -134,9 +138,13 @@ Row Measure(const dysa::Scene& scene, const dysa::Device& device, int warmup, do
   while (row.steps < max_steps && (row.steps < 3 || elapsed < budget_s)) {
     sim.Step();
     ++row.steps;
+    row.density_iterations += sim.solver_stats().density_iterations;
+    row.divergence_iterations += sim.solver_stats().divergence_iterations;
     elapsed = std::chrono::duration<double>(Clock::now() - start).count();
   }
   row.ms_per_step = 1e3 * elapsed / row.steps;
+  row.density_iterations /= row.steps;
+  row.divergence_iterations /= row.steps;
   row.simulated_per_wall = (sim.time() - start_time) / elapsed;
   row.passes.assign(sim.profile().begin(), sim.profile().end());
   row.device_bytes = sim.DeviceBytes();
@@ -216,7 +224,7 @@ int main(int argc, char** argv) {
       std::ofstream passes(base + "_passes_" + tag + ".csv");
       summary << "device,particles,steps,ms_per_step,particle_steps_per_s,neighbours,"
                  "pairs_per_s,simulated_s_per_wall_s,device_bytes_per_particle,speedup_over_cpu,"
-                 "setup_s\n";
+                 "setup_s,density_iterations_per_step,divergence_iterations_per_step\n";
       passes << "device,particles,pass,ms\n";
       for (long long size : physical ? physical_sizes : sizes) {
         const int q = std::max(2, int(std::lround(std::cbrt(double(size)))));
@@ -245,11 +253,16 @@ int main(int argc, char** argv) {
             if (speedup > 0) std::printf(", %.1fx the CPU", speedup);
           }
           std::printf(" (%d steps, set-up %.1f s)\n", r.steps, r.setup_s);
+          if (r.density_iterations + r.divergence_iterations > 0) {
+            std::printf("    iterations per step: %.2f density, %.2f divergence\n",
+                        r.density_iterations, r.divergence_iterations);
+          }
           summary << '"' << r.device << "\"," << r.particles << ',' << r.steps << ','
                   << r.ms_per_step << ',' << r.particle_steps_per_s() << ',' << r.neighbours << ','
                   << r.pairs_per_s() << ',' << r.simulated_per_wall << ','
                   << (on_gpu ? double(r.device_bytes) / double(r.particles) : 0.0) << ','
-                  << (on_gpu ? speedup : 0.0) << ',' << r.setup_s << '\n';
+                  << (on_gpu ? speedup : 0.0) << ',' << r.setup_s << ',' << r.density_iterations
+                  << ',' << r.divergence_iterations << '\n';
           for (const dysa::PassProfile& p : r.passes) {
             const double ms = p.calls ? p.total_ms / double(p.calls) : 0.0;
             std::printf("    %-18s %9.3f ms\n", p.name.c_str(), ms);

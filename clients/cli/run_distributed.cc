@@ -204,10 +204,11 @@ void RunDistributed(const RunOptions& options, const distributed::Communicator& 
       << " particles; ghosts per step: " << (steps ? double(moved[1]) / double(steps) : 0.0)
       << "; bytes sent per step: " << (steps ? double(moved[2]) / double(steps) : 0.0) << "\n"
       << "re-balanced: " << t.recuts << " of " << steps << " steps moved a slab cut\n"
-      << "step time max/mean: " << std::fixed << std::setprecision(2) << balanced.first_ratio
-      << " over the first " << balance.window << " steps, " << balanced.last_ratio
-      << " over the last " << balance.window << ", "
-      << (balanced.windows ? balanced.ratio_sum / double(balanced.windows) : 1.0)
+      << (balanced.by_work ? "work max/mean (GPU ranks balance the work): "
+                           : "step time max/mean: ")
+      << std::fixed << std::setprecision(2) << balanced.first_ratio << " over the first "
+      << balance.window << " steps, " << balanced.last_ratio << " over the last " << balance.window
+      << ", " << (balanced.windows ? balanced.ratio_sum / double(balanced.windows) : 1.0)
       << " in the mean of the " << balanced.windows << " windows (threshold " << balance.threshold
       << ")\n";
   out.unsetf(std::ios::floatfield);

@@ -104,7 +104,8 @@ class ModelledPeers final : public Communicator {
 
 // Steps `windows` windows of three processes on the slabs' layers, of equal work, process p taking
 // step_ms(p, its work) a step, and returns the balancer of process 0 (the cuts in `slabs`).
-Balancer RunWindows(Slabs& slabs, int windows, const std::function<double(int, int64_t)>& step_ms) {
+Balancer RunWindows(Slabs& slabs, int windows, const std::function<double(int, int64_t)>& step_ms,
+                    const BalanceSettings& settings = {}) {
   const int layers = slabs.layers();
   const std::vector<int64_t> weights(size_t(layers), 10);
   const auto work_of = [&](int p) {
@@ -112,12 +113,15 @@ Balancer RunWindows(Slabs& slabs, int windows, const std::function<double(int, i
     for (int l = slabs.begin(p); l < slabs.begin(p + 1); ++l) w += weights[size_t(l)];
     return w;
   };
-  Balancer balancer;
+  Balancer balancer(settings);
   const int window = balancer.settings().window;
   const ModelledPeers peers([&](std::span<int64_t> sums) {
     for (int p = 1; p < 3; ++p) {
       for (int l = slabs.begin(p); l < slabs.begin(p + 1); ++l) sums[size_t(l)] += window * 10;
-      sums[size_t(layers + p)] += std::llround(window * step_ms(p, work_of(p)) * 1e6);
+      // What each process puts in its time's place: its work when balancing by work.
+      sums[size_t(layers + p)] += settings.by_work
+                                      ? window * work_of(p)
+                                      : std::llround(window * step_ms(p, work_of(p)) * 1e6);
       sums[size_t(layers + 3 + p)] += window * work_of(p);
     }
   });
@@ -154,6 +158,31 @@ TEST(BalancerTest, StepTimesThatDoNotFollowTheWorkEmptyNoProcess) {
   // windows; the fifth pause, 16 windows, outlasts the run), each undone at the next window.
   EXPECT_EQ(balancer.report().recuts, 5u);
   EXPECT_EQ(balancer.report().undone, 5u);
+  EXPECT_THAT(std::vector<int>(slabs.cuts().begin(), slabs.cuts().end()),
+              ElementsAre(0, 10, 20, 30));
+}
+
+TEST(BalancerTest, ByWorkTheStepTimesAreNotRead) {
+  // GPU ranks: process 0 takes 1.3 ms a step whatever its work, as in the test above, but by
+  // work equal slabs are balanced: no re-cut, max/mean 1.
+  BalanceSettings by_work;
+  by_work.by_work = true;
+  Slabs slabs(30, 3, false, 2);
+  Balancer balancer = RunWindows(
+      slabs, 40, [](int p, int64_t) { return p == 0 ? 1.3 : 1.0; }, by_work);
+  EXPECT_EQ(balancer.report().recuts, 0u);
+  EXPECT_TRUE(balancer.report().by_work);
+  EXPECT_DOUBLE_EQ(balancer.report().first_ratio, 1.0);
+  // Uneven slabs (work 50, 50 and 200) are re-cut to equal work once, however slow process 0
+  // looks (10 times slower per unit of work), and the re-cut stays.
+  slabs.SetCuts(std::vector<int>{0, 5, 10, 30});
+  balancer = RunWindows(
+      slabs, 10, [](int p, int64_t work) { return (p == 0 ? 1e-2 : 1e-3) * double(work); },
+      by_work);
+  EXPECT_EQ(balancer.report().recuts, 1u);
+  EXPECT_EQ(balancer.report().undone, 0u);
+  EXPECT_NEAR(balancer.report().first_ratio, 2.0, 1e-12);
+  EXPECT_DOUBLE_EQ(balancer.report().last_ratio, 1.0);
   EXPECT_THAT(std::vector<int>(slabs.cuts().begin(), slabs.cuts().end()),
               ElementsAre(0, 10, 20, 30));
 }

@@ -95,7 +95,7 @@ bool Balancer::Rebalance(const Communicator& comm, Slabs& slabs) {
   // computes the same cuts. The layers' work, then each process's time, then its work.
   std::vector<int64_t> sums(size_t(layers + 2 * processes), 0);
   std::copy(work_.begin(), work_.end(), sums.begin());
-  sums[size_t(layers + comm.rank())] = std::llround(time_ms_ * 1e6);
+  sums[size_t(layers + comm.rank())] = settings_.by_work ? own_work_ : std::llround(time_ms_ * 1e6);
   sums[size_t(layers + processes + comm.rank())] = own_work_;
   comm.SumInPlace(sums);
   ClearWindow();
@@ -115,6 +115,7 @@ bool Balancer::Rebalance(const Communicator& comm, Slabs& slabs) {
     }
   }
   const double ratio = total > 0 ? double(most) * processes / double(total) : 1.0;
+  report_.by_work = settings_.by_work;
   if (report_.windows++ == 0) report_.first_ratio = ratio;
   report_.last_ratio = ratio;
   report_.ratio_sum += ratio;
@@ -143,7 +144,8 @@ bool Balancer::Rebalance(const Communicator& comm, Slabs& slabs) {
   // fast); otherwise its previous estimate, or the mean speed before it has one.
   const double mean_speed = double(time_worked) / double(work_timed);
   speed_.resize(size_t(processes), 0.0);
-  for (int p = 0; p < processes; ++p) {
+  if (settings_.by_work) std::fill(speed_.begin(), speed_.end(), 1.0);
+  for (int p = 0; p < processes && !settings_.by_work; ++p) {
     if (2 * done[p] * processes >= work_timed) {
       speed_[p] = double(time[p]) / double(done[p]);
     } else if (!(speed_[p] > 0)) {

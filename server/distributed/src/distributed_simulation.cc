@@ -75,6 +75,7 @@ DistributedSimulation::DistributedSimulation(Scene scene, const Communicator& co
       refreshes_ghosts_(scene_.solver == "dfsph") {
   solver_ = FindSolver(scene_.solver).create();
   Configure(scene_.params);
+  set_balance(balancer_.settings());
   SpawnSlab();
   state_.share.max_over_processes = [this](std::span<double> v) {
     const auto start = Clock::now();
@@ -126,6 +127,11 @@ void DistributedSimulation::CheckSupported(const Scene& scene, const Params& par
 }
 
 void DistributedSimulation::SetParams(const Params& params) { Configure(params); }
+
+void DistributedSimulation::set_balance(BalanceSettings settings) {
+  settings.by_work = settings.by_work || backend_ != nullptr;
+  balancer_.set_settings(settings);
+}
 
 void DistributedSimulation::Configure(const Params& params) {
   const SolverInfo& info = FindSolver(scene_.solver);

@@ -11,6 +11,12 @@
 // the step times do not follow the work (fixed costs per step, processes sharing one GPU), the
 // cut is undone and re-cutting pauses for 1, 2, 4, ... windows. The cuts change no bit of the
 // result (the order keys do not depend on where a particle lives).
+//
+// GPU ranks balance the work alone (BalanceSettings::by_work): a GPU's step time is mostly fixed
+// costs per step and, where ranks share a GPU, the other ranks' kernels, so per-rank speeds
+// measured from it are noise. On an H100 shared by 2-3 ranks the time-based balancer, undo and
+// all, ended the test dam break with every particle on one rank (mpi_gpu_ranks_test). By work,
+// the cuts are also the same on every run: they depend on no clock.
 #pragma once
 
 #include <cstdint>
@@ -34,17 +40,22 @@ struct BalanceSettings {
   // each step asleep, counted as compute, to make a deliberately imbalanced run.
   int slow_rank = -1;
   double slow_us_per_particle = 0;
+  // Every process taken as equally fast: max/mean and the cuts from the work alone, no clock
+  // (DistributedSimulation sets it on GPU ranks).
+  bool by_work = false;
 };
 
-// What the balancer saw: max/mean of the step times over the first window (before any re-cut),
-// over the latest window and summed over the windows, and how many re-cuts it made.
+// What the balancer saw: max/mean of the step times (of the work, by_work) over the first window
+// (before any re-cut), over the latest window and summed over the windows, and how many re-cuts it
+// made.
 struct BalanceReport {
   double first_ratio = 0;
   double last_ratio = 0;
   double ratio_sum = 0;  // / windows: the mean of the windows' max/mean
   uint64_t windows = 0;
   uint64_t recuts = 0;
-  uint64_t undone = 0;  // re-cuts undone: the next window's max/mean was not lower
+  uint64_t undone = 0;   // re-cuts undone: the next window's max/mean was not lower
+  bool by_work = false;  // the ratios are of the work (BalanceSettings::by_work)
 };
 
 // Cuts (speed.size() + 1 entries, from 0 to work.size()) that minimise the largest cost of a

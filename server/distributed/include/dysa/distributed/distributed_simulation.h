@@ -98,7 +98,8 @@ class DistributedSimulation {
   const ParticleArrays& particles() const { return state_.particles; }
   const ExchangeTotals& totals() const { return totals_; }
   // The step-time balance (balancer.h): its settings (the same on every process) and what it saw.
-  void set_balance(const BalanceSettings& settings) { balancer_.set_settings(settings); }
+  // On GPU ranks (a device step backend) the balance is by work (BalanceSettings::by_work).
+  void set_balance(BalanceSettings settings);
   const BalanceReport& balance() const { return balancer_.report(); }
   // Per pass, with "exchange" first and "drop_ghosts" last: this process's time.
   const std::vector<PassProfile>& profile() const { return profile_; }
