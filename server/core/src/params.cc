@@ -91,6 +91,11 @@ const std::array kParamTable = {
     DYSA_PARAM(density_diffusion, "", 0.0, 1.0, kLive, kWcsph,
                "delta of the density diffusion in the continuity equation (delta-SPH, Fourtakas "
                "et al. 2019; 0: none; the literature's 0.1; above 1 it over-damps the pressure)"),
+    DYSA_PARAM(artificial_viscosity, "", 0.0, 1.0, kLive, kWcsph,
+               "alpha of Monaghan's (1992) artificial viscosity between approaching particles, "
+               "Pi_ij = -alpha c0 h (v_ij . x_ij) / ((r_ij^2 + 0.01 h^2) rho_ij), as in "
+               "DualSPHysics: damps particle-scale velocity noise (0: off; the literature's "
+               "0.01-0.1, DualSPHysics's 0.01 for dam breaks, 0.05 for SPHERIC Test 2)"),
     DYSA_PARAM(time_integration, "", 0, 1, kLive, kWcsph,
                "Time integration: 0 symplectic Euler (one force evaluation per step), 1 the "
                "predictor-corrector Symplectic scheme (two per step, second order; "

@@ -44,21 +44,23 @@ constexpr int kCubicSpline = 0;
 constexpr int kWendlandC2 = 1;
 
 struct SphConstants {
-  int kernel = kCubicSpline;       // the smoothing kernel (Params::kernel)
-  float support = 0;               // m, the kernel's support 2 h
-  float mass = 0;                  // kg, rho0 d^3
-  float psi_scale = 0;             // kg/m^3, rho0: Psi_b = rho0 V_b
-  float density_scale = 1;         // 1 / the lattice's density moment
-  float gradient_scale = 0;        // 1 / the lattice's gradient moment
-  float viscosity_scale = 0;       // 2 (dim + 2) nu m / lambda
-  float wall_viscosity_scale = 0;  // 2 (dim + 2) nu / lambda
-  float eps = 0;                   // m^2, 0.01 h^2
-  double rest_density = 0;         // kg/m^3
-  double stiffness = 0;            // Pa, B = rho0 c0^2 / gamma
-  float contact_range = 0;         // m, r0 (LimitApproachToSurfaces)
-  float diffusion = 0;             // m^2/s, wcsph's delta h c0 (density_diffusion)
-  float density_min = 0;           // kg/m^3, wcsph's carried density range (carried_density_min)
-  float density_max = 0;           // kg/m^3, (kCarriedDensityMax)
+  int kernel = kCubicSpline;        // the smoothing kernel (Params::kernel)
+  float support = 0;                // m, the kernel's support 2 h
+  float mass = 0;                   // kg, rho0 d^3
+  float psi_scale = 0;              // kg/m^3, rho0: Psi_b = rho0 V_b
+  float density_scale = 1;          // 1 / the lattice's density moment
+  float gradient_scale = 0;         // 1 / the lattice's gradient moment
+  float viscosity_scale = 0;        // 2 (dim + 2) nu m / lambda
+  float wall_viscosity_scale = 0;   // 2 (dim + 2) nu / lambda
+  float eps = 0;                    // m^2, 0.01 h^2
+  double rest_density = 0;          // kg/m^3
+  double stiffness = 0;             // Pa, B = rho0 c0^2 / gamma
+  float contact_range = 0;          // m, r0 (LimitApproachToSurfaces)
+  float diffusion = 0;              // m^2/s, wcsph's delta h c0 (density_diffusion)
+  float artificial_scale = 0;       // kg m^2/s, wcsph's 2 alpha c0 h m (artificial_viscosity)
+  float wall_artificial_scale = 0;  // m^2/s, and its alpha c0 h at the no-slip walls
+  float density_min = 0;            // kg/m^3, wcsph's carried density range (carried_density_min)
+  float density_max = 0;            // kg/m^3, (kCarriedDensityMax)
   float domain_lo[3] = {0, 0, 0};
   float domain_hi[3] = {0, 0, 0};
 };

@@ -33,6 +33,12 @@ class WcsphGpuBackend final : public PipelineBackend<cuda::WcsphPipeline> {
     const BoundaryParticles boundary(model, model.params.particle_spacing, model.kernel_support);
     config.viscosity = model.params.kinematic_viscosity > 0;
     config.wall_viscosity = config.viscosity && boundary.HasNoSlip();
+    // 2 alpha c0 h m and alpha c0 h, as ComputeInteractions
+    const double artificial = wcsph::ArtificialViscosityStrength(model);
+    config.constants.artificial_scale = Real(2 * artificial * model.particle_mass);
+    config.constants.wall_artificial_scale = Real(artificial);
+    config.artificial_viscosity = artificial > 0;
+    config.wall_artificial_viscosity = config.artificial_viscosity && boundary.HasNoSlip();
     config.symplectic = model.params.time_integration == 1;
     // A h and the free surface's div r, as ComputeParticleShifting
     config.shifting = Real(model.params.particle_shifting * model.SmoothingLength());

@@ -103,14 +103,16 @@ __global__ void BoundaryPressureKernel(DeviceGrid fluid_grid, DeviceGrid boundar
 
 // The step's one sweep over each particle's neighbours (ComputeInteractions): D rho / Dt of the
 // continuity equation with its diffusion (hydrostatic: -rho0 g_y / c0^2), and the acceleration:
-// gravity, the pressure force, the viscosity and the no-slip walls' viscosity, each sum in its
-// own accumulator in the grid's order.
+// gravity, the pressure force, the viscosity and the no-slip walls' viscosity, and the artificial
+// viscosity over approaching fluid pairs and no-slip wall pairs, each sum in its own
+// accumulator in the grid's order.
 // The fluid neighbours come from `packed` (PressureKernel's copy): the density the viscosity
 // divides by is the carried one, as f.density is.
 __global__ void InteractionKernel(DeviceGrid fluid_grid, DeviceGrid boundary_grid, Fluid f,
                                   Boundary b, SphConstants c, PackedFluid packed, float* rate,
                                   float hydrostatic, float gravity, bool viscosity,
-                                  bool wall_viscosity, uint32_t n) {
+                                  bool wall_viscosity, bool artificial, bool wall_artificial,
+                                  uint32_t n) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= n) return;
   const int3 cell = fluid_grid.SortedCell(i);
@@ -122,7 +124,7 @@ __global__ void InteractionKernel(DeviceGrid fluid_grid, DeviceGrid boundary_gri
   const float pi = xi.w;
   const float4* __restrict__ velocity = packed.velocity;
   float divergence = 0, diffused = 0;
-  F3 fluid{0, 0, 0}, viscous{0, 0, 0};
+  F3 fluid{0, 0, 0}, viscous{0, 0, 0}, art{0, 0, 0};
   ForEachPackedWithin(
       fluid_grid, packed.position, cell, x, c.support, [&](uint32_t j, F3 xij, float r, float4 pj) {
         const float g = GradFactor(r, c);
@@ -139,9 +141,16 @@ __global__ void InteractionKernel(DeviceGrid fluid_grid, DeviceGrid boundary_gri
           const float sv = Dot(vij, xij) / (vj.w * (r * r + c.eps));
           viscous.x += sv * grad.x, viscous.y += sv * grad.y, viscous.z += sv * grad.z;
         }
+        if (artificial) {  // approaching pairs only
+          const float vx = Dot(vij, xij);
+          if (vx < 0) {
+            const float sa = vx / ((rho_i + vj.w) * (r * r + c.eps));
+            art.x += sa * grad.x, art.y += sa * grad.y, art.z += sa * grad.z;
+          }
+        }
       });
   float wall = 0;
-  F3 wall_force{0, 0, 0}, wall_viscous{0, 0, 0};
+  F3 wall_force{0, 0, 0}, wall_viscous{0, 0, 0}, wall_art{0, 0, 0};
   ForEachWithin(
       boundary_grid, {b.x, b.y, b.z}, cell, x, c.support, [&](uint32_t k, F3 xib, float r) {
         const float g = GradFactor(r, c);
@@ -155,6 +164,13 @@ __global__ void InteractionKernel(DeviceGrid fluid_grid, DeviceGrid boundary_gri
           wall_viscous.x += sw * grad.x, wall_viscous.y += sw * grad.y;
           wall_viscous.z += sw * grad.z;
         }
+        if (wall_artificial && b.no_slip[k] && r > 0) {
+          const float vx = Dot({v.x - b.vx[k], v.y - b.vy[k], v.z - b.vz[k]}, xib);
+          if (vx < 0) {
+            const float sa = b.volume[k] * vx / (r * r + c.eps);
+            wall_art.x += sa * grad.x, wall_art.y += sa * grad.y, wall_art.z += sa * grad.z;
+          }
+        }
       });
   rate[i] = c.mass * divergence + c.psi_scale * wall + 2 * c.diffusion * c.mass * diffused;
   F3 a{0.0f - c.gradient_scale * (c.mass * fluid.x + c.psi_scale * wall_force.x),
@@ -167,6 +183,15 @@ __global__ void InteractionKernel(DeviceGrid fluid_grid, DeviceGrid boundary_gri
   if (wall_viscosity) {
     a.x += c.wall_viscosity_scale * wall_viscous.x, a.y += c.wall_viscosity_scale * wall_viscous.y;
     a.z += c.wall_viscosity_scale * wall_viscous.z;
+  }
+  // Only with alpha > 0, as the CPU: with alpha = 0 the step is what it was without the term.
+  if (artificial) {
+    a.x += c.artificial_scale * art.x, a.y += c.artificial_scale * art.y;
+    a.z += c.artificial_scale * art.z;
+  }
+  if (wall_artificial) {
+    a.x += c.wall_artificial_scale * wall_art.x, a.y += c.wall_artificial_scale * wall_art.y;
+    a.z += c.wall_artificial_scale * wall_art.z;
   }
   f.ax[i] = a.x, f.ay[i] = a.y, f.az[i] = a.z;
 }

@@ -308,15 +308,15 @@ void WcsphPipeline::Impl::ForcePasses(float gravity, float hydrostatic,
   if (m.nb > 0) {
     BoundaryPressureKernel<<<boundary_blocks, kBlock, 0, s>>>(grid, bgrid, f, b, c, packed,
                                                               gravity);
-    if (cfg.wall_viscosity) {
+    if (cfg.wall_viscosity || cfg.wall_artificial_viscosity) {
       BoundaryVelocityKernel<<<boundary_blocks, kBlock, 0, s>>>(grid, bgrid, f, b, c);
     }
   }
   begin_pass();  // interactions
   if (n > 0) {
-    InteractionKernel<<<blocks, kBlock, 0, s>>>(grid, bgrid, f, b, c, packed, m.density_rate.data(),
-                                                hydrostatic, gravity, cfg.viscosity,
-                                                cfg.wall_viscosity, n);
+    InteractionKernel<<<blocks, kBlock, 0, s>>>(
+        grid, bgrid, f, b, c, packed, m.density_rate.data(), hydrostatic, gravity, cfg.viscosity,
+        cfg.wall_viscosity, cfg.artificial_viscosity, cfg.wall_artificial_viscosity, n);
   }
 }
 

@@ -22,10 +22,12 @@ namespace dysa::cuda {
 struct WcsphStepConfig {
   GridLayout grid;  // the fluid's grid; the boundary's has the same layout
   SphConstants constants;
-  bool viscosity = false;       // kinematic_viscosity > 0
-  bool wall_viscosity = false;  // and a no-slip wall
-  bool symplectic = false;      // time_integration = 1: the predictor-corrector (symplectic.h)
-  float shifting = 0;           // m, A h of the particle shifting (particle_shifting.h; 0: off)
+  bool viscosity = false;                  // kinematic_viscosity > 0
+  bool wall_viscosity = false;             // and a no-slip wall
+  bool artificial_viscosity = false;       // artificial_viscosity > 0
+  bool wall_artificial_viscosity = false;  // and a no-slip wall
+  bool symplectic = false;  // time_integration = 1: the predictor-corrector (symplectic.h)
+  float shifting = 0;       // m, A h of the particle shifting (particle_shifting.h; 0: off)
   float free_surface_divergence = 0;  // its kFreeSurfaceDivergence
   std::vector<SphereObstacle> spheres;
   std::vector<BoxObstacle> boxes;

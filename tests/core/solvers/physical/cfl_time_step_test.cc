@@ -44,6 +44,27 @@ TEST(CflLimitsTest, ViscousForceAndMaxLimitsBindWhenSmallest) {
   EXPECT_EQ(CflLimits(Physical(0), 0, 0).viscous, TimeStepLimits::kNone);
 }
 
+// wcsph's artificial viscosity alpha joins the viscous limit as the laminar viscosity
+// lambda alpha h c0 / 10 (h the smoothing length); the incompressible limit (dfsph, no c0) and
+// alpha = 0 leave the limit as it was.
+TEST(CflLimitsTest, ArtificialViscosityJoinsTheViscousLimit) {
+  Model model = Physical(0);
+  model.params.artificial_viscosity = 0.05;
+  const double lambda = model.viscosity_moment;
+  const double artificial = lambda * 0.05 * 20 * model.SmoothingLength() / 10;
+  EXPECT_DOUBLE_EQ(CflLimits(model, 0, 0).viscous, 0.125 * lambda * 0.01 * 0.01 / artificial);
+  // 1.25 h / (alpha c0) = 0.0125 s: far above the sound limit, which still binds.
+  EXPECT_DOUBLE_EQ(CflLimits(model, 0, 0).viscous, 1.25 * 0.01 / (0.05 * 20));
+  EXPECT_DOUBLE_EQ(CflLimits(model, 0, 0).Min(), 0.25 * 0.01 / 20);
+  EXPECT_EQ(CflLimits(model, 0, 0, /*acoustic=*/false).viscous, TimeStepLimits::kNone);
+  model.params.kinematic_viscosity = 1e-3;
+  EXPECT_DOUBLE_EQ(CflLimits(model, 0, 0).viscous,
+                   0.125 * lambda * 0.01 * 0.01 / (1e-3 + artificial));
+  EXPECT_DOUBLE_EQ(CflLimits(model, 0, 0, false).viscous, 0.125 * lambda * 0.01 * 0.01 / 1e-3);
+  model.params.artificial_viscosity = 0;
+  EXPECT_EQ(CflLimits(model, 0, 0).viscous, CflLimits(Physical(1e-3), 0, 0).viscous);
+}
+
 TEST(ChooseTimeStepTest, TakesTheRestOrSplitsItEvenly) {
   TimeStepLimits limits;
   limits.sound = 1.0;

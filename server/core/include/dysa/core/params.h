@@ -58,6 +58,9 @@ struct Params {
   // wcsph only: delta of the continuity equation's density diffusion (Fourtakas et al. 2019's
   // form of delta-SPH; 0: the continuity equation without it).
   double density_diffusion = 0.1;
+  // wcsph only: alpha of Monaghan's 1992 artificial viscosity between approaching particles (0:
+  // off; becker_teschner_solver.h), as DualSPHysics has it (0.01 for a dam break).
+  double artificial_viscosity = 0.0;
   // wcsph only: the time integration (TimeIntegration): 0 symplectic Euler, one force
   // evaluation per step; 1 the predictor-corrector Symplectic scheme, two per step, second order.
   int time_integration = 0;

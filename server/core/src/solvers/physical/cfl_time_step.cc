@@ -24,9 +24,15 @@ TimeStepLimits CflLimits(const Model& model, double v_max, double a_max, bool ac
   const double cfl =
       acoustic ? params.cfl_factor : std::min(params.cfl_factor, kIncompressibleMaxCfl);
   if (speed > 0) limits.sound = cfl * h / speed;
-  if (params.kinematic_viscosity > 0) {
-    limits.viscous = 0.125 * model.viscosity_moment * h * h / params.kinematic_viscosity;
-  }
+  // wcsph's artificial viscosity (the acoustic solver's alone) is the laminar term with
+  // nu = alpha h_s c0 / 10 (h_s the smoothing length), not divided by lambda: the laminar
+  // viscosity lambda alpha h_s c0 / 10 in this limit's terms. The two damp the same grid-scale
+  // mode, so their rates add. With alpha = 0, nu + 0 is nu: the limit is what it was.
+  const double artificial = acoustic ? model.viscosity_moment * params.artificial_viscosity *
+                                           params.speed_of_sound * model.SmoothingLength() / 10
+                                     : 0;
+  const double nu = params.kinematic_viscosity + artificial;
+  if (nu > 0) limits.viscous = 0.125 * model.viscosity_moment * h * h / nu;
   if (a_max > 0) limits.force = 0.25 * std::sqrt(h / a_max);
   limits.max = params.max_time_step;
   return limits;

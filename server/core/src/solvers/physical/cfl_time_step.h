@@ -12,7 +12,16 @@
 //                The viscosity term is divided by lambda to give the fluid its viscosity nu;
 //                its fastest (compressive, grid-scale) mode then decays at 20.6 nu / h^2, which
 //                explicit steps hold for dt < 0.097 h^2 / nu: 0.125 h^2 / nu would not be
-//                stable (Poiseuille flow blew up), 0.0885 h^2 / nu is.
+//                stable (Poiseuille flow blew up), 0.0885 h^2 / nu is. wcsph's artificial
+//                viscosity alpha (becker_teschner_solver.h) adds lambda alpha s h c0 / 10 to nu
+//                here, s = smoothing_length_ratio (its term is the laminar one with
+//                nu = alpha s h c0 / 10, over approaching pairs, without the division by lambda),
+//                so that the two together stay stable: alone it gives dt <= 1.25 h / (alpha s c0),
+//                which binds only where alpha s cfl_factor > 1.25 (the sound limit is at most
+//                cfl_factor h / c0): never at s = 1. DualSPHysics bounds its step by
+//                h / (c + max_ij h |v_ij . x_ij| / (r^2 + 0.01 h^2)) instead; that maximum is
+//                about |v_ij| <= 2 v_max at the lattice spacing, which the sound limit's v_max
+//                covers within a factor 2 on a term ten times smaller than c (c0 >= 10 v_max).
 //   force        dt <= 0.25 sqrt(h / |a|_max)
 // and dt <= max_time_step. The step is chosen each step from the velocities and accelerations
 // of that step, so nothing about it carries over between steps.

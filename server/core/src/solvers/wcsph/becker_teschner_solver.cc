@@ -123,7 +123,10 @@ void ComputeBoundaryPressure(const Model& model, BeckerTeschnerData& data, State
     const double rho = rho0 * std::pow(pb / stiffness + 1, 1 / kTaitExponent);
     data.boundary_p_over_rho2[b] = Real(pb / (rho * rho));
   }
-  if (model.params.kinematic_viscosity > 0 && boundary.HasNoSlip()) {
+  // The no-slip walls' mirrored velocity, which the laminar and the artificial viscosity read.
+  const bool viscous =
+      model.params.kinematic_viscosity > 0 || model.params.artificial_viscosity > 0;
+  if (viscous && boundary.HasNoSlip()) {
     physical::ExtrapolateWallVelocity(model, data, state);
   }
 }
@@ -133,8 +136,8 @@ namespace {
 // The interactions' constants, read once per pass.
 struct InteractionConstants {
   Real support, mass, psi_scale, gradient_scale, diffusion, hydrostatic;
-  Real eps, viscosity_scale, wall_viscosity_scale;
-  bool viscosity, wall_viscosity;
+  Real eps, viscosity_scale, wall_viscosity_scale, artificial_scale, wall_artificial_scale;
+  bool viscosity, wall_viscosity, artificial, wall_artificial;
   Vec3 gravity;
 };
 
@@ -164,6 +167,13 @@ void ComputeInteractions(const Model& model, BeckerTeschnerData& data, State& st
   k.wall_viscosity_scale = Real(10 * nu / model.viscosity_moment);
   k.viscosity = nu > 0;
   k.wall_viscosity = k.viscosity && boundary.HasNoSlip();
+  // The artificial viscosity's 2 alpha c0 h m (fluid pairs: m / rho_ij = 2 m / (rho_i + rho_j))
+  // and alpha c0 h (no-slip walls: V_b for m_b / rho_ib), becker_teschner_solver.h.
+  const double alpha_c0_h = ArtificialViscosityStrength(model);
+  k.artificial_scale = Real(2 * alpha_c0_h * model.particle_mass);
+  k.wall_artificial_scale = Real(alpha_c0_h);
+  k.artificial = alpha_c0_h > 0;
+  k.wall_artificial = k.artificial && boundary.HasNoSlip();
   k.gravity = Vec3(0, Real(GravityAt(model.params, state.time)), 0);
   const Real* rho = data.density.data();
   const Real* p_over_rho2 = data.p_over_rho2.data();
@@ -192,6 +202,8 @@ void ComputeInteractions(const Model& model, BeckerTeschnerData& data, State& st
     Real diffused = 0;          // sum_j (rho_j - rho_i - rho^H_ij) (x_ji . grad W_ij) / r^2 / rho_j
     Vec3 fluid = Vec3::Zero();  // sum_j (p_i / rho_i^2 + p_j / rho_j^2) grad W_ij
     Vec3 viscous = Vec3::Zero();  // sum_j (v_ij . x_ij) / (rho_j (r^2 + eps)) grad W_ij
+    // sum_j min(v_ij . x_ij, 0) / ((rho_i + rho_j) (r^2 + eps)) grad W_ij: approaching pairs only
+    Vec3 artificial = Vec3::Zero();
     ForEachWithin(state.grid, cell, x, k.support, [&](uint32_t j, const Vec3& xij, Real r) {
       const Vec3 grad = GradW(xij, r, kernel);
       fluid += (pi + p_over_rho2[j]) * grad;
@@ -203,10 +215,16 @@ void ComputeInteractions(const Model& model, BeckerTeschnerData& data, State& st
         const Real vx = (v - p.velocity[j]).dot(xij);
         viscous += (vx / (p.density[j] * (r * r + k.eps))) * grad;
       }
+      if (k.artificial) {
+        const Real vx = (v - p.velocity[j]).dot(xij);
+        if (vx < 0) artificial += (vx / ((rho_i + rho[j]) * (r * r + k.eps))) * grad;
+      }
     });
     Real wall = 0;                     // sum_b V_b (v_i - v_b) . grad W_ib, v_b = 0 unless moving
     Vec3 wall_force = Vec3::Zero();    // sum_b V_b (p_i / rho_i^2 + p_b / rho_b^2) grad W_ib
     Vec3 wall_viscous = Vec3::Zero();  // sum_b V_b ((v_i - v_b) . x_ib) / (r^2 + eps) grad W_ib
+    // sum_b V_b min((v_i - v_b) . x_ib, 0) / (r^2 + eps) grad W_ib, over the no-slip walls
+    Vec3 wall_artificial = Vec3::Zero();
     ForEachWithin(boundary.grid(), cell, x, k.support, [&](uint32_t b, const Vec3& xib, Real r) {
       const Vec3 grad = GradW(xib, r, kernel);
       wall += volume[b] * (sample_velocity ? Vec3(v - sample_velocity[b]) : v).dot(grad);
@@ -215,12 +233,19 @@ void ComputeInteractions(const Model& model, BeckerTeschnerData& data, State& st
         const Real vx = (v - wall_velocity[b]).dot(xib);
         wall_viscous += (volume[b] * vx / (r * r + k.eps)) * grad;
       }
+      if (k.wall_artificial && no_slip[b] && r > 0) {
+        const Real vx = (v - wall_velocity[b]).dot(xib);
+        if (vx < 0) wall_artificial += (volume[b] * vx / (r * r + k.eps)) * grad;
+      }
     });
     data.density_rate[i] =
         k.mass * divergence + k.psi_scale * wall + 2 * k.diffusion * k.mass * diffused;
     Vec3 a = k.gravity - k.gradient_scale * (k.mass * fluid + k.psi_scale * wall_force);
     if (k.viscosity) a += k.viscosity_scale * viscous;
     if (k.wall_viscosity) a += k.wall_viscosity_scale * wall_viscous;
+    // Only with alpha > 0: with alpha = 0 the step is bit for bit what it was without the term.
+    if (k.artificial) a += k.artificial_scale * artificial;
+    if (k.wall_artificial) a += k.wall_artificial_scale * wall_artificial;
     data.acceleration[i] = a;
   }
 }

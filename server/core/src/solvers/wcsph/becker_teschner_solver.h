@@ -54,7 +54,7 @@
 //                Monaghan 2005 (sec. 5.6), with a physical kinematic viscosity nu (m^2/s),
 //                divided by lambda, the kernel's viscosity moment on the rest lattice (0.708
 //                at support 2 d, kernels.h): without it the fluid's viscosity is 29% low.
-//                Monaghan's artificial viscosity alpha corresponds to nu = alpha h c0 /
+//                Monaghan's artificial viscosity alpha (below) corresponds to nu = alpha h c0 /
 //                (2 (dim + 2)). Walls are free-slip, except across the axes the scene marks
 //                no-slip: there the same term runs over the wall's boundary particles,
 //                a_i += 2 (dim + 2) nu sum_b V_b ((v_i - v_b) . x_ib) / (|x_ib|^2 + 0.01 h^2)
@@ -62,6 +62,33 @@
 //                extrapolated to b and mirrored, so that it falls to 0 at the wall surface
 //                between them (Adami, Hu, Adams 2012, eqs. 22-23, for a wall at rest; Morris,
 //                Fox, Zhu 1997 mirror the velocity the same way).
+//   artificial   with alpha = artificial_viscosity > 0 (Monaghan 1992, "Smoothed particle
+//   viscosity    hydrodynamics", Annu. Rev. Astron. Astrophys. 30, 543-574, as
+//                DualSPHysics implements it), over the fluid pairs that approach, v_ij . x_ij < 0
+//                (v_ij = v_i - v_j, x_ij = x_i - x_j):
+//                a_i += -sum_j m Pi_ij grad W_ij,   Pi_ij = -alpha c0 mu_ij / rho_ij,
+//                mu_ij = h (v_ij . x_ij) / (|x_ij|^2 + 0.01 h^2),  rho_ij = (rho_i + rho_j) / 2,
+//                that is a_i += 2 alpha c0 h m sum_j (v_ij . x_ij) / ((rho_i + rho_j)
+//                (|x_ij|^2 + 0.01 h^2)) grad W_ij, with c0 the scene's speed of sound, h the
+//                smoothing length (support 2 h, as DualSPHysics's h) and the carried densities.
+//                Pi_ji = Pi_ij and grad W_ji = -grad W_ij: a pair's two forces are opposite, so
+//                momentum is conserved; a separating pair gets nothing. It is the laminar term
+//                above with nu = alpha h c0 / (2 (dim + 2)) (rho_j / rho_ij of it, and not divided
+//                by lambda: alpha is a numerical parameter, taken at the literature's values),
+//                acting on approaching pairs only. It damps particle-scale velocity noise, which
+//                the physical nu = 1e-6 m^2/s of water leaves undamped at fine resolution (the
+//                dam break at a/120, docs/validation.md). At the no-slip walls
+//                it runs over the wall's boundary particles exactly as the laminar wall term
+//                does, with its mirrored velocity v_b and V_b for m_b / rho_ib (the laminar
+//                term's m_b / rho_b): a_i += alpha c0 h sum_b V_b min(v_ib . x_ib, 0) /
+//                (|x_ib|^2 + 0.01 h^2) grad W_ib. Free-slip walls and obstacles (moving ones
+//                included) get none: they push with their pressure only, which is what free-slip
+//                means here, and alpha must not change the walls the scene chose. (DualSPHysics's
+//                boundary particles get it against their own velocity, 0 or the body's, which
+//                makes every wall there a friction wall.) The sum over the fluid and the one over
+//                the walls each have their own accumulator in the same sweep, added only when
+//                alpha > 0: with alpha = 0 a step is bit for bit what it was without the term.
+//                Its time step bound joins the viscous one (cfl_time_step.h).
 //   contact      the boundary particles' pressure acts only where the fluid is compressed; a
 //                thin splash or surge tip has a density below rho0 and no pressure, and would
 //                sink through them. So no particle may come closer than r0 / 2 = 0.2 d to a
@@ -139,6 +166,13 @@ inline Real BoundCarriedDensity(Real rho, Real lo, Real hi) {
   return rho < lo ? lo : (rho > hi ? hi : rho);
 }
 
+// alpha c0 h (m^2/s), the artificial viscosity's strength (0: off): ComputeInteractions scales
+// its sum over the fluid by 2 alpha c0 h m and its sum over the no-slip walls by alpha c0 h; the
+// CUDA backend takes the same floats from here.
+inline double ArtificialViscosityStrength(const Model& model) {
+  return model.params.artificial_viscosity * model.params.speed_of_sound * model.SmoothingLength();
+}
+
 class BeckerTeschnerSolver final : public Solver {
  public:
   // Samples the boundary particles (from the domain, the obstacles and the spacing) for the
@@ -167,14 +201,15 @@ void InitialDensity(const Model& model, BeckerTeschnerData& data, State& state);
 // density (InitialDensity first where it has another size than the particles). No neighbours.
 void ComputePressure(const Model& model, BeckerTeschnerData& data, State& state);
 // The `boundary_pressure` pass, over the boundary particles only: data.boundary_pressure and
-// boundary_p_over_rho2, and with viscosity and a no-slip wall data.boundary_velocity
-// (physical::ExtrapolateWallVelocity).
+// boundary_p_over_rho2, and with a viscosity (laminar or artificial) and a no-slip wall
+// data.boundary_velocity (physical::ExtrapolateWallVelocity).
 void ComputeBoundaryPressure(const Model& model, BeckerTeschnerData& data, State& state);
 // The `interactions` pass, the step's one sweep over each particle's neighbours: everything it
 // needs is the state of the step's start and the two passes above, so the continuity
-// equation's data.density_rate, the pressure force, the viscosity and the no-slip walls'
-// viscosity are summed in the same sweep, each in its own accumulator in the grid's order (the
-// same bits as when each had its own pass); data.acceleration = gravity + all of them.
+// equation's data.density_rate, the pressure force, the viscosity, the no-slip walls'
+// viscosity and the artificial viscosity (fluid and no-slip walls) are summed in the same sweep,
+// each in its own accumulator in the grid's order (the same bits as when each had its own pass);
+// data.acceleration = gravity + all of them.
 void ComputeInteractions(const Model& model, BeckerTeschnerData& data, State& state);
 // v += a dt, the wall contact (physical::LimitApproachToSurfaces), x += v dt (plus the particle
 // shifting's data.shift dt where it is on), the last-resort clamp, rho += (D rho / Dt) dt.
