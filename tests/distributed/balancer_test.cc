@@ -105,9 +105,9 @@ class ModelledPeers final : public Communicator {
 // Steps `windows` windows of three processes on the slabs' layers, of equal work, process p taking
 // step_ms(p, its work) a step, and returns the balancer of process 0 (the cuts in `slabs`).
 Balancer RunWindows(Slabs& slabs, int windows, const std::function<double(int, int64_t)>& step_ms,
-                    const BalanceSettings& settings = {}) {
+                    const BalanceSettings& settings = {}, std::vector<int64_t> weights = {}) {
   const int layers = slabs.layers();
-  const std::vector<int64_t> weights(size_t(layers), 10);
+  if (weights.empty()) weights.assign(size_t(layers), 10);
   const auto work_of = [&](int p) {
     int64_t w = 0;
     for (int l = slabs.begin(p); l < slabs.begin(p + 1); ++l) w += weights[size_t(l)];
@@ -117,7 +117,9 @@ Balancer RunWindows(Slabs& slabs, int windows, const std::function<double(int, i
   const int window = balancer.settings().window;
   const ModelledPeers peers([&](std::span<int64_t> sums) {
     for (int p = 1; p < 3; ++p) {
-      for (int l = slabs.begin(p); l < slabs.begin(p + 1); ++l) sums[size_t(l)] += window * 10;
+      for (int l = slabs.begin(p); l < slabs.begin(p + 1); ++l) {
+        sums[size_t(l)] += window * weights[size_t(l)];
+      }
       // What each process puts in its time's place: its work when balancing by work.
       sums[size_t(layers + p)] += settings.by_work
                                       ? window * work_of(p)
@@ -160,6 +162,23 @@ TEST(BalancerTest, StepTimesThatDoNotFollowTheWorkEmptyNoProcess) {
   EXPECT_EQ(balancer.report().undone, 5u);
   EXPECT_THAT(std::vector<int>(slabs.cuts().begin(), slabs.cuts().end()),
               ElementsAre(0, 10, 20, 30));
+}
+
+TEST(BalancerTest, ATimeFarOffTheOthersStillLeavesTheProcessWork) {
+  // The first 6 of 30 layers are empty, and process 0's steps take 50 times the others' per
+  // unit of work (a loaded machine, not the process). Its estimated speed is held within
+  // 4 times the fastest (kMostSlower), so it keeps fluid: unbounded, it would be given only the
+  // empty layers.
+  std::vector<int64_t> weights(30, 10);
+  std::fill(weights.begin(), weights.begin() + 6, 0);
+  Slabs slabs(30, 3, false, 2);
+  const Balancer balancer = RunWindows(
+      slabs, 20, [](int p, int64_t work) { return (p == 0 ? 5e-2 : 1e-3) * double(work); }, {},
+      weights);
+  EXPECT_GE(balancer.report().recuts, 1u);
+  int64_t work0 = 0;
+  for (int l = slabs.begin(0); l < slabs.begin(1); ++l) work0 += weights[size_t(l)];
+  EXPECT_GT(work0, 0);
 }
 
 TEST(BalancerTest, ByWorkTheStepTimesAreNotRead) {

@@ -152,6 +152,14 @@ bool Balancer::Rebalance(const Communicator& comm, Slabs& slabs) {
       speed_[p] = mean_speed;
     }
   }
+  // At most kMostSlower times the fastest process's time per unit of work: the processes of one
+  // job run on like cores, and a time further off is the machine's load (4 ranks on 2 busy
+  // cores), not the process. Unbounded, such noise once gave one of 2 ranks all of the seed's
+  // 3,072 particles and the other only empty layers (mpi_ranks_test beside a parallel build).
+  if (!settings_.by_work) {
+    const double fastest = *std::min_element(speed_.begin(), speed_.end());
+    for (double& s : speed_) s = std::min(s, kMostSlower * fastest);
+  }
   const std::span<const double> speed = speed_;
   const std::vector<int> cuts = CutsForCosts(work, speed);
   if (std::equal(cuts.begin(), cuts.end(), slabs.cuts().begin())) return false;
