@@ -165,9 +165,10 @@ TEST(DistributedSimulationTest, SolversNotSpreadAreRefusedByName) {
 
 TEST(DistributedSimulationTest, TheDevicePathGivesTheBitsOfSimulation) {
   // The device step (distributed_device_step.cc) with a host stand-in for the GPU
-  // (host_device_backend.h): upload, the step, the cells read back, the keys from them. On 2
-  // and 3 ranks: mpi_device_step_test; on a GPU: distributed_gpu_test.
-  for (const char* path : {DYSA_RANKS_SCENE, DYSA_RANKS_SEED_SCENE}) {
+  // (host_device_backend.h): upload, the step, the cells read back, the keys from them; for
+  // dfsph its ghost refresh's hook and combined mean errors (one process: nothing to exchange).
+  // On 2 and 3 ranks: mpi_device_step_test; on a GPU: distributed_gpu_test.
+  for (const char* path : {DYSA_RANKS_SCENE, DYSA_RANKS_SEED_SCENE, DYSA_RANKS_DFSPH_SCENE}) {
     const Scene scene = LoadScene(path);
     const SingleProcess one;
     DistributedSimulation spread(scene, one,

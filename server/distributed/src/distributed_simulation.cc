@@ -8,6 +8,8 @@
 #include <thread>
 #include <utility>
 
+#include "device_ghosts.h"
+
 namespace dysa::distributed {
 namespace {
 
@@ -86,7 +88,11 @@ DistributedSimulation::DistributedSimulation(Scene scene, const Communicator& co
     comm_.SumInPlace(v);
     collective_ms_ += MsSince(start);
   };
-  if (refreshes_ghosts_) {
+  if (refreshes_ghosts_ && backend_) {
+    // On the device the passes refresh through the backend (ProcessShare::device_ghosts, set
+    // for each device step).
+    device_ghosts_ = std::make_unique<DeviceGhosts>(*this);
+  } else if (refreshes_ghosts_) {
     state_.share.refresh_ghosts = [this](std::span<Vec3> v) {
       const auto start = Clock::now();
       totals_.bytes_sent += ghost_refresh_.Refresh(comm_, v);

@@ -230,6 +230,11 @@ class DistributedSimulation {
   // (ghost_refresh.h), along the pattern planned after each sort.
   bool refreshes_ghosts_ = false;
   GhostRefresh ghost_refresh_;
+  // The same refresh for the device's step (ProcessShare::device_ghosts): its plan from the
+  // device's sorted cells, replayed on the values the device reads back
+  // (distributed_device_step.cc). Null on the CPU and for solvers that do not refresh.
+  class DeviceGhosts;
+  std::unique_ptr<DeviceGhosts> device_ghosts_;
   std::vector<int> first_layer_;  // per particle, its layer at the first sort (predictor)
   std::vector<int> index_scratch_;
   State state_;
