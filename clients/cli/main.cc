@@ -118,8 +118,7 @@ int ReportError(const std::string& command, const std::exception& error, const s
 #ifdef DYSA_WITH_MPI
 constexpr const char* kMpiRunHelp =
     "\n\nUnder mpirun (mpirun -np N dysa run SCENE) the run is spread over the N ranks "
-    "(docs/distributed.md): wcsph, seed and dfsph on the CPU; wcsph and seed with --device cuda, "
-    "each rank "
+    "(docs/distributed.md): wcsph, seed and dfsph, on the CPU or with --device cuda, each rank "
     "on GPU local_rank % GPUs (cuda:N: all on N).";
 
 // `dysa run` under mpirun. Every rank parsed the same arguments, so a ConfigError is the same on

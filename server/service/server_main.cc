@@ -108,7 +108,7 @@ int main(int argc, char** argv) {
                  "Where the simulation steps: cpu (OpenMP), cuda (= cuda:0) or cuda:N, a CUDA GPU "
                  "(scenes whose solver has no GPU backend are refused). Under mpirun each rank "
                  "steps on a GPU: cuda maps a host's ranks to its GPUs by local rank, cuda:N puts "
-                 "all on N (wcsph and seed; dfsph refused)")
+                 "all on N (wcsph, seed and dfsph)")
       ->capture_default_str();
   app.add_option("--frame-rate", frame_rate,
                  "Frames simulated per wall second at most; 0: as fast as possible")

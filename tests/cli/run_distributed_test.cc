@@ -1,7 +1,7 @@
 // Tests of clients/cli/run_distributed.h on one process (SingleProcess): it steps to the same
-// times as `dysa run` and writes the same hash, probes.csv and VTK frames, byte for byte; what
-// GPU ranks cannot run, and a GPU that cannot run, it refuses by field (GPU ranks stepping:
-// distributed_gpu_test, mpi_gpu_ranks_test).
+// times as `dysa run` and writes the same hash, probes.csv and VTK frames, byte for byte; a GPU
+// that cannot run it refuses by flag, and GPU ranks take every solver CPU ranks take (GPU ranks
+// stepping: distributed_gpu_test, mpi_gpu_ranks_test).
 // On MPI ranks: tests/distributed/mpi_ranks_test.sh (ctest -L mpi).
 #include "run_distributed.h"
 
@@ -97,13 +97,16 @@ std::string RefusedField(RunOptions options) {
   return "";
 }
 
-TEST(RunDistributedTest, GpuRanksRefuseWhatTheyCannotRunByField) {
-  RunOptions options;
-  options.scene = DYSA_RANKS_DFSPH_SCENE;
-  options.steps = 1;
+TEST(RunDistributedTest, GpuRanksTakeDfsph) {
+  if (DeviceUnavailableReason(ParseDevice("cuda:0")).empty()) {
+    GTEST_SKIP() << "cuda:0 can run here: mpi_gpu_ranks_dfsph_test runs dfsph on GPU ranks";
+  }
+  // dfsph is not refused by its solver (it was, before its ghosts refreshed through the
+  // device): without a GPU only the device is.
+  const dysa::testing::TempDir dir("dysa_run_distributed");
+  RunOptions options = SmallRun(dir.path() / "out", DYSA_RANKS_DFSPH_SCENE, 1);
   options.device = ParseDevice("cuda:0");
-  // Refused before the device is looked at: the same on a machine with or without a GPU.
-  EXPECT_EQ(RefusedField(options), "solver");
+  EXPECT_EQ(RefusedField(options), "device");
 }
 
 TEST(RunDistributedTest, AGpuThatCannotRunIsRefusedByFlag) {

@@ -1,9 +1,10 @@
 // GPU ranks on one process (SingleProcess), label gpu: DistributedSimulation with --device cuda:0
 // (distributed_device_step.cc: the host's exchange, the upload in key order through page-locked
 // buffers, the CUDA pipeline with the owned layers' maxima, the download, the order keys from
-// the device's sort) gives, step by step, the state hash of the GPU's Simulation and of the
-// CPU's. Skips, printing why, where cuda:0 cannot run. On 2 and 3 MPI ranks sharing the GPU:
-// mpi_gpu_ranks_test.sh (ctest -L gpu, -L mpi).
+// the device's sort; dfsph's ghost-refresh hook and combined mean errors) gives, step by step,
+// the state hash of the GPU's Simulation and of the CPU's. Skips, printing why, where cuda:0
+// cannot run. On 2 and 3 MPI ranks sharing the GPU: mpi_gpu_ranks_test.sh (ctest -L gpu, -L
+// mpi).
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -17,8 +18,9 @@
 #include "support/gpu_test.h"
 
 #if !defined(DYSA_RANKS_SCENE) || !defined(DYSA_RANKS_PERIODIC_SCENE) || \
-    !defined(DYSA_RANKS_PC_SCENE) || !defined(DYSA_RANKS_SEED_SCENE)
-#error "tests/CMakeLists.txt defines DYSA_RANKS_SCENE, _PERIODIC_SCENE, _PC_SCENE, _SEED_SCENE"
+    !defined(DYSA_RANKS_PC_SCENE) || !defined(DYSA_RANKS_SEED_SCENE) ||  \
+    !defined(DYSA_RANKS_DFSPH_SCENE)
+#error "tests/CMakeLists.txt defines DYSA_RANKS_SCENE and the other DYSA_RANKS_*_SCENE paths"
 #endif
 
 namespace dysa::distributed {
@@ -28,7 +30,7 @@ using dysa::testing::kGpu;
 
 // Frame by frame (each step capped at the frame's end, as `dysa run`), the hash of the GPU
 // ranks' driver against the GPU's Simulation (the same device: must be equal) and the CPU's
-// (equal where the GPU's wcsph is bit-identical to the CPU's, as on these scenes).
+// (equal where the GPU's solver is bit-identical to the CPU's, as on these scenes).
 void ExpectSameBits(const Scene& scene, int frames, bool against_cpu) {
   const SingleProcess one;
   DistributedSimulation spread(scene, one, kGpu);
@@ -81,6 +83,13 @@ TEST(DistributedGpuTest, TheSeedToo) {
   ExpectSameBits(LoadScene(DYSA_RANKS_SEED_SCENE), 10, true);
 }
 
+TEST(DistributedGpuTest, DfsphToo) {
+  SKIP_WITHOUT_GPU();
+  // The solves' ghost refresh through the backend's hook (nothing to exchange on one process)
+  // and their mean errors over the owned particles, combined over the processes.
+  ExpectSameBits(LoadScene(DYSA_RANKS_DFSPH_SCENE), 20, true);
+}
+
 TEST(DistributedGpuTest, MovingObstaclesToo) {
   SKIP_WITHOUT_GPU();
   // Against the GPU's Simulation only: the CPU's agreement on this scene is not established.
@@ -90,9 +99,9 @@ TEST(DistributedGpuTest, MovingObstaclesToo) {
   ExpectSameBits(pc, 8, false);
 }
 
-TEST(DistributedGpuTest, ACheckpointRestoresOnTheGpuRanksAndStepsOn) {
-  SKIP_WITHOUT_GPU();
-  const Scene scene = LoadScene(DYSA_RANKS_SCENE);
+// A checkpoint of the GPU's Simulation restored on the GPU ranks steps on to its hash, and the
+// solver's arrays (wcsph's carried density, dfsph's warm start) come back from the device.
+void ExpectACheckpointToRestoreAndStepOn(const Scene& scene) {
   Simulation gpu(scene, kGpu);
   const double frame = gpu.model().FrameTime();
   for (int f = 0; f < 3; ++f) gpu.StepFrame();
@@ -105,13 +114,19 @@ TEST(DistributedGpuTest, ACheckpointRestoresOnTheGpuRanksAndStepsOn) {
   while (spread.time() < end) spread.Step(end);
   EXPECT_EQ(spread.step(), gpu.step());
   EXPECT_EQ(spread.GlobalStateHash(), StateHash(gpu.state()));
-  // The carried density (wcsph's solver array) came back from the device with the particles.
+  // The solver's arrays came back from the device with the particles.
   const Checkpoint a = gpu.SaveCheckpoint();
   const Checkpoint b = spread.SaveCheckpoint();
   ASSERT_EQ(b.solver_arrays.size(), a.solver_arrays.size());
   for (size_t k = 0; k < a.solver_arrays.size(); ++k) {
     EXPECT_TRUE(b.solver_arrays[k].values == a.solver_arrays[k].values) << a.solver_arrays[k].name;
   }
+}
+
+TEST(DistributedGpuTest, ACheckpointRestoresOnTheGpuRanksAndStepsOn) {
+  SKIP_WITHOUT_GPU();
+  ExpectACheckpointToRestoreAndStepOn(LoadScene(DYSA_RANKS_SCENE));
+  ExpectACheckpointToRestoreAndStepOn(LoadScene(DYSA_RANKS_DFSPH_SCENE));
 }
 
 }  // namespace

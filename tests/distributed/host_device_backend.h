@@ -4,6 +4,14 @@
 // the ghosts (particles sorted into cell layers the process does not own,
 // ProcessShare::owned_layers) left out of the CFL maxima only, and reads back the cells of its
 // sorts as the CUDA backends do.
+//
+// dfsph (ProcessShare::device_ghosts set): as the GPU's backend (dfsph_gpu_backend.cc), after
+// the sort it hands the driver each particle's id and cell and takes the plan back, whose ghost
+// flags keep the ghosts out of the solves' mean errors, the maxima and the speed limiter's
+// count (summed and maximised over the processes through ProcessShare, as the CPU's passes do);
+// and every refresh of the ghosts' velocities goes through the hook as on the device: only the
+// plan's `sent` particles are read, the hook exchanges them, only its `received` ghosts are
+// written.
 #pragma once
 
 #include <algorithm>
@@ -14,6 +22,7 @@
 #include <string>
 #include <vector>
 
+#include "dysa/core/device_ghost_exchange.h"
 #include "dysa/core/solver.h"
 #include "dysa/core/state.h"
 #include "dysa/core/step_backend.h"
@@ -78,6 +87,16 @@ class HostDeviceBackend final : public StepBackend {
     s.share.rate_reach = 255;  // every ghost computes its rates, as on a device
     first_kept_ = false;
     const std::vector<uint8_t>& owned = outer.share.owned_layers;
+    DeviceGhostExchange* exchange = outer.share.device_ghosts;
+    if (exchange) {
+      s.share.refresh_ghosts = [this, exchange](std::span<Vec3> values) {
+        sent_.resize(plan_.sent.size());
+        for (size_t k = 0; k < sent_.size(); ++k) sent_[k] = values[plan_.sent[k]];
+        received_.resize(plan_.received.size());
+        exchange->Exchange(sent_, received_);
+        for (size_t k = 0; k < received_.size(); ++k) values[plan_.received[k]] = received_[k];
+      };
+    }
     const std::string corrector = std::string(kNeighbourSortPass) + "_corrector";
     StepReport report;
     for (const Pass& pass : passes_) {
@@ -87,6 +106,11 @@ class HostDeviceBackend final : public StepBackend {
       if (pass.name != kNeighbourSortPass && !second) continue;
       report.max_cell_count = std::max(report.max_cell_count, s.grid.max_cell_count());
       if (owned.empty()) continue;
+      if (exchange) {  // dfsph: the flags and the refresh's pattern from the driver's plan
+        plan_ = exchange->PlanAfterSort(s.particles.id, Cells());
+        s.share.ghost = plan_.ghost;
+        continue;
+      }
       // The predictor-corrector's first sort, kept for the driver's check of the half step.
       if (!second && model.params.time_integration == 1) {
         first_ids_ = s.particles.id;
@@ -118,6 +142,8 @@ class HostDeviceBackend final : public StepBackend {
   State state_;
   bool first_kept_ = false;
   std::vector<uint32_t> first_ids_, first_cells_;
+  DeviceGhostExchange::Plan plan_;  // dfsph's, of the latest sort
+  std::vector<Vec3> sent_, received_;
 };
 
 }  // namespace dysa::testing

@@ -1,6 +1,7 @@
 #!/bin/bash
 # ctest -L gpu (and -L mpi): GPU ranks. For each scene (wcsph: ranks_dam_break.json,
-# ranks_periodic.json; ranks_predictor_corrector.json in its own test), N steps of plain `dysa run` on the CPU give the
+# ranks_periodic.json; ranks_predictor_corrector.json, ranks_seed.json and ranks_dfsph.json, 200
+# steps, each in its own test), N steps of plain `dysa run` on the CPU give the
 # reference state hash; `mpirun -np R dysa run SCENE --device cuda` on R = 1, 2, 3 ranks sharing
 # cuda:0 (each rank maps to GPU local_rank % GPUs) must end in that same hash, and write the
 # same probes.csv and VTK frames on every rank count (the GPU's, byte for byte); plain
@@ -70,7 +71,7 @@ for scene in "$@"; do
     fi
     [ "$hash" = "$reference" ] ||
       fail "$name: $ranks GPU ranks: hash $hash equals the one GPU's but not the CPU's" \
-        "$reference: the GPU's wcsph differs from the CPU's on this scene (docs/gpu.md)"
+        "$reference: the GPU's solver differs from the CPU's on this scene (docs/gpu.md)"
     if [ "$ranks" != "${rank_counts%% *}" ]; then
       diff -r "$out/$name/${rank_counts%% *}" "$out/$name/$ranks" > /dev/null ||
         fail "$name: $ranks GPU ranks: probes.csv or frames differ from ${rank_counts%% *} rank's"

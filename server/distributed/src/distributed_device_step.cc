@@ -22,6 +22,17 @@
 // made). The CPU's check that no particle moved more than one layer between the sorts (the
 // ghosts' slack) is made here after the step, from the first sort's cells by id
 // (StepBackend::DownloadFirstSortCells).
+//
+// dfsph refreshes its ghosts' velocities from their owners after every update of them inside
+// the step (each iteration of both pressure solves, their warm starts and predict_velocity),
+// and its solves stop on a mean error over the owned particles summed over the processes. On the
+// device both go through the backend: after its neighbour sort it hands the host each particle's
+// id and cell, DeviceGhosts (below) plans the refresh as the CPU path's AfterSort does and
+// returns the ghost flags with the pattern, and each refresh reads back only the owned particles
+// others read, exchanges them through the same GhostRefresh and writes the ghosts; the sums
+// (fixed-point integers, exact) and maxima go through ProcessShare's hooks as on the CPU. So
+// every operand of every owned particle is the one a single process has, as on CPU ranks, and
+// every process takes the same iterations.
 #include <algorithm>
 #include <chrono>
 #include <climits>
@@ -33,6 +44,7 @@
 #include <utility>
 #include <vector>
 
+#include "device_ghosts.h"
 #include "dysa/distributed/distributed_simulation.h"
 
 namespace dysa::distributed {
@@ -66,8 +78,9 @@ bool DistributedSimulation::RunDeviceStep(double start_time, bool& finite) {
   share.owned_layers.assign(size_t(slabs_->layers()), 0);
   for (int l = 0; l < slabs_->layers(); ++l)
     share.owned_layers[size_t(l)] = slabs_->OwnerOf(l) == me;
-  // The device sorts; the flags follow from its cells below.
+  // The device sorts; the flags follow from its cells below (dfsph's: from its plan).
   share.ghost.clear();
+  share.device_ghosts = device_ghosts_.get();
 
   start = Clock::now();
   backend_->Upload(state_.particles, solver_->SaveArrays());
@@ -138,6 +151,34 @@ bool DistributedSimulation::RunDeviceStep(double start_time, bool& finite) {
   }
   FinishStep(MsSince(compute_start), finite);
   return true;
+}
+
+DeviceGhostExchange::Plan DistributedSimulation::DeviceGhosts::PlanAfterSort(
+    std::span<const uint32_t> id, std::span<const uint32_t> cell) {
+  if (cell.size() != id.size()) throw std::logic_error("the device's sort lost particles");
+  const size_t n = id.size();
+  const Eigen::Vector3i dims = sim_.layout_.dims();
+  const int me = sim_.comm_.rank();
+  Plan plan;
+  plan.ghost.resize(n);
+  layer_.resize(n);
+  for (size_t k = 0; k < n; ++k) {
+    layer_[k] = LayerOf(cell[k], dims, sim_.axis_);
+    plan.ghost[k] = uint8_t(std::min(255, sim_.slabs_->Distance(layer_[k], me)));
+  }
+  const auto start = Clock::now();
+  sim_.ghost_refresh_.Plan(sim_.comm_, *sim_.slabs_, layer_, plan.ghost, id);
+  sim_.collective_ms_ += MsSince(start);
+  plan.sent = sim_.ghost_refresh_.Sent();
+  plan.received = sim_.ghost_refresh_.Received();
+  return plan;
+}
+
+void DistributedSimulation::DeviceGhosts::Exchange(std::span<const Vec3> sent,
+                                                   std::span<Vec3> received) {
+  const auto start = Clock::now();
+  sim_.totals_.bytes_sent += sim_.ghost_refresh_.Exchange(sim_.comm_, sent, received);
+  sim_.collective_ms_ += MsSince(start);
 }
 
 int DistributedSimulation::DeviceHalfStepMove() const {

@@ -8,6 +8,8 @@
 #include <thread>
 #include <utility>
 
+#include "device_ghosts.h"
+
 namespace dysa::distributed {
 namespace {
 
@@ -87,7 +89,11 @@ DistributedSimulation::DistributedSimulation(Scene scene, const Communicator& co
     comm_.SumInPlace(v);
     collective_ms_ += MsSince(start);
   };
-  if (refreshes_ghosts_) {
+  if (refreshes_ghosts_ && backend_) {
+    // On the device the passes refresh through the backend (ProcessShare::device_ghosts, set
+    // for each device step).
+    device_ghosts_ = std::make_unique<DeviceGhosts>(*this);
+  } else if (refreshes_ghosts_) {
     state_.share.refresh_ghosts = [this](std::span<Vec3> v) {
       const auto start = Clock::now();
       totals_.bytes_sent += ghost_refresh_.Refresh(comm_, v);
@@ -114,14 +120,15 @@ void DistributedSimulation::CheckSupported(const Scene& scene, const Params& par
                                            const Device& device) {
   CheckSupported(scene, params);
   if (!device.is_cuda()) return;
-  // The device's step (distributed_device_step.cc) leaves the ghosts out of the CFL maxima and
-  // takes the ownership from its last sort: wcsph (both time integrations) and the seed (by its
-  // predicted positions, a fixed step). dfsph refreshes its ghosts inside its solves' iterations:
-  // no device hook for that yet.
-  if (scene.solver != "wcsph" && scene.solver != "seed") {
+  // The device's step (distributed_device_step.cc) leaves the ghosts out of the reductions that
+  // steer the step and takes the ownership from its last sort: wcsph (both time integrations),
+  // the seed (by its predicted positions, a fixed step) and dfsph (its ghosts refreshed inside
+  // the solves through the backend's hook, ProcessShare::device_ghosts). A solver added to the
+  // ranks must be made to run there too, or be refused here.
+  if (scene.solver != "wcsph" && scene.solver != "seed" && scene.solver != "dfsph") {
     throw ConfigError("solver", "'" + scene.solver +
                                     "' does not run on GPU ranks yet (--device cuda across "
-                                    "processes runs wcsph and seed); run it on CPU ranks "
+                                    "processes runs wcsph, seed and dfsph); run it on CPU ranks "
                                     "(--device cpu)");
   }
 }

@@ -148,8 +148,8 @@ class RanksBackend final : public StepBackend {
 
 void CheckRunsOnRanks(const Scene& scene, const Params& params, int processes,
                       const Device& device) {
-  // What `dysa run` under mpirun refuses too: a solver not made to run across processes, and on
-  // GPU ranks one the device's step does not run (dfsph).
+  // What `dysa run` under mpirun refuses too: a solver not made to run across processes (on GPU
+  // ranks, one the device's step does not run: none of those the ranks run today).
   DistributedSimulation::CheckSupported(scene, params, device);
   if (scene.source_json.empty()) {
     throw ConfigError("scene", "'" + scene.name +

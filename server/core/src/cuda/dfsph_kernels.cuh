@@ -335,9 +335,10 @@ __global__ void PressureKernel(Fluid f, Solver s, float scale, uint32_t n) {
   if (i < n) f.pressure[i] = scale * s.kappa_sum[i] * f.density[i];
 }
 
-// IntegratePositions: the speed limit, the wall contact, x += v dt.
+// IntegratePositions: the speed limit, the wall contact, x += v dt. A ghost (ghost non-null and
+// ghost[i] != 0) is limited but counted by its owner.
 __global__ void IntegrateKernel(Fluid f, SphConstants c, Surfaces surfaces, float dt, float limit,
-                                unsigned long long* limited, uint32_t n) {
+                                const uint8_t* ghost, unsigned long long* limited, uint32_t n) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= n) return;
   F3 v{f.vx[i], f.vy[i], f.vz[i]};
@@ -345,16 +346,20 @@ __global__ void IntegrateKernel(Fluid f, SphConstants c, Surfaces surfaces, floa
   if (speed2 > limit * limit) {
     const float k = limit / sqrtf(speed2);
     v.x *= k, v.y *= k, v.z *= k;
-    atomicAdd(limited, 1ull);  // an integer count: the same whatever the order
+    // An integer count: the same whatever the order.
+    if (!(ghost && ghost[i])) atomicAdd(limited, 1ull);
   }
   const F3 x{f.x[i], f.y[i], f.z[i]};
   LimitApproachToSurfaces(c, surfaces, x, dt, v);
   MoveAndStore(c, surfaces, f, i, x, v, dt);
 }
 
-__global__ void SpeedSquaredKernel(Fluid f, float* speed2, uint32_t n) {
+// |v_i|^2, 0 for a ghost (ghost non-null and ghost[i] != 0): MaxSpeed's input (the CPU's
+// maximum starts at 0).
+__global__ void SpeedSquaredKernel(Fluid f, const uint8_t* ghost, float* speed2, uint32_t n) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
-  if (i < n) speed2[i] = Norm2({f.vx[i], f.vy[i], f.vz[i]});
+  if (i >= n) return;
+  speed2[i] = (ghost && ghost[i]) ? 0.0f : Norm2({f.vx[i], f.vy[i], f.vz[i]});
 }
 
 __global__ void OwnerCountKernel(const uint32_t* keys, uint32_t* count, uint32_t n) {

@@ -11,6 +11,7 @@
 #include "cuda/device_grid.cuh"
 #include "cuda/dfsph_kernels.cuh"
 #include "cuda/dfsph_pipeline.h"
+#include "cuda/dfsph_ranks.cuh"
 #include "cuda/fixed_point_sum.cuh"
 #include "cuda/physical_arrays.cuh"
 #include "cuda/sph_kernels.cuh"
@@ -45,6 +46,9 @@ struct DfsphPipeline::Impl : PhysicalArrays {
   DeviceBuffer<unsigned char> temp;
   EventTimer timer;
   size_t pass = 0;
+  // One of several processes (SetProcesses); UsePinnedStaging's buffers.
+  DfsphRanks ranks;
+  PinnedStaging staging;
 
   cudaStream_t s() const { return stream.get(); }
   unsigned Blocks(uint32_t count) const { return (count + kBlock - 1) / kBlock; }
@@ -102,27 +106,30 @@ struct DfsphPipeline::Impl : PhysicalArrays {
   }
 
   // The mean error of bender_koschier_solver.cc's stopping tests (MeanError): the mean of
-  // values[k] * factor summed as fixed-point integers, the CPU's bits whatever the order.
+  // values[k] * factor over the owned particles, summed as fixed-point integers (the CPU's bits
+  // whatever the order), and on several processes the sum and the count over all of them.
   double MeanError(const float* values, double factor) {
-    if (n == 0) return 0;
-    const uint32_t chunk = (n + kSumBlocks - 1) / kSumBlocks;
-    const unsigned blocks = (n + chunk - 1) / chunk;
-    PartialFixedPointSumKernel<<<blocks, kSumThreads, 0, s()>>>(values, n, chunk, factor,
-                                                                partial_sums.data());
-    FinalFixedPointSumKernel<<<1, kSumBlocks, 0, s()>>>(partial_sums.data(), blocks,
-                                                        device_sum.data());
-    sum.CopyFrom(device_sum, 1, s());
-    CheckCuda(cudaStreamSynchronize(s()), "summing the solve's error");
-    return dysa::FromFixedPoint(int64_t(sum.data()[0])) / double(n);
+    int64_t sums[2] = {0, ranks.active() ? ranks.owned : int64_t(n)};
+    if (n > 0) {
+      sums[0] = DeviceFixedPointSum(values, ranks.GhostFlags(), n, factor, partial_sums.data(),
+                                    device_sum.data(), sum.data(), s());
+    }
+    if (ranks.active()) ranks.processes->Sum(sums, 2);
+    return sums[1] > 0 ? dysa::FromFixedPoint(sums[0]) / double(sums[1]) : 0;
   }
 
+  // ApplyKappa, and on several processes the ghosts' refresh that follows it there (the next
+  // iteration's rates read the neighbours' velocities).
   void ApplyKappa(float dt, float* applied) {
     const Fluid f = View();
     const Solver sv = SolverView();
-    KappaOverRhoKernel<<<Blocks(n), kBlock, 0, s()>>>(f, sv, n);
+    if (n > 0) KappaOverRhoKernel<<<Blocks(n), kBlock, 0, s()>>>(f, sv, n);
     if (nb > 0) ExtrapolateKappaKernel<<<Blocks(nb), kBlock, 0, s()>>>(sv, nb);
-    ApplyKappaKernel<<<Blocks(n), kBlock, 0, s()>>>(f, BoundaryView(), sv, config.constants, dt,
-                                                    applied, n);
+    if (n > 0) {
+      ApplyKappaKernel<<<Blocks(n), kBlock, 0, s()>>>(f, BoundaryView(), sv, config.constants, dt,
+                                                      applied, n);
+    }
+    ranks.RefreshVelocities(vx.data(), vy.data(), vz.data(), s());
   }
 
   // StartWarmStart: applies warm_start of what the solve applied last step, where compressing.
@@ -136,12 +143,17 @@ struct DfsphPipeline::Impl : PhysicalArrays {
     }
     CheckCuda(cudaMemsetAsync(device_flags.data() + 2, 0, sizeof(unsigned long long), s()),
               "clearing a flag");
-    WarmStartKernel<<<Blocks(n), kBlock, 0, s()>>>(View(), BoundaryView(), SolverView(),
-                                                   config.constants, carried, dt, scale, bound,
-                                                   density_solve, device_flags.data() + 2, n);
+    if (n > 0) {
+      WarmStartKernel<<<Blocks(n), kBlock, 0, s()>>>(View(), BoundaryView(), SolverView(),
+                                                     config.constants, carried, dt, scale, bound,
+                                                     density_solve, device_flags.data() + 2, n);
+    }
     flags.CopyFrom(device_flags, 3, s());
     CheckCuda(cudaStreamSynchronize(s()), "starting a solve warm");
-    if (flags.data()[2] != 0) ApplyKappa(dt, carried);
+    // Applied on every process or on none, as ApplyKappa refreshes the ghosts (a collective).
+    double applies = flags.data()[2] != 0 ? 1 : 0;
+    if (ranks.active()) ranks.processes->Max(&applies, 1);
+    if (applies > 0) ApplyKappa(dt, carried);
   }
 
   // The solve loop of DivergenceSolve / DensitySolve: at least 2, at most max_iterations
@@ -154,9 +166,11 @@ struct DfsphPipeline::Impl : PhysicalArrays {
     SolveResult result;
     int iteration = 0;
     for (;; ++iteration) {
-      SolveErrorKernel<<<Blocks(n), kBlock, 0, s()>>>(View(), BoundaryView(), SolverView(),
-                                                      config.constants, dt, inv_dt_power,
-                                                      density_solve, n);
+      if (n > 0) {
+        SolveErrorKernel<<<Blocks(n), kBlock, 0, s()>>>(View(), BoundaryView(), SolverView(),
+                                                        config.constants, dt, inv_dt_power,
+                                                        density_solve, n);
+      }
       result.error = MeanError(error.data(), error_times / error_over);
       if (iteration >= 2 && result.error <= settings.tolerance) break;
       if (iteration == settings.max_iterations) {
@@ -167,7 +181,7 @@ struct DfsphPipeline::Impl : PhysicalArrays {
     }
     result.iterations = iteration;
     // FinishWarmStart: the step's total back to the step-free form.
-    ScaleKernel<<<Blocks(n), kBlock, 0, s()>>>(carried, density_solve ? dt * dt : dt, n);
+    if (n > 0) ScaleKernel<<<Blocks(n), kBlock, 0, s()>>>(carried, density_solve ? dt * dt : dt, n);
     return result;
   }
 };
@@ -227,17 +241,9 @@ void DfsphPipeline::Upload(size_t n, const uint32_t* id, const float* position,
     b->Resize(size_t(count) + 1);
   }
   m.packed.Resize(count);
-  cudaStream_t s = m.s();
-  m.EnqueueUpload(id, position, velocity);
-  if (n > 0) {
-    CheckCuda(cudaMemcpyAsync(m.density_stiffness.data(), density_stiffness, n * sizeof(float),
-                              cudaMemcpyHostToDevice, s),
-              "uploading the warm start");
-    CheckCuda(cudaMemcpyAsync(m.divergence_stiffness.data(), divergence_stiffness,
-                              n * sizeof(float), cudaMemcpyHostToDevice, s),
-              "uploading the warm start");
-  }
-  CheckCuda(cudaStreamSynchronize(s), "uploading particles");
+  m.staging.Upload(
+      m, id, position, velocity,
+      {{&m.density_stiffness, density_stiffness}, {&m.divergence_stiffness, divergence_stiffness}});
 }
 
 void DfsphPipeline::Download(uint32_t* id, float* position, float* velocity, float* density,
@@ -245,11 +251,34 @@ void DfsphPipeline::Download(uint32_t* id, float* position, float* velocity, flo
                              float* divergence_stiffness) const {
   Impl& m = *impl_;
   DeviceScope scope(m.device);
-  cudaStream_t s = m.s();
-  m.EnqueueDownload(id, position, velocity, density, pressure);
-  if (density_stiffness) m.density_stiffness.CopyTo(density_stiffness, m.n, s);
-  if (divergence_stiffness) m.divergence_stiffness.CopyTo(divergence_stiffness, m.n, s);
-  CheckCuda(cudaStreamSynchronize(s), "downloading particles");
+  m.staging.Download(
+      m, id, position, velocity, density, pressure,
+      {{&m.density_stiffness, density_stiffness}, {&m.divergence_stiffness, divergence_stiffness}});
+}
+
+void DfsphPipeline::UsePinnedStaging(bool on) { impl_->staging.on = on; }
+
+void DfsphPipeline::DownloadSortedOrder(uint32_t* id, uint32_t* cells) const {
+  Impl& m = *impl_;
+  DeviceScope scope(m.device);
+  m.staging.DownloadSortedOrder(m, id, cells);
+}
+
+void DfsphPipeline::SetProcesses(DfsphProcesses* processes, const uint8_t* ghost,
+                                 const uint32_t* sent, size_t sent_count, const uint32_t* received,
+                                 size_t received_count) {
+  Impl& m = *impl_;
+  DeviceScope scope(m.device);
+  m.ranks.Set(processes, ghost, m.n, sent, sent_count, received, received_count, m.s());
+}
+
+float DfsphPipeline::MaxSpeed2() {
+  Impl& m = *impl_;
+  DeviceScope scope(m.device);
+  if (m.n == 0) return 0;
+  SpeedSquaredKernel<<<m.Blocks(m.n), kBlock, 0, m.s()>>>(m.View(), m.ranks.GhostFlags(),
+                                                          m.speed2.data(), m.n);
+  return m.Max(m.speed2.data());
 }
 
 void DfsphPipeline::MoveSurfaces(const std::vector<SphereObstacle>& spheres,
@@ -257,14 +286,15 @@ void DfsphPipeline::MoveSurfaces(const std::vector<SphereObstacle>& spheres,
   impl_->MoveSurfaces(spheres, boxes, obstacle_speed);
 }
 
-float DfsphPipeline::Prepare(float gravity, uint32_t max_per_cell,
-                             const ObstacleMotionTable& motion) {
+void DfsphPipeline::Prepare(float gravity, uint32_t max_per_cell,
+                            const ObstacleMotionTable& motion) {
   Impl& m = *impl_;
   DeviceScope scope(m.device);
   cudaStream_t s = m.s();
   const uint32_t n = m.n;
   const SphConstants c = m.config.constants;
   m.pass = 0;
+  m.ranks.Set(nullptr, nullptr, 0, nullptr, 0, nullptr, 0, s);  // until SetProcesses
 
   if (m.moving.active()) {
     m.BeginPass();  // move_boundary
@@ -296,7 +326,7 @@ float DfsphPipeline::Prepare(float gravity, uint32_t max_per_cell,
               "a total");
     m.totals.CopyFrom(m.device_totals, 2, s);
     CheckCuda(cudaStreamSynchronize(s), "counting the pairs");
-    if (m.sorter.max_count() > max_per_cell) return 0;
+    if (m.sorter.max_count() > max_per_cell) return;
   } else {
     m.totals.data()[0] = m.totals.data()[1] = 0;
   }
@@ -349,16 +379,14 @@ float DfsphPipeline::Prepare(float gravity, uint32_t max_per_cell,
         m.View(), m.BoundaryView(), m.SolverView(), c, m.config.gradient_moment, n);
   }
   CheckCuda(cudaGetLastError(), "launching the dfsph density passes");
-  if (n == 0) return 0;
-  SpeedSquaredKernel<<<m.Blocks(n), kBlock, 0, s>>>(m.View(), m.speed2.data(), n);
-  return m.Max(m.speed2.data());
 }
 
 SolveResult DfsphPipeline::DivergenceSolve(double dt, const SolveSettings& settings) {
   Impl& m = *impl_;
   DeviceScope scope(m.device);
   m.BeginPass();  // divergence_solve
-  if (m.n == 0) return {};
+  // On several processes a process without particles still takes part in every collective.
+  if (m.n == 0 && !m.ranks.active()) return {};
   CheckCuda(cudaMemsetAsync(m.kappa_sum.data(), 0, m.n * sizeof(float), m.s()), "clearing");
   const double rho0 = m.config.constants.rest_density;
   return m.Solve(float(dt), false, settings, dt, rho0, float(1 / dt),
@@ -393,10 +421,17 @@ StepMaxima DfsphPipeline::Forces(float gravity) {
   m.BeginPass();  // time_step
   StepMaxima result;
   if (n == 0) return result;
-  MaximaInputsKernel<<<blocks, kBlock, 0, s>>>(f, m.speed2.data(), m.acceleration2.data(), n);
+  const float* density = m.density.data();
+  if (m.ranks.active()) {  // the ghosts' accelerations and densities are incomplete
+    m.ranks.OwnedMaximaInputs(f.vx, f.vy, f.vz, f.ax, f.ay, f.az, density, m.speed2.data(),
+                              m.acceleration2.data(), n, s);
+    density = m.ranks.owned_density.data();
+  } else {
+    MaximaInputsKernel<<<blocks, kBlock, 0, s>>>(f, m.speed2.data(), m.acceleration2.data(), n);
+  }
   result.speed2 = m.Max(m.speed2.data());
   result.acceleration2 = m.Max(m.acceleration2.data());
-  result.density = m.Max(m.density.data());
+  result.density = m.Max(density);
   return result;
 }
 
@@ -406,14 +441,19 @@ SolveResult DfsphPipeline::DensitySolve(float dt, const SolveSettings& settings)
   const uint32_t n = m.n;
   m.BeginPass();  // predict_velocity
   if (n > 0) PredictVelocityKernel<<<m.Blocks(n), kBlock, 0, m.s()>>>(m.View(), dt, n);
+  // A ghost's acceleration misses what lies past the ghost layers; the solve reads the
+  // neighbours' velocities.
+  m.ranks.RefreshVelocities(m.vx.data(), m.vy.data(), m.vz.data(), m.s());
   m.BeginPass();  // density_solve
-  if (n == 0) return {};
+  if (n == 0 && !m.ranks.active()) return {};
   const float rho0 = m.config.constants.psi_scale;
   const float inv_dt2 = 1 / (dt * dt);
   SolveResult result =
       m.Solve(dt, true, settings, 1.0, double(rho0), inv_dt2, m.density_stiffness.data());
-  PressureKernel<<<m.Blocks(n), kBlock, 0, m.s()>>>(m.View(), m.SolverView(),
-                                                    m.config.gradient_moment / dt, n);
+  if (n > 0) {
+    PressureKernel<<<m.Blocks(n), kBlock, 0, m.s()>>>(m.View(), m.SolverView(),
+                                                      m.config.gradient_moment / dt, n);
+  }
   return result;
 }
 
@@ -427,7 +467,8 @@ StepOutcome DfsphPipeline::Integrate(float dt, float speed_limit) {
             "clearing the step's flags");
   if (n > 0) {
     IntegrateKernel<<<m.Blocks(n), kBlock, 0, s>>>(m.View(), m.config.constants, m.SurfaceView(),
-                                                   dt, speed_limit, m.device_flags.data(), n);
+                                                   dt, speed_limit, m.ranks.GhostFlags(),
+                                                   m.device_flags.data(), n);
   }
   m.timer.Record(m.pass, s);
   const Fluid f = m.View();
@@ -446,8 +487,9 @@ uint64_t DfsphPipeline::DeviceBytes() const {
   const Impl& m = *impl_;
   // Dfsph's own: 7 float arrays (the warm starts and their scratch, alpha, kappa, the error,
   // the kappa sum), the packed positions and 4 count arrays per particle, the pair lists (an
-  // index a pair) and the walls' transpose, and 3 floats and 2 counts per boundary sample.
-  return m.PhysicalDeviceBytes() +
+  // index a pair) and the walls' transpose, 3 floats and 2 counts per boundary sample, and on
+  // one of several processes the ghost refresh's buffers.
+  return m.PhysicalDeviceBytes() + m.ranks.DeviceBytes() +
          uint64_t(m.x.capacity()) * (7 * sizeof(float) + 4 * sizeof(uint32_t)) +
          uint64_t(m.packed.capacity()) * sizeof(float4) +
          uint64_t(m.fluid_pairs.capacity() + m.wall_pairs.capacity()) * sizeof(uint32_t) +

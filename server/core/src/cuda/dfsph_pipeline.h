@@ -6,10 +6,13 @@
 // pair lists of the density pass are laid out as the CPU's (per particle in the grid's order; the
 // walls' transpose in fluid order, by a stable sort), but hold only the other particle: the
 // solves recompute each pair's grad W from the positions with the density pass's operations
-// (PairGradW, dfsph_kernels.cuh), 4 bytes a pair read instead of 16. One thing differs: the
-// solves' stopping test sums the particles' errors in a fixed tree order on the GPU, not
-// serially, so the iteration counts may differ from the CPU's by one now and then; the GPU's own
-// runs stay bit-identical (no atomics in any sum).
+// (PairGradW, dfsph_kernels.cuh), 4 bytes a pair read instead of 16. The solves' stopping test
+// sums the particles' errors as fixed-point integers (fixed_point_sum.cuh), the CPU's sum bit for
+// bit whatever the order, so a solve stops at the CPU's iteration.
+//
+// On one of several processes (SetProcesses: the ranks' device step, server/distributed) the
+// pipeline steps this process's owned particles and ghosts, and the reductions and refreshes the
+// CPU path makes through ProcessShare go through DfsphProcesses (dfsph_ranks.cuh).
 #pragma once
 
 #include <cstddef>
@@ -48,6 +51,22 @@ struct SolveResult {
   bool capped = false;
 };
 
+// One of several processes' link to the others, for the solves (SetProcesses). Every call is
+// collective: every process makes the same calls in the same order, whatever it holds (none
+// included).
+class DfsphProcesses {
+ public:
+  virtual ~DfsphProcesses() = default;
+  // values[k] becomes its sum over the processes (integers: exact in any order).
+  virtual void Sum(int64_t* values, size_t count) = 0;
+  // values[k] becomes its maximum over the processes (exact in any order).
+  virtual void Max(double* values, size_t count) = 0;
+  // The ghosts' velocities (xyz triples): `sent` holds those of the plan's `sent` particles, in
+  // its order; `received` gets those of its `received` ghosts, from their owners.
+  virtual void ExchangeVelocities(const float* sent, size_t sent_count, float* received,
+                                  size_t received_count) = 0;
+};
+
 // DownloadById, DownloadBelowRank, DownloadViewSubset, DownloadByIds, DownloadPositionBounds,
 // size, max_cell_count and GatherProbes are ParticleReadout's.
 class DfsphPipeline : public ParticleReadout {
@@ -64,21 +83,41 @@ class DfsphPipeline : public ParticleReadout {
   void Download(uint32_t* id, float* position, float* velocity, float* density, float* pressure,
                 float* density_stiffness, float* divergence_stiffness) const;
 
+  // Upload and Download (and DownloadSortedOrder) copy through page-locked host buffers kept
+  // between calls (the ranks' device step copies every step).
+  void UsePinnedStaging(bool on);
+  // After Prepare: each particle's id and the cell (NeighborGrid::CellIndex) it was sorted into,
+  // in storage order (null: not copied).
+  void DownloadSortedOrder(uint32_t* id, uint32_t* cells) const;
+
   // move_boundary with `motion` when the boundary has moving obstacles, neighbour_grid,
   // density (the pair lists), boundary_pressure (the walls' Shepard weights and hydrostatic
-  // acceleration, with gravity `gravity`); returns the largest |v|^2, from which the caller
-  // sizes the divergence solve's step. Stops after counting the pairs, before listing them,
+  // acceleration, with gravity `gravity`). Stops after counting the pairs, before listing them,
   // when a grid cell holds more than `max_per_cell` particles (max_cell_count()): the lists
   // would hold n^2 pairs.
-  float Prepare(float gravity, uint32_t max_per_cell, const ObstacleMotionTable& motion);
+  void Prepare(float gravity, uint32_t max_per_cell, const ObstacleMotionTable& motion);
+  // On one of several processes, after Prepare, for the rest of the step: `processes` links the
+  // solves to the others; per particle (storage order) `ghost` is 0 for an owned particle; the
+  // ghosts' refresh reads back the velocities of the particles `sent` and writes those of the
+  // ghosts `received` (DeviceGhostExchange::Plan). The reductions that steer the step (the
+  // solves' mean errors, MaxSpeed2, the time step's maxima, the speed limiter's count) then
+  // leave the ghosts out, the mean errors are combined over the processes, the warm start
+  // applies on every process or on none, and every update of the velocities is followed by the
+  // ghosts' refresh. Null `processes`: one process (the default; the arrays are not read).
+  void SetProcesses(DfsphProcesses* processes, const uint8_t* ghost, const uint32_t* sent,
+                    size_t sent_count, const uint32_t* received, size_t received_count);
+  // The largest |v|^2 of the owned particles (0 without), from which the caller sizes the
+  // divergence solve's step.
+  float MaxSpeed2();
   // divergence_solve with the step dt (s).
   SolveResult DivergenceSolve(double dt, const SolveSettings& settings);
-  // external_forces, viscosity, wall_viscosity, and the time_step pass's maxima.
+  // external_forces, viscosity, wall_viscosity, and the time_step pass's maxima (of the owned
+  // particles).
   StepMaxima Forces(float gravity);
   // predict_velocity and density_solve with the step dt; the pressures reported.
   SolveResult DensitySolve(float dt, const SolveSettings& settings);
   // integrate: x += v dt with the speed limit (m/s) and the wall contact. Returns every pass's
-  // time and the count of particles the limit slowed.
+  // time and the count of owned particles the limit slowed.
   StepOutcome Integrate(float dt, float speed_limit);
   // As WcsphPipeline::MoveSurfaces: the contact's obstacles over the coming integration.
   void MoveSurfaces(const std::vector<SphereObstacle>& spheres,

@@ -12,6 +12,8 @@
 
 namespace dysa {
 
+class DeviceGhostExchange;  // device_ghost_exchange.h
+
 // Particles are physically reordered by grid cell every step, so index i is not a particle's
 // identity: id[i] is (its index at spawn time, stable for the whole run).
 struct ParticleArrays {
@@ -53,6 +55,11 @@ struct ProcessShare {
   // compute locally. Valid between the neighbour sort and the end of the step (the ghosts and
   // their order stay put); null on one process and for solvers that do not need it.
   std::function<void(std::span<Vec3>)> refresh_ghosts;
+  // The same for a step that runs on a device (StepBackend: the particles are in its memory, not
+  // in these arrays): the device reads back its owned particles' values that others read, this
+  // hook exchanges them, and the device writes its ghosts' (device_ghost_exchange.h). Set by the
+  // driver for a solver that refreshes its ghosts; null otherwise. Not owned.
+  DeviceGhostExchange* device_ghosts = nullptr;
   // The grid's cell layers along axis `layer_axis` whose boundary particles this process's own
   // particles read (those within a cell of its slab), 1 per layer; empty: all. A pass over the
   // boundary particles may skip the others (their values are read only by other processes).

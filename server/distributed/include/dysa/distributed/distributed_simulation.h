@@ -25,8 +25,9 @@
 // the CPU's order), its CFL maxima skipping the ghosts (by the cell layers this process owns,
 // ProcessShare::owned_layers) and combined over the processes before dt is chosen, and they come
 // back; the cells of the device's (last) sort give the ghost flags and the order keys, and the
-// ghosts are dropped. Supported there: wcsph (both time integrations) and the seed (dfsph
-// refused by field).
+// ghosts are dropped. Supported there: wcsph (both time integrations), the seed and dfsph, whose
+// ghosts' refresh and combined mean errors go through the backend's hook
+// (ProcessShare::device_ghosts, DeviceGhosts).
 #pragma once
 
 #include <cstdint>
@@ -127,8 +128,8 @@ class DistributedSimulation {
   // Throws ConfigError naming the field ("solver") when `scene` with
   // `params` cannot run across processes yet.
   static void CheckSupported(const Scene& scene, const Params& params);
-  // The same on `device`: on a GPU also ConfigError naming "solver" for dfsph (not on GPU ranks
-  // yet).
+  // The same on `device`: on a GPU also ConfigError naming "solver" for a solver the device's
+  // step does not run (every one the ranks run does: wcsph, seed, dfsph).
   static void CheckSupported(const Scene& scene, const Params& params, const Device& device);
   const Device& device() const { return device_; }
   // Collective. The particles of all processes.
@@ -231,6 +232,11 @@ class DistributedSimulation {
   // (ghost_refresh.h), along the pattern planned after each sort.
   bool refreshes_ghosts_ = false;
   GhostRefresh ghost_refresh_;
+  // The same refresh for the device's step (ProcessShare::device_ghosts): its plan from the
+  // device's sorted cells, replayed on the values the device reads back
+  // (distributed_device_step.cc). Null on the CPU and for solvers that do not refresh.
+  class DeviceGhosts;
+  std::unique_ptr<DeviceGhosts> device_ghosts_;
   std::vector<int> first_layer_;  // per particle, its layer at the first sort (predictor)
   std::vector<int> index_scratch_;
   State state_;

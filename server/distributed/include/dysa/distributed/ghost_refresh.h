@@ -32,6 +32,18 @@ class GhostRefresh {
   // storage order, as at Plan). Returns the bytes this process sent.
   uint64_t Refresh(const Communicator& comm, std::span<Vec3> values) const;
 
+  // The same pattern for a caller that reads and writes the values itself (a device: only these
+  // cross to the host). Sent(): the storage indices of the owned particles whose values go out,
+  // process by process in rank order, each process's in storage order; Received(): the ghosts',
+  // likewise by owner.
+  std::vector<uint32_t> Sent() const;
+  std::vector<uint32_t> Received() const;
+  // Collective. sent[k] is the value of particle Sent()[k]; received[k] becomes the one the
+  // owner of ghost Received()[k] sent. Returns the bytes this process sent. Refresh is this,
+  // with the packing from and into `values` around it.
+  uint64_t Exchange(const Communicator& comm, std::span<const Vec3> sent,
+                    std::span<Vec3> received) const;
+
  private:
   std::vector<std::vector<uint32_t>> send_;     // per process: the owned particles it reads
   std::vector<std::vector<uint32_t>> receive_;  // per process: the ghosts it owns

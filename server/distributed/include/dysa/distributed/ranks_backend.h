@@ -17,9 +17,9 @@ namespace dysa::distributed {
 // The factory that makes a Simulation step on `runner`'s processes (Simulation's constructor
 // with a BackendFactory), on the CPU or on each process's GPU (RankRunner's devices). Each
 // simulation it makes sends its scene to every process first; a scene or parameters the ranks
-// cannot run (a solver other than wcsph, seed and dfsph; on GPU ranks one other than wcsph and
-// seed; fewer grid layers than ranks; a scene without JSON text) are refused with a ConfigError
-// naming the field, before any process is told.
+// cannot run (a solver other than wcsph, seed and dfsph, on CPU and GPU ranks alike; fewer grid
+// layers than ranks; a scene without JSON text) are refused with a ConfigError naming the field,
+// before any process is told.
 Simulation::BackendFactory RanksBackendFactory(std::shared_ptr<RankRunner> runner);
 
 // Throws ConfigError as the factory refuses: "solver", "processes" or "scene". `device`: the
