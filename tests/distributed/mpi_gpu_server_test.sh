@@ -19,21 +19,8 @@ dfsph_scene=$6
 # shellcheck source=mpi_common.sh
 source "$(dirname "${BASH_SOURCE[0]}")/mpi_common.sh"
 mpi_require "$mpiexec"
-out=$(mktemp -d)
-pids=()
-cleanup() {
-  for pid in "${pids[@]}"; do kill -9 "$pid" 2> /dev/null; done
-  rm -rf "$out"
-}
-trap cleanup EXIT
-fail() {
-  echo "FAIL: $*"
-  for log in "$out"/*.log; do
-    echo "--- $log"
-    cat "$log"
-  done
-  exit 1
-}
+# shellcheck source=mpi_server_common.sh
+source "$(dirname "${BASH_SOURCE[0]}")/mpi_server_common.sh"
 
 # The GPU: `dysa run --device cuda` refuses a device that cannot run with status 2, saying why.
 probe=$("$dysa" run "$scene" --steps 1 --threads 1 --device cuda --out "$out/probe" 2>&1)
@@ -44,31 +31,6 @@ if [ $status -eq 2 ] && grep -q -- "--device" <<< "$probe"; then
 fi
 [ $status -eq 0 ] || fail "dysa run --device cuda failed: $probe"
 
-# start NAME DEVICE [mpirun args...]: a paused server on the scene, its address in $out/NAME.addr.
-start() {
-  local name=$1 device=$2
-  shift 2
-  "$@" "$server" --scene "$scene" --paused --threads 1 --frame-rate 0 --listen 127.0.0.1:0 \
-    --device "$device" --port-file "$out/$name.port" > "$out/$name.log" 2>&1 &
-  pids+=($!)
-  for _ in $(seq 150); do
-    [ -f "$out/$name.port" ] && break
-    sleep 0.2
-  done
-  [ -f "$out/$name.port" ] || fail "$name: the server did not start"
-  echo "127.0.0.1:$(cat "$out/$name.port")" > "$out/$name.addr"
-}
-on() {
-  local name=$1
-  shift
-  "$dysa" --server "$(cat "$out/$name.addr")" "$@"
-}
-# state NAME: "frame step hash" of server NAME (paused: the hash is the frame's).
-state() {
-  on "$1" --json status | /usr/bin/python3 -c 'import json, sys
-s = json.load(sys.stdin)
-print(s.get("frame", 0), s.get("step", 0), s.get("state_hash", 0))'
-}
 # same WHAT: the GPU ranks are in the one GPU's state, and that is the CPU's.
 same() {
   local cpu gpu ranks
@@ -78,7 +40,7 @@ same() {
   [ "$ranks" = "$gpu" ] || fail "$1: 3 GPU ranks '$ranks', one GPU '$gpu' (CPU '$cpu')"
   [ "$ranks" = "$cpu" ] || fail "$1: 3 GPU ranks '$ranks' equal the one GPU's but not the" \
     "CPU's '$cpu': the GPU's solver differs from the CPU's on this scene (docs/gpu.md)"
-  echo "$1: frame step hash = $ranks on all three"
+  echo "$1: frame step hash running = $ranks on all three"
 }
 all() {
   local name
@@ -88,9 +50,9 @@ all() {
 }
 
 start_time=$SECONDS
-start cpu cpu
-start gpu cuda
-start ranks cuda "$mpiexec" --oversubscribe --allow-run-as-root -np 3
+SERVER_ARGS="--device cpu" start cpu
+SERVER_ARGS="--device cuda" start gpu
+SERVER_ARGS="--device cuda" start ranks "$mpiexec" --oversubscribe --allow-run-as-root -np 3
 device=$(on ranks --json status | /usr/bin/python3 -c 'import json, sys
 print(json.load(sys.stdin).get("device", ""))')
 echo "the GPU ranks' server runs on: $device"
