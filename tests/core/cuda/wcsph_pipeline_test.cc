@@ -26,6 +26,15 @@ using dysa::testing::WendlandDamScene;
 
 const char* const kSolver = "wcsph";
 
+// Steps `cpu` and `gpu` `steps` times, expecting the same dt at every step.
+void StepBoth(Simulation& cpu, Simulation& gpu, int steps) {
+  for (int i = 0; i < steps; ++i) {
+    cpu.Step();
+    gpu.Step();
+    EXPECT_EQ(gpu.last_dt(), cpu.last_dt()) << "step " << i + 1;
+  }
+}
+
 TEST(WcsphGpuTest, FollowsTheCpuThroughADamBreakPastObstacles) {
   SKIP_WITHOUT_GPU();
   ExpectAgreement(DamScene(kSolver), 0.3);
@@ -42,11 +51,7 @@ TEST(WcsphGpuTest, TheFirstStepsAreBitIdenticalToTheCpu) {
   Simulation cpu(DamScene(kSolver));
   Simulation gpu(DamScene(kSolver), kGpu);
   EXPECT_EQ(gpu.PassNames(), cpu.PassNames());
-  for (int i = 0; i < 5; ++i) {
-    cpu.Step();
-    gpu.Step();
-    EXPECT_EQ(gpu.last_dt(), cpu.last_dt()) << "step " << i + 1;
-  }
+  StepBoth(cpu, gpu, 5);
   EXPECT_EQ(StateHash(gpu.state()), StateHash(cpu.state()));
 }
 
@@ -56,11 +61,7 @@ TEST(WcsphGpuTest, WendlandAtALargerSupportIsBitIdenticalToTheCpu) {
   SKIP_WITHOUT_GPU();
   Simulation cpu(WendlandDamScene(kSolver));
   Simulation gpu(WendlandDamScene(kSolver), kGpu);
-  for (int i = 0; i < 5; ++i) {
-    cpu.Step();
-    gpu.Step();
-    EXPECT_EQ(gpu.last_dt(), cpu.last_dt()) << "step " << i + 1;
-  }
+  StepBoth(cpu, gpu, 5);
   EXPECT_EQ(StateHash(gpu.state()), StateHash(cpu.state()));
   ExpectAgreement(WendlandDamScene(kSolver), 0.2);
 }
@@ -98,11 +99,7 @@ TEST(WcsphGpuTest, MovingObstaclesFollowTheCpu) {
   Simulation gpu(MovingDamScene(kSolver), kGpu);
   ASSERT_EQ(gpu.PassNames().front(), "move_boundary");
   EXPECT_EQ(gpu.PassNames(), cpu.PassNames());
-  for (int i = 0; i < 5; ++i) {
-    cpu.Step();
-    gpu.Step();
-    EXPECT_EQ(gpu.last_dt(), cpu.last_dt()) << "step " << i + 1;
-  }
+  StepBoth(cpu, gpu, 5);
   EXPECT_EQ(StateHash(gpu.state()), StateHash(cpu.state()));
   ExpectAgreement(MovingDamScene(kSolver), 0.3);
 }
@@ -117,11 +114,7 @@ TEST(WcsphGpuTest, SymplecticIsBitIdenticalToTheCpu) {
   Simulation cpu(scene);
   Simulation gpu(scene, kGpu);
   EXPECT_EQ(gpu.PassNames(), cpu.PassNames());
-  for (int i = 0; i < 5; ++i) {
-    cpu.Step();
-    gpu.Step();
-    EXPECT_EQ(gpu.last_dt(), cpu.last_dt()) << "step " << i + 1;
-  }
+  StepBoth(cpu, gpu, 5);
   EXPECT_EQ(StateHash(gpu.state()), StateHash(cpu.state()));
   ExpectAgreement(scene, 0.3);
 }
@@ -167,12 +160,8 @@ TEST(WcsphGpuTest, ArtificialViscosityIsBitIdenticalToTheCpu) {
     Simulation cpu(scene);
     Simulation gpu(scene, kGpu);
     EXPECT_EQ(gpu.PassNames(), cpu.PassNames());
-    for (int i = 0; i < 5; ++i) {
-      cpu.Step();
-      gpu.Step();
-      plain.Step();
-      EXPECT_EQ(gpu.last_dt(), cpu.last_dt()) << "step " << i + 1;
-    }
+    StepBoth(cpu, gpu, 5);
+    for (int i = 0; i < 5; ++i) plain.Step();
     EXPECT_EQ(StateHash(gpu.state()), StateHash(cpu.state()));
     EXPECT_NE(StateHash(cpu.state()), StateHash(plain.state()));
   }

@@ -58,6 +58,8 @@ struct F3 {
 // Eigen's squaredNorm() and dot() of 3-vectors: x + (y + z).
 __device__ float Dot(F3 a, F3 b) { return a.x * b.x + (a.y * b.y + a.z * b.z); }
 __device__ float Norm2(F3 a) { return Dot(a, a); }
+// a += s v, component by component (no fused multiply-add: the kernels build with --fmad=false).
+__device__ void AddScaled(F3& a, float s, F3 v) { a.x += s * v.x, a.y += s * v.y, a.z += s * v.z; }
 // GradW (sph_loops.h): x_ij dW/dr / r, zero at r = 0; its factor dW/dr / r.
 // wcsph's carried density held within its range (BoundCarriedDensity, becker_teschner_solver.h).
 __device__ float BoundCarriedDensity(const SphConstants& c, float rho) {

@@ -176,23 +176,11 @@ __global__ void InteractionKernel(DeviceGrid fluid_grid, DeviceGrid boundary_gri
   F3 a{0.0f - c.gradient_scale * (c.mass * fluid.x + c.psi_scale * wall_force.x),
        gravity - c.gradient_scale * (c.mass * fluid.y + c.psi_scale * wall_force.y),
        0.0f - c.gradient_scale * (c.mass * fluid.z + c.psi_scale * wall_force.z)};
-  if (viscosity) {
-    a.x += c.viscosity_scale * viscous.x, a.y += c.viscosity_scale * viscous.y;
-    a.z += c.viscosity_scale * viscous.z;
-  }
-  if (wall_viscosity) {
-    a.x += c.wall_viscosity_scale * wall_viscous.x, a.y += c.wall_viscosity_scale * wall_viscous.y;
-    a.z += c.wall_viscosity_scale * wall_viscous.z;
-  }
+  if (viscosity) AddScaled(a, c.viscosity_scale, viscous);
+  if (wall_viscosity) AddScaled(a, c.wall_viscosity_scale, wall_viscous);
   // Only with alpha > 0, as the CPU: with alpha = 0 the step is what it was without the term.
-  if (artificial) {
-    a.x += c.artificial_scale * art.x, a.y += c.artificial_scale * art.y;
-    a.z += c.artificial_scale * art.z;
-  }
-  if (wall_artificial) {
-    a.x += c.wall_artificial_scale * wall_art.x, a.y += c.wall_artificial_scale * wall_art.y;
-    a.z += c.wall_artificial_scale * wall_art.z;
-  }
+  if (artificial) AddScaled(a, c.artificial_scale, art);
+  if (wall_artificial) AddScaled(a, c.wall_artificial_scale, wall_art);
   f.ax[i] = a.x, f.ay[i] = a.y, f.az[i] = a.z;
 }
 
