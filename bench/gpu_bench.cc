@@ -5,8 +5,9 @@
 //
 //   build/release/bench/gpu_bench [--solvers seed,wcsph,dfsph] [--device cuda:0]
 //       [--sizes 91125,1000000,10000000,100000000] [--physical-sizes 91125,1000000]
-//       [--cpu-max 10000000] [--threads N] [--out bench/results]
+//       [--cpu-max 10000000] [--threads N] [--set NAME=VALUE ...] [--out bench/results]
 //
+// --set overrides a parameter of every scene (repeatable), e.g. --set warm_start=0.5 for dfsph.
 // seed: every size is a cube of the thesis fluid (seed_test_scene: its smoothing radius 0.3 m
 // and its particle spacing 5 / 44 m, so the same density and neighbours per particle) in a box
 // --domain-ratio times its edge. wcsph, dfsph: a 3D dam break, a water column 0.5 x 1 x 0.5 m
@@ -206,6 +207,8 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1.0, 10.0))
       ->capture_default_str();
   app.add_option("--out", out_dir, "Directory for the CSV files")->capture_default_str();
+  std::vector<std::string> sets;
+  app.add_option("--set", sets, "Override a parameter of every scene, NAME=VALUE (repeatable)");
   CLI11_PARSE(app, argc, argv);
 
   try {
@@ -228,8 +231,11 @@ int main(int argc, char** argv) {
       passes << "device,particles,pass,ms\n";
       for (long long size : physical ? physical_sizes : sizes) {
         const int q = std::max(2, int(std::lround(std::cbrt(double(size)))));
-        const dysa::Scene scene =
+        dysa::Scene scene =
             physical ? DamBreak(solver, double(size)) : ThesisBlock(q, domain_ratio);
+        // Throws ConfigError naming the parameter and its range, reported below.
+        for (const std::string& assignment : sets)
+          dysa::SetParamFromString(scene.params, assignment);
         const double warmup_time = physical ? physical_warmup : 0.0;
         // The CPU starts from the state the GPU's timed steps started from.
         std::optional<dysa::Checkpoint> start;
