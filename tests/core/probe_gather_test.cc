@@ -43,6 +43,8 @@ Model PeriodicModel() {
   Scene scene;
   scene.domain = Aabb{Vec3d(0, 0, 0), Vec3d(2, 1, 1)};
   scene.periodic = {true, false, false};
+  // A small box (obstacles stay a support away from a periodic axis's seam).
+  scene.boxes.push_back({Aabb{Vec3d(1.82, 0.3, 0.4), Vec3d(1.89, 0.4, 0.5)}, {}});
   Params params;
   params.smoothing_radius = 0.1;
   params.particle_mass = 0.5;
@@ -79,6 +81,9 @@ std::vector<ProbeSpec> AllProbes() {
     probes.push_back(Probe(ProbeKind::kCountInside));
     probes.back().region = Aabb{Vec3d(0.1 * b, 0, 0), Vec3d(0.1 * b + 0.5, 0.5, 1)};
   }
+  probes.push_back(Probe(ProbeKind::kBoxForce));
+  probes.back().box = 0;
+  probes.back().spacing = 0.013;
   return probes;
 }
 
@@ -87,6 +92,19 @@ std::vector<double> ScanAll(const std::vector<ProbeSpec>& probes, const Model& m
                             const State& state) {
   const ParticleArrays& p = state.particles;
   const double support = model.kernel_support;
+  const double g = physical::GravityAt(model.params, state.time);
+  auto wall_pressure = [&](const Vec3d& point, const Vec3d& normal) {
+    double weighted = 0, weights = 0;
+    for (size_t i = 0; i < p.size(); ++i) {
+      const Vec3d d = model.MinimumImage(Vec3d(p.position[i].cast<double>() - point));
+      if (d.dot(normal) < 0) continue;
+      const double w = CubicSpline<double>::W(d.norm(), support);
+      if (w <= 0) continue;
+      weighted += (double(p.pressure[i]) - double(p.density[i]) * g * d.y()) * w;
+      weights += w;
+    }
+    return weights > 0 ? std::max(0.0, weighted / weights) : 0.0;
+  };
   std::vector<double> values;
   for (const ProbeSpec& probe : probes) {
     double weighted = 0, weights = 0, sum = 0, max = 0;
@@ -97,17 +115,34 @@ std::vector<double> ScanAll(const std::vector<ProbeSpec>& probes, const Model& m
         values.push_back(front);
         break;
       }
-      case ProbeKind::kWallPressure: {
-        const double g = physical::GravityAt(model.params, state.time);
-        for (size_t i = 0; i < p.size(); ++i) {
-          const Vec3d d = model.MinimumImage(Vec3d(p.position[i].cast<double>() - probe.point));
-          if (d.dot(probe.normal) < 0) continue;
-          const double w = CubicSpline<double>::W(d.norm(), support);
-          if (w <= 0) continue;
-          weighted += (double(p.pressure[i]) - double(p.density[i]) * g * d.y()) * w;
-          weights += w;
+      case ProbeKind::kWallPressure:
+        values.push_back(wall_pressure(probe.point, probe.normal));
+        break;
+      case ProbeKind::kBoxForce: {
+        // Every face's patch centres, each patch's pressure times its area, outward normals.
+        const Aabb& box = model.boxes.at(size_t(probe.box)).box;
+        Vec3d force = Vec3d::Zero();
+        for (int a = 0; a < 3; ++a) {
+          const int u = (a + 1) % 3, v = (a + 2) % 3;
+          const int nu = int(std::ceil((box.max[u] - box.min[u]) / probe.spacing));
+          const int nv = int(std::ceil((box.max[v] - box.min[v]) / probe.spacing));
+          const double du = (box.max[u] - box.min[u]) / nu, dv = (box.max[v] - box.min[v]) / nv;
+          for (const double side : {-1.0, 1.0}) {
+            Vec3d normal = Vec3d::Zero(), point;
+            normal[a] = side;
+            point[a] = side < 0 ? box.min[a] : box.max[a];
+            double face = 0;
+            for (int i = 0; i < nu; ++i) {
+              for (int j = 0; j < nv; ++j) {
+                point[u] = box.min[u] + (i + 0.5) * du;
+                point[v] = box.min[v] + (j + 0.5) * dv;
+                face += wall_pressure(point, normal) * (du * dv);
+              }
+            }
+            force[a] -= side * face;
+          }
         }
-        values.push_back(weights > 0 ? std::max(0.0, weighted / weights) : 0.0);
+        values.insert(values.end(), {force.x(), force.y(), force.z()});
         break;
       }
       case ProbeKind::kPressure:
@@ -162,8 +197,8 @@ TEST(ProbeGatherTest, EveryProbeEqualsAScanOfAllParticles) {
   const std::vector<double> scanned = ScanAll(probes, model, state);
   ASSERT_EQ(gathered.size(), scanned.size());
   // Columns: front x, y, z; two wall pressures; pressure; height; density mean and max;
-  // kinetic energy; ten counts.
-  ASSERT_EQ(ProbeColumns(probes).size(), 20u);
+  // kinetic energy; ten counts; a box force's three.
+  ASSERT_EQ(ProbeColumns(probes).size(), 23u);
   for (size_t k = 0; k < scanned.size(); ++k) {
     if (k == 7 || k == 9) {
       // The sums go chunk by chunk: the same up to rounding.
@@ -177,10 +212,12 @@ TEST(ProbeGatherTest, EveryProbeEqualsAScanOfAllParticles) {
   EXPECT_GT(scanned[4], 0);
   EXPECT_GT(scanned[5], 0);
   EXPECT_GT(scanned[6], 0.5);
-  const ProbeGatherPlan plan = PlanProbeGather(probes, model);
+  EXPECT_GT(std::abs(scanned[20]), 1e-6);  // the box force: the pressures differ face to face
+  const ProbeGatherPlan plan = PlanProbeGather(probes, model, state.time);
   ProbeGather gather;
   GatherProbes(plan, state.particles, gather);
-  ASSERT_EQ(gather.candidates.size(), 4u);
+  ASSERT_EQ(gather.candidates.size(), 5u);
+  EXPECT_GT(gather.candidates[4].size(), 100u);  // around the box
   const auto& seam = gather.candidates[1];
   EXPECT_TRUE(std::any_of(seam.begin(), seam.end(), [](auto& c) { return c.x > 1.9f; }));
   EXPECT_TRUE(std::any_of(seam.begin(), seam.end(), [](auto& c) { return c.x < 0.1f; }));

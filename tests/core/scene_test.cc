@@ -368,6 +368,48 @@ TEST(ParseSceneTest, BadProbesAreNamed) {
                     "probes[0].radius");
 }
 
+TEST(ParseSceneTest, ABoxForceProbeNamesItsBoxByItsPlaceAmongTheObstacles) {
+  const Scene scene = ParseScene(R"({
+    "obstacles": [{"type": "sphere", "center": [0, 0, 0], "radius": 0.2},
+                  {"type": "box", "center": [1, 0, 0], "size": [0.5, 0.5, 0.5]},
+                  {"type": "sphere", "center": [0, 1, 0], "radius": 0.2},
+                  {"type": "box", "center": [-1, 0, 0], "size": [0.2, 0.2, 0.2]}],
+    "probes": [{"type": "box_force", "name": "F", "obstacle": 3, "spacing": 0.01},
+               {"type": "box_force", "name": "G", "obstacle": 1}]})");
+  ASSERT_EQ(scene.probes.size(), 2u);
+  EXPECT_EQ(scene.probes[0].kind, ProbeKind::kBoxForce);
+  EXPECT_EQ(scene.probes[0].box, 1);  // the second box
+  EXPECT_EQ(scene.probes[0].spacing, 0.01);
+  EXPECT_EQ(scene.probes[1].box, 0);
+  EXPECT_EQ(scene.probes[1].spacing, 0.0);  // the default: the kernel's support
+  EXPECT_EQ(scene.boxes.at(1).box.Center(), Vec3d(-1, 0, 0));
+}
+
+TEST(ParseSceneTest, ABadBoxForceProbeIsNamed) {
+  const std::string obstacles = R"("obstacles": [{"type": "sphere"}, {"type": "box"}])";
+  const ConfigError none =
+      ExpectConfigError(R"({"probes": [{"type": "box_force"}]})", "probes[0].obstacle");
+  EXPECT_THAT(none.what(), HasSubstr("has none"));
+  const ConfigError missing = ExpectConfigError(
+      "{" + obstacles + R"(, "probes": [{"type": "box_force"}]})", "probes[0].obstacle");
+  EXPECT_THAT(missing.what(), HasSubstr("[0, 1]"));
+  const ConfigError sphere =
+      ExpectConfigError("{" + obstacles + R"(, "probes": [{"type": "box_force", "obstacle": 0}]})",
+                        "probes[0].obstacle");
+  EXPECT_THAT(sphere.what(), HasSubstr("is a sphere"));
+  ExpectConfigError("{" + obstacles + R"(, "probes": [{"type": "box_force", "obstacle": 2}]})",
+                    "probes[0].obstacle");
+  ExpectConfigError("{" + obstacles + R"(, "probes": [{"type": "box_force", "obstacle": 0.5}]})",
+                    "probes[0].obstacle");
+  ExpectConfigError(
+      "{" + obstacles + R"(, "probes": [{"type": "box_force", "obstacle": 1, "spacing": 0}]})",
+      "probes[0].spacing");
+  ExpectConfigError(
+      "{" + obstacles +
+          R"(, "probes": [{"type": "box_force", "obstacle": 1, "point": [0, 0, 0]}]})",
+      "probes[0].point");
+}
+
 TEST(ParseSceneTest, DuplicateProbeNamesAreRejected) {
   ExpectConfigError(R"({"probes": [{"type": "density", "name": "a"},
                                    {"type": "kinetic_energy", "name": "a"}]})",

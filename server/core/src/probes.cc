@@ -16,6 +16,8 @@ std::vector<std::string> ProbeColumns(std::span<const ProbeSpec> probes) {
     if (probe.kind == ProbeKind::kDensity) {
       columns.push_back(probe.name + "_mean");
       columns.push_back(probe.name + "_max");
+    } else if (probe.kind == ProbeKind::kBoxForce) {
+      for (const char* axis : {"_x", "_y", "_z"}) columns.push_back(probe.name + axis);
     } else {
       columns.push_back(probe.name);
     }
@@ -27,7 +29,7 @@ namespace {
 
 bool IsLocal(ProbeKind kind) {
   return kind == ProbeKind::kHeight || kind == ProbeKind::kPressure ||
-         kind == ProbeKind::kWallPressure;
+         kind == ProbeKind::kWallPressure || kind == ProbeKind::kBoxForce;
 }
 
 // A window reaching a hair beyond `reach`: the finish's own distance test decides, the window
@@ -82,29 +84,10 @@ double PressureFrom(std::span<const ProbeCandidate> candidates, const Model& mod
   return weights > 0 ? weighted / weights : 0.0;
 }
 
-double WallPressureFrom(std::span<const ProbeCandidate> candidates, const Model& model,
-                        const Vec3d& point, const Vec3d& normal, double time) {
-  const PhysicalKernel<double> kernel = model.Kernel<double>();
-  const double g = physical::GravityAt(model.params, time);  // along +y
-  double weighted = 0;
-  double weights = 0;
-  for (const ProbeCandidate& c : candidates) {
-    const Vec3d to_particle = model.MinimumImage(Vec3d(PositionOf(c) - point));
-    if (to_particle.dot(normal) < 0) continue;
-    const double w = kernel.W(to_particle.norm());
-    if (w <= 0) continue;
-    // g . (x_s - x_f) = g (y_s - y_f): the weight of the water between the particle and the
-    // sensor's height.
-    weighted += (double(c.pressure) - double(c.density) * g * to_particle.y()) * w;
-    weights += w;
-  }
-  return weights > 0 ? std::max(0.0, weighted / weights) : 0.0;
-}
-
 // One local probe gathered from the host's arrays (the single-probe entry points below).
 std::vector<ProbeCandidate> GatherWindow(const ParticleArrays& particles, const Model& model,
                                          const ProbeWindow& window) {
-  ProbeGatherPlan plan = PlanProbeGather({}, model);
+  ProbeGatherPlan plan = PlanProbeGather({}, model, 0);
   plan.windows.push_back(window);
   ProbeGather gather;
   GatherProbes(plan, particles, gather);
@@ -113,7 +96,17 @@ std::vector<ProbeCandidate> GatherWindow(const ParticleArrays& particles, const 
 
 }  // namespace
 
-ProbeGatherPlan PlanProbeGather(std::span<const ProbeSpec> probes, const Model& model) {
+double WallPressureFrom(std::span<const ProbeCandidate> candidates, const Model& model,
+                        const Vec3d& point, const Vec3d& normal, double time) {
+  const PhysicalKernel<double> kernel = model.Kernel<double>();
+  const double g = physical::GravityAt(model.params, time);  // along +y
+  WallPressureSum sum;
+  for (const ProbeCandidate& c : candidates) sum.Add(c, model, kernel, g, point, normal);
+  return sum.Reading();
+}
+
+ProbeGatherPlan PlanProbeGather(std::span<const ProbeSpec> probes, const Model& model,
+                                double time) {
   ProbeGatherPlan plan;
   for (int a = 0; a < 3; ++a) {
     plan.wrap.periodic[a] = model.periodic[a];
@@ -145,6 +138,9 @@ ProbeGatherPlan PlanProbeGather(std::span<const ProbeSpec> probes, const Model& 
         plan.count_boxes.push_back(box);
         break;
       }
+      case ProbeKind::kBoxForce:
+        plan.windows.push_back(BoxForceWindow(ProbeBoxAt(probe, model, time), model));
+        break;
       case ProbeKind::kFront:
         break;  // the fronts are always reduced
     }
@@ -187,6 +183,12 @@ std::vector<double> FinishProbes(std::span<const ProbeSpec> probes, const Model&
       case ProbeKind::kCountInside:
         values.push_back(all.counts.at(box++));
         break;
+      case ProbeKind::kBoxForce: {
+        const Vec3d force =
+            BoxForceFrom(near, model, ProbeBoxAt(probe, model, time), probe.spacing, time);
+        values.insert(values.end(), {force.x(), force.y(), force.z()});
+        break;
+      }
     }
   }
   return values;
@@ -206,10 +208,21 @@ double ConnectedColumnHeight(const ParticleArrays& particles, const Model& model
   return ColumnHeight(GatherWindow(particles, model, window), model, point, radius, gap, floor);
 }
 
+Vec3d BoxForceOn(const ParticleArrays& particles, const Model& model, int box, double spacing,
+                 double time) {
+  ProbeSpec probe;
+  probe.kind = ProbeKind::kBoxForce;
+  probe.box = box;
+  probe.spacing = spacing;
+  const Aabb where = ProbeBoxAt(probe, model, time);
+  return BoxForceFrom(GatherWindow(particles, model, BoxForceWindow(where, model)), model, where,
+                      spacing, time);
+}
+
 std::vector<double> EvaluateProbes(std::span<const ProbeSpec> probes, const Model& model,
                                    const State& state) {
   ProbeGather gather;
-  GatherProbes(PlanProbeGather(probes, model), state.particles, gather);
+  GatherProbes(PlanProbeGather(probes, model, state.time), state.particles, gather);
   return FinishProbes(probes, model, state.time, gather);
 }
 

@@ -342,11 +342,15 @@ const std::map<std::string, ProbeKind>& ProbeKinds() {
       {"density", ProbeKind::kDensity},
       {"kinetic_energy", ProbeKind::kKineticEnergy},
       {"count_inside", ProbeKind::kCountInside},
+      {"box_force", ProbeKind::kBoxForce},
   };
   return kinds;
 }
 
-ProbeSpec ParseProbe(const json& j, const std::string& path) {
+// `box_of_obstacle`: for each entry of the scene's "obstacles", its index in Scene::boxes, or -1
+// where it is a sphere.
+ProbeSpec ParseProbe(const json& j, const std::string& path,
+                     const std::vector<int>& box_of_obstacle) {
   ObjectReader r(j, path);
   const std::string type = r.String("type").value_or("");
   auto kind = ProbeKinds().find(type);
@@ -390,6 +394,28 @@ ProbeSpec ParseProbe(const json& j, const std::string& path) {
     case ProbeKind::kCountInside:
       if (const json* region = r.Get("region")) p.region = ParseBox(*region, r.PathOf("region"));
       break;
+    case ProbeKind::kBoxForce: {
+      if (box_of_obstacle.empty()) {
+        throw ConfigError(r.PathOf("obstacle"),
+                          "a box_force probe needs a box among the scene's obstacles; it has none");
+      }
+      const int64_t last = int64_t(box_of_obstacle.size()) - 1;
+      if (r.Get("obstacle") == nullptr) {
+        throw ConfigError(r.PathOf("obstacle"),
+                          "a box_force probe needs the index of its box in \"obstacles\", an "
+                          "integer in [0, " +
+                              std::to_string(last) + "]");
+      }
+      const int64_t index = *r.Integer("obstacle", 0, last);
+      p.box = box_of_obstacle[size_t(index)];
+      if (p.box < 0) {
+        throw ConfigError(r.PathOf("obstacle"), "obstacles[" + std::to_string(index) +
+                                                    "] is a sphere; a box_force probe needs a box");
+      }
+      // Below a micrometre a face would hold more samples than BoxForceOn takes (it caps them).
+      p.spacing = r.Number("spacing", 1e-6, kMaxCoord, "m").value_or(0);
+      break;
+    }
     case ProbeKind::kDensity:
     case ProbeKind::kKineticEnergy:
       break;
@@ -421,8 +447,11 @@ Scene ParseSceneDocument(const json& root) {
                                        std::to_string(obstacles->size()));
   }
   size_t motion_keys = 0;
+  std::vector<int> box_of_obstacle;
   ForEachElement(r, "obstacles", [&](const json& j, const std::string& path) {
+    const size_t boxes = scene.boxes.size();
     ParseObstacle(j, path, scene, motion_keys);
+    box_of_obstacle.push_back(scene.boxes.size() > boxes ? int(boxes) : -1);
   });
   scene.solver = r.String("solver").value_or(scene.solver);
   // Throws ConfigError("solver", ...) quoting the name and listing the known solvers. It is
@@ -456,7 +485,7 @@ Scene ParseSceneDocument(const json& root) {
   scene.probe_interval = r.Number("probe_interval", 1e-6, 1e6, "s");
   std::set<std::string> probe_names;
   ForEachElement(r, "probes", [&](const json& j, const std::string& path) {
-    ProbeSpec p = ParseProbe(j, path);
+    ProbeSpec p = ParseProbe(j, path, box_of_obstacle);
     if (!probe_names.insert(p.name).second) {
       throw ConfigError(path + ".name", "duplicate probe name " + Quoted(p.name));
     }

@@ -79,7 +79,7 @@ Simulation::Simulation(Simulation&&) noexcept = default;
 Simulation& Simulation::operator=(Simulation&&) noexcept = default;
 
 std::vector<double> Simulation::EvaluateProbes(std::span<const ProbeSpec> probes) const {
-  const ProbeGatherPlan plan = PlanProbeGather(probes, model_);
+  const ProbeGatherPlan plan = PlanProbeGather(probes, model_, state_.time);
   ProbeGather gather;
   if (backend_ && host_stale_ && backend_->gathers_probes()) {
     backend_->GatherProbes(plan, gather);

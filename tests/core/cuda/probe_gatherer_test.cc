@@ -30,12 +30,14 @@ ProbeSpec Probe(ProbeKind kind, const std::string& name, Vec3d point = Vec3d::Ze
 
 // A block of water falling or breaking in its box, with every kind of probe placed from the
 // box and the block: seed_basic's cube (30^3 = 27,000 particles) for the seed; for the physical
-// solvers a dam of 40 x 30 x 20 particles (24,000). The wide height probe holds thousands of
-// particles, more than the gather's first buffer.
+// solvers a dam of 40 x 30 x 20 particles (24,000) with a box obstacle against its face and
+// that box's force. The wide height probe holds thousands of particles, more than the gather's
+// first buffer.
 Scene ProbedScene(const std::string& solver) {
   Scene scene = solver == "seed" ? LoadScene("seed_basic") : ParseScene(R"({
     "domain": {"min": [0, 0, 0], "max": [0.8, 0.5, 0.2]},
     "fluid_blocks": [{"center": [0.2, 0.15, 0.1], "size": [0.4, 0.3, 0.2]}],
+    "obstacles": [{"type": "box", "center": [0.43, 0.05, 0.1], "size": [0.05, 0.1, 0.1]}],
     "params": {"gravity": -9.81, "particle_spacing": 0.01, "speed_of_sound": 25},
     "solver": ")" + solver + R"("})");
   const Aabb box = scene.domain;
@@ -69,6 +71,11 @@ Scene ProbedScene(const std::string& solver) {
     slice.max.x() = slice.min.x() + 0.1 * size.x();
     probes.back().region = slice;
   }
+  // The physical solvers' box stands against the dam's face: its force is the dam's push.
+  if (!scene.boxes.empty()) {
+    probes.push_back(Probe(ProbeKind::kBoxForce, "F"));
+    probes.back().box = 0;
+  }
   return scene;
 }
 
@@ -100,8 +107,12 @@ TEST_P(ProbeGathererTest, TheDeviceGatherEqualsTheHostScan) {
   EXPECT_GT(host[5], 0) << "h_wide";
   EXPECT_GT(host[9], 0) << "ke";
   double counted = 0;
-  for (size_t k = 10; k < host.size(); ++k) counted += host[k];
+  for (size_t k = 10; k < 20; ++k) counted += host[k];
   EXPECT_GT(counted, 20000) << "the slices hold the particles";
+  if (GetParam() != "seed") {
+    ASSERT_EQ(columns.at(20), "F_x");
+    EXPECT_GT(host[20], 1.0) << "the dam pushes its box towards +x";
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(EverySolver, ProbeGathererTest,

@@ -11,7 +11,8 @@
 
 namespace dysa {
 
-// Column names, in order: one per probe, two for a density probe (NAME_mean, NAME_max).
+// Column names, in order: one per probe, two for a density probe (NAME_mean, NAME_max), three
+// for a box force (NAME_x, NAME_y, NAME_z).
 std::vector<std::string> ProbeColumns(std::span<const ProbeSpec> probes);
 
 // The height above `floor` of the water column standing at (x, z) of `point`: the particles
@@ -35,6 +36,16 @@ double ConnectedColumnHeight(const ParticleArrays& particles, const Model& model
 // solvers clamp at 0 too); 0 where no particle is within the support (a dry sensor).
 double WallPressureAt(const ParticleArrays& particles, const Model& model, const Vec3d& point,
                       const Vec3d& normal, double time);
+
+// The fluid's pressure force on the box obstacle model.boxes[box] where it stands at `time`, N:
+// the wall pressure (WallPressureAt, each face's outward normal) integrated over the box's six
+// faces, F = - sum_faces sum_patches p n dA. Each face is cut into equal patches of side at most
+// `spacing` m (0: the kernel's support, the width the pressure field is averaged over anyway; at
+// most 1000 patches along an edge) and read at their centres. A face with no fluid on its
+// side (on the floor, against a wall) adds nothing. The probe box_force writes it as NAME_x,
+// NAME_y, NAME_z. Throws std::out_of_range for a box the model does not have.
+Vec3d BoxForceOn(const ParticleArrays& particles, const Model& model, int box, double spacing,
+                 double time);
 
 // The values of every probe for the current state, in ProbeColumns() order.
 std::vector<double> EvaluateProbes(std::span<const ProbeSpec> probes, const Model& model,

@@ -88,6 +88,9 @@ enum class ProbeKind {
   kDensity,        // mean and max density of all particles, kg/m^3 (two columns)
   kKineticEnergy,  // sum of m |v|^2 / 2, J
   kCountInside,    // number of particles inside `region` (default: the domain)
+  // The fluid's pressure force on a box obstacle, N (three columns, NAME_x, NAME_y, NAME_z):
+  // the wall pressure integrated over its faces (probes.h, BoxForceOn).
+  kBoxForce,
 };
 
 struct ProbeSpec {
@@ -103,6 +106,10 @@ struct ProbeSpec {
   // particles around the point count, whichever side of the face they are on).
   Vec3d normal = Vec3d::Zero();
   std::optional<Aabb> region;
+  // kBoxForce: the box (an index into Scene::boxes), and the side of the square patches its
+  // faces are sampled on, m (0 = the kernel's support).
+  int box = -1;
+  double spacing = 0;
 };
 
 struct Scene {
