@@ -24,6 +24,10 @@ spheric2 (SPHERIC Test 2; definitions of ../shared/notes/spheric2.md, section 5)
   arrival: the first crossing of 500 Pa by the 1 ms average (spheric2.md's P1 definition; the
     same threshold is used for P2, for which the note defines none), linear between samples.
   peaks: the largest 1 ms and 5 ms averages with 0.40 s <= t <= 0.46 s.
+  box force: the largest 1 ms average of -F_x (the flow's push on the box) in the same window,
+    from the peer's force gauge GaugesForce_ForceBox.csv and the project's
+    spheric_test2_force_DP.csv beside its PROJECT_STEPS (accuracy_bench --step-series), where
+    they exist.
   H errors: the RMS of H - H_MARIN at the MARIN rows (every 10 ms) with t <= 0.75 s and with
     t <= tmax (early_end_s and tmax_s: the last rows reached), divided by the water's initial
     depth 0.55 m (H1-H3 start dry, where an error relative to the measured value has no
@@ -198,13 +202,37 @@ def read_peer_spheric(directory):
         t, p, _, _ = read_peer_mesh(top, run_out_path, run, 2, TOP_Z, 3 - s)
         series[f"P{s + 5}"] = (t, p)
     series.update(read_peer_heights(directory))
+    series.update(read_peer_force(directory))
     return series, "; ".join(notes)
 
 
+def read_peer_force(directory):
+    """{"Fx": (times, F_x in N)} from the force gauge's GaugesForce_ForceBox.csv (the fluid's
+    force on the box, columns time;force;forcex;forcey;forcez with their units), or {} where the
+    run has none."""
+    path = os.path.join(directory, "GaugesForce_ForceBox.csv")
+    if not os.path.exists(path):
+        return {}
+    data = read_table(path, ";")
+    time = next((c for c in data if c.startswith("time")), None)
+    fx = next((c for c in data if c.startswith("forcex")), None)
+    if time is None or fx is None:
+        raise InputError(f"{path}: no 'time' or 'forcex' column (columns: {', '.join(data)})")
+    return {"Fx": (data[time], data[fx])}
+
+
 def read_project_steps(path):
+    """P1-P8 and H1-H4 from accuracy_bench's spheric_test2_steps_DP.csv, and the box force Fx
+    from the spheric_test2_force_DP.csv beside it where there is one."""
     names = [f"P{s}_pa" for s in range(1, 9)] + [f"H{g}_m" for g in range(1, 5)]
     data = read_table(path, ",", required=("t_s",) + tuple(names))
-    return {n.split("_")[0]: (data["t_s"], data[n]) for n in names}
+    series = {n.split("_")[0]: (data["t_s"], data[n]) for n in names}
+    force = os.path.join(os.path.dirname(path),
+                         os.path.basename(path).replace("_steps_", "_force_"))
+    if force != path and os.path.exists(force):
+        f = read_table(force, ",", required=("t_s", "Fx_n"))
+        series["Fx"] = (f["t_s"], f["Fx_n"])
+    return series
 
 
 def read_marin_heights(repo):
@@ -294,6 +322,10 @@ def spheric_measures(series, ref_t, ref_h, tmax):
         out[f"{p}_arrival_s"] = first_crossing(times, short, THRESHOLD_PA)
         out[f"{p}_peak_1ms_pa"], out[f"{p}_peak_1ms_time_s"] = peak_in(times, short, *PEAK_WINDOW)
         out[f"{p}_peak_5ms_pa"], out[f"{p}_peak_5ms_time_s"] = peak_in(times, long_, *PEAK_WINDOW)
+    if "Fx" in series:  # the push on the box, towards -x: the peak of -F_x over 1 ms
+        times, fx = series["Fx"]
+        push = moving_average(times, -fx, SHORT_WINDOW)
+        out["Fx_peak_1ms_n"], out["Fx_peak_1ms_time_s"] = peak_in(times, push, *PEAK_WINDOW)
     end = tmax if tmax else max(float(series[f"H{g}"][0][-1]) for g in range(1, 5))
     out["early_end_s"] = out["tmax_s"] = 0.0  # the last MARIN rows the errors reach
     for g in range(4):
@@ -584,6 +616,7 @@ def run_spheric(args, repo):
             "P2_peak_1ms_pa", "P2_peak_1ms_time_s", "P2_peak_5ms_pa", "P2_peak_5ms_time_s"]
     keys += [f"H{g}_rms_to_0.75s" for g in range(1, 5)] + ["early_end_s", "tmax_s"]
     keys += [f"H{g}_rms_to_tmax" for g in range(1, 5)]
+    keys += ["Fx_peak_1ms_n", "Fx_peak_1ms_time_s"]
     rows, curves = [], []
     m = MARIN_PRESSURE
     rows.append({"code": "experiment", "dp_m": "", "pressure_source":

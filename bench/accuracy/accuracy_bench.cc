@@ -16,7 +16,8 @@
 // sensors and gauges every millisecond into spheric_test2_series_SPACING.csv for
 // plot_accuracy.py. --spacings replaces the default spacings; --step-series also writes every
 // step's raw probe values (P1-P8 in Pa, H1-H4 in m, as the run records them) into
-// spheric_test2_steps_SPACING.csv, which bench/peer_compare.py reads beside DualSPHysics's gauges.
+// spheric_test2_steps_SPACING.csv and the box force every ~0.1 ms into
+// spheric_test2_force_SPACING.csv, which bench/peer_compare.py reads beside DualSPHysics's gauges.
 #include <omp.h>
 
 #include <CLI/CLI.hpp>
@@ -119,6 +120,16 @@ void WriteStepSeries(const std::filesystem::path& path, const dysa::SphericTest2
   if (!out) throw std::runtime_error("error writing " + path.string());
 }
 
+// The box force's readings (SphericTest2Result::force_times, force_x), every ~0.1 ms.
+void WriteForceSeries(const std::filesystem::path& path, const dysa::SphericTest2Result& r) {
+  std::ofstream out(path);
+  if (!out) throw std::runtime_error("cannot write " + path.string());
+  out << "t_s,Fx_n\n" << std::setprecision(9);
+  for (size_t k = 0; k < r.force_times.size(); ++k)
+    out << r.force_times[k] << ',' << r.force_x[k] << '\n';
+  if (!out) throw std::runtime_error("error writing " + path.string());
+}
+
 // SPHERIC Test 2 at spacings that are whole fractions of the water's 0.55 m depth (7, 9 and 11
 // layers; --fine adds the scene's 0.025 m, 22 layers), so that the reservoir starts at the
 // experiment's depth; or at --spacings.
@@ -131,7 +142,8 @@ int RunSpheric(const std::filesystem::path& out_dir, const SphericOptions& o) {
   std::ofstream csv(out_dir / "accuracy_spheric_test2.csv");
   csv << "solver,spacing_m,particles,steps,particle_steps,wall_s,end_s,p1_arrival_s,"
          "p1_arrival_error_s,p1_peak_pa,p1_peak_error,p1_impact_mean_pa,h4_error_1s,h1_error,"
-         "h2_error,h3_error,h4_error,p1_peak_5ms_pa,p2_arrival_s,p2_peak_pa,p2_peak_error\n";
+         "h2_error,h3_error,h4_error,p1_peak_5ms_pa,p2_arrival_s,p2_peak_pa,p2_peak_error,"
+         "force_peak_n,force_peak_time_s\n";
   std::printf("%-8s %9s %9s %7s %8s %10s %10s %9s %9s\n", "spacing", "particles", "steps", "wall s",
               "arrival", "arrival-", "peak kPa", "peak err", "H4 err");
   for (double spacing : spacings) {
@@ -156,13 +168,16 @@ int RunSpheric(const std::filesystem::path& out_dir, const SphericOptions& o) {
         << peak_error << ',' << r.p1_impact_mean << ',' << r.h4_error_first_second;
     for (double e : r.height_error) csv << ',' << e;
     csv << ',' << r.p1_peak_5ms << ',' << r.p2_arrival.value_or(std::nan("")) << ',' << r.p2_peak
-        << ',' << r.p2_peak / dysa::kP2PeakMeasured - 1;
+        << ',' << r.p2_peak / dysa::kP2PeakMeasured - 1 << ',' << r.force_peak << ','
+        << r.force_peak_time;
     csv << '\n';
     csv.flush();
     char name[64];
     if (o.step_series) {
       std::snprintf(name, sizeof name, "spheric_test2_steps_%.4f.csv", spacing);
       WriteStepSeries(out_dir / name, r);
+      std::snprintf(name, sizeof name, "spheric_test2_force_%.4f.csv", spacing);
+      WriteForceSeries(out_dir / name, r);
     }
     // Every millisecond: the last step at or before it.
     std::snprintf(name, sizeof name, "spheric_test2_series_%.4f.csv", spacing);

@@ -208,6 +208,34 @@ class SphericTest(unittest.TestCase):
         self.assertAlmostEqual(float(series["0.455"]["P5_1ms_pa"]), 700.0, places=3)
         self.assertAlmostEqual(float(series["0.2"]["P5_1ms_pa"]), 0.0, places=3)
 
+    def test_box_force_peaks_of_both_codes(self):
+        # The peer's force gauge every 0.1 ms (its forcex negative: the flow pushes towards -x),
+        # a 1 ms push of 600 N with one 900 N sample at 0.425 s; the project's file every 0.2 ms
+        # with a plateau of 400 N from 0.43 s.
+        tf = np.round(np.arange(8001) * 0.0001, 7)
+        push = plateau(tf, 0.42, 0.43, 600.0, [(0.425, 900.0), (0.5, 5000.0)])
+        with open(os.path.join(self.fx.peer, "GaugesForce_ForceBox.csv"), "w") as f:
+            f.write("time [s];force [N];forcex [N];forcey [N];forcez [N]\n")
+            for k, t in enumerate(tf):
+                f.write(f"{t:.7f};{push[k]};{-push[k]};0;0\n")
+        tj = np.round(np.arange(4001) * 0.0002, 7)
+        with open(os.path.join(self.tmp.name, "spheric_test2_force_0.0100.csv"), "w") as f:
+            f.write("t_s,Fx_n\n")
+            for t, v in zip(tj, plateau(tj, 0.43, 0.45, 400.0)):
+                f.write(f"{t:.7f},{-v}\n")
+        rows, _ = self.fx.run()
+        # 1 ms windows that hold the 900 N sample among the 600 N ones: above 600, below 900,
+        # within half a window of 0.425 s; the 5 kN at 0.5 s is outside 0.40-0.46 s.
+        self.assertGreater(rows["dualsphysics"]["Fx_peak_1ms_n"], 600.0)
+        self.assertLess(rows["dualsphysics"]["Fx_peak_1ms_n"], 900.0)
+        self.assertLessEqual(abs(rows["dualsphysics"]["Fx_peak_1ms_time_s"] - 0.425), 0.0005 + 1e-9)
+        self.assertAlmostEqual(rows["project"]["Fx_peak_1ms_n"], 400.0, places=6)
+        # Without the files there is no force: no column value, no error.
+        os.remove(os.path.join(self.fx.peer, "GaugesForce_ForceBox.csv"))
+        os.remove(os.path.join(self.tmp.name, "spheric_test2_force_0.0100.csv"))
+        rows, _ = self.fx.run()
+        self.assertNotIn("Fx_peak_1ms_n", rows["project"])
+
     def test_pareto_pairs_wall_time_with_errors(self):
         out = os.path.join(self.fx.root, "out")
         os.makedirs(out)

@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <string>
 
 #include "dysa/validation/validation_impact.h"
@@ -91,6 +92,23 @@ TEST(SphericTest2Test, QuickRunReachesP1OnTimeWithTheImpactsScale) {
   // the experiment's: 0.476 m against 0.454 m at 0.42 s). Target at the default resolution: 5%
   // over the first second.
   EXPECT_LT(r.h4_error_first_second, 0.06);
+  // The box force F (the scene's box_force probe): read at most every 0.1 ms of simulated time,
+  // 0 while the box is dry, then the impact's push towards -x. Its 1 ms peak, measured 2,510 N
+  // at 0.428 s here, is the face's area (0.161 x 0.403 m) times a pressure of P1's 1 ms peak's
+  // scale, spiky like it at this resolution (DualSPHysics's force gauge reads 766 N at dp 0.01,
+  // ../shared/notes/spheric2.md); a force 10 times off in either direction is wrong physics.
+  ASSERT_EQ(r.force_times.size(), r.force_x.size());
+  ASSERT_GT(r.force_times.size(), 100u);
+  for (size_t k = 1; k < r.force_times.size(); ++k) {
+    ASSERT_GE(r.force_times[k] - r.force_times[k - 1], kBoxForceInterval - 1e-12) << k;
+    if (r.force_times[k] <= 0.3) {
+      ASSERT_EQ(r.force_x[k], 0.0) << "t = " << r.force_times[k];
+    }
+  }
+  std::printf("box force: 1 ms peak %.1f N at %.4f s\n", r.force_peak, r.force_peak_time);
+  EXPECT_GT(r.force_peak, 250);
+  EXPECT_LT(r.force_peak, 25000);
+  EXPECT_GT(r.force_peak_time, *r.p1_arrival - 0.01);
 }
 
 }  // namespace

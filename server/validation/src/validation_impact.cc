@@ -106,9 +106,25 @@ SphericTest2Result RunSphericTest2(const ValidationOptions& options, double end_
     }
   }
 
+  // The box force, where the scene has one (the first box_force probe), read with the others.
+  std::vector<ProbeSpec> with_force = probes;
+  for (const ProbeSpec& p : scene.probes) {
+    if (p.kind == ProbeKind::kBoxForce) {
+      with_force.push_back(p);
+      break;
+    }
+  }
+  const bool has_force = with_force.size() > probes.size();
+
   SphericTest2Result result;
   const auto sample = [&] {
-    const std::vector<double> values = sim.EvaluateProbes(probes);
+    const bool force = has_force && (result.force_times.empty() ||
+                                     sim.time() >= result.force_times.back() + kBoxForceInterval);
+    const std::vector<double> values = sim.EvaluateProbes(force ? with_force : probes);
+    if (force) {
+      result.force_times.push_back(sim.time());
+      result.force_x.push_back(values[kSphericPressureSensors + kSphericGauges]);  // F_x
+    }
     result.times.push_back(sim.time());
     for (int s = 0; s < kSphericPressureSensors; ++s) result.pressure[s].push_back(values[s]);
     for (int g = 0; g < kSphericGauges; ++g) {
@@ -139,6 +155,17 @@ SphericTest2Result RunSphericTest2(const ValidationOptions& options, double end_
       const double t = result.times[k];
       if (t >= *result.p1_arrival && t <= *result.p1_arrival + kImpactWindow) {
         result.p1_peak_5ms = std::max(result.p1_peak_5ms, history[k]);
+      }
+    }
+  }
+
+  if (has_force) {
+    const std::vector<double> push =
+        MovingAverage(result.force_times, result.force_x, kSensorWindow);
+    for (size_t k = 0; k < push.size(); ++k) {
+      if (-push[k] > result.force_peak) {
+        result.force_peak = -push[k];
+        result.force_peak_time = result.force_times[k];
       }
     }
   }

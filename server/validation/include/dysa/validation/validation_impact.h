@@ -54,6 +54,10 @@ inline constexpr double kHistoryWindow = 0.005;  // s
 // the first impact, not the later returning wave.
 inline constexpr double kArrivalThreshold = 500;  // Pa
 inline constexpr double kImpactWindow = 0.1;      // s
+// The box force (the scene's box_force probe F, the pressure integrated over the box's faces)
+// is read at most this often, in simulated time, as DualSPHysics's force gauge at 10 kHz: a
+// ten-sample 1 ms average at any spacing, for a finish that costs more than the other probes.
+inline constexpr double kBoxForceInterval = 1e-4;  // s
 
 // `trace` centred-moving-averaged over `window` (seconds) at each of `times` (increasing),
 // sample k weighted by its step's length times[k] - times[k - 1] (the first by times[0]).
@@ -79,6 +83,12 @@ struct SphericTest2Result {
   // length): the impact's impulse over that time, which the particle-scale noise that the
   // filter leaves at coarse resolutions averages out of.
   double p1_impact_mean = 0;
+  // N, the fluid's force on the box along x, read after the steps at force_times (s), at most
+  // every kBoxForceInterval (the flow pushes the box towards -x); empty when the scene has no
+  // box_force probe. The peak: the largest kSensorWindow average of -F_x over the run.
+  std::vector<double> force_times, force_x;
+  double force_peak = 0;       // N
+  double force_peak_time = 0;  // s
   // RMS of |H4 - H4_ref| / H4_ref over the reference rows with t <= 1 s (the target's measure).
   double h4_error_first_second = 0;
   // Per gauge, the RMS of |H - H_ref| / kSphericDepth over the reference rows up to the run's
