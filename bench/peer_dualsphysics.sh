@@ -34,6 +34,9 @@
 #   peer_compare_CASE_TAG.csv/png  spheric2 and martinmoyce: bench/peer_compare.py's measures
 #   peer_series_*_TAG.csv          spheric2: both codes' gauges as the same 1 ms measures
 #   raw_CASE_TAG/                  the codes' logs and gauge files (not meant for the repository)
+#   compare_command.txt            where /usr/bin/python3 lacks numpy or matplotlib (a GPU box
+#                                  without Debian's packages): peer_compare.py's arguments, to
+#                                  run where they are installed (the raw outputs are kept)
 set -euo pipefail
 
 repo=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -305,6 +308,15 @@ done
 echo "wrote $throughput" >&2
 
 if [[ ${#compare_args[@]} -gt 0 ]]; then
-  /usr/bin/python3 "$repo/bench/peer_compare.py" --case "$case_name" --tag "$tag" --tmax "$tmax" \
-    --repo "$repo" --out "$out" "${compare_args[@]}"
+  compare=("$repo/bench/peer_compare.py" --case "$case_name" --tag "$tag" --tmax "$tmax"
+           --repo "$repo" --out "$out" "${compare_args[@]}")
+  if /usr/bin/python3 -c 'import numpy, matplotlib' 2> /dev/null; then
+    /usr/bin/python3 "${compare[@]}"
+  else
+    # A GPU box without Debian's python3-numpy and python3-matplotlib: the runs' outputs stay
+    # under $raw, and the comparison runs where they are installed, with the same arguments.
+    echo "${compare[*]}" > "$out/compare_command.txt"
+    echo "peer_dualsphysics.sh: /usr/bin/python3 has no numpy or matplotlib here; the outputs are" \
+      "kept in $raw; run /usr/bin/python3 $(cat "$out/compare_command.txt") where it has them" >&2
+  fi
 fi
