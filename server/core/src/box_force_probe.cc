@@ -111,17 +111,6 @@ Aabb ProbeBoxAt(const ProbeSpec& probe, const Model& model, double time) {
   return Aabb{obstacle.box.min + shift, obstacle.box.max + shift};
 }
 
-ProbeWindow BoxForceWindow(const Aabb& box, const Model& model) {
-  // A hair beyond the support (as the other windows): the finish's distance test decides.
-  const double reach = model.kernel_support * (1 + 1e-6);
-  ProbeWindow window;
-  for (int a = 0; a < 3; ++a) {
-    window.center[a] = 0.5 * (box.min[a] + box.max[a]);
-    window.half[a] = 0.5 * (box.max[a] - box.min[a]) + reach;
-  }
-  return window;
-}
-
 Vec3d BoxForceFrom(std::span<const ProbeCandidate> candidates, const Model& model, const Aabb& box,
                    double spacing, double time) {
   const double ds = SampleSpacing(spacing, model);

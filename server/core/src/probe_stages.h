@@ -56,11 +56,10 @@ struct WallPressureSum {
 double WallPressureFrom(std::span<const ProbeCandidate> candidates, const Model& model,
                         const Vec3d& point, const Vec3d& normal, double time);
 
-// A box_force probe (box_force_probe.cc): the box of `probe` where it stands at `time`, the
-// window its finish needs (the box grown by the kernel's support), and the force from the
-// particles of that window (probes.h, BoxForceOn).
+// A box_force probe (box_force_probe.cc): the box of `probe` where it stands at `time`, and the
+// force from the particles of a window around it grown by the kernel's support (probes.h,
+// BoxForceOn).
 Aabb ProbeBoxAt(const ProbeSpec& probe, const Model& model, double time);
-ProbeWindow BoxForceWindow(const Aabb& box, const Model& model);
 Vec3d BoxForceFrom(std::span<const ProbeCandidate> candidates, const Model& model, const Aabb& box,
                    double spacing, double time);
 

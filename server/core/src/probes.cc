@@ -45,6 +45,12 @@ ProbeWindow WindowAround(const Vec3d& point, double reach_x, double reach_y, dou
   return window;
 }
 
+// The window a box force's finish reads: the box grown by the kernel's support.
+ProbeWindow WindowAroundBox(const Aabb& box, const Model& model) {
+  const Vec3d reach = 0.5 * box.Size() + Vec3d::Constant(model.kernel_support);
+  return WindowAround(box.Center(), reach.x(), reach.y(), reach.z());
+}
+
 double HeightRadius(const ProbeSpec& probe, const Model& model) {
   return probe.radius > 0 ? probe.radius : model.kernel_support;
 }
@@ -139,7 +145,7 @@ ProbeGatherPlan PlanProbeGather(std::span<const ProbeSpec> probes, const Model& 
         break;
       }
       case ProbeKind::kBoxForce:
-        plan.windows.push_back(BoxForceWindow(ProbeBoxAt(probe, model, time), model));
+        plan.windows.push_back(WindowAroundBox(ProbeBoxAt(probe, model, time), model));
         break;
       case ProbeKind::kFront:
         break;  // the fronts are always reduced
@@ -215,7 +221,7 @@ Vec3d BoxForceOn(const ParticleArrays& particles, const Model& model, int box, d
   probe.box = box;
   probe.spacing = spacing;
   const Aabb where = ProbeBoxAt(probe, model, time);
-  return BoxForceFrom(GatherWindow(particles, model, BoxForceWindow(where, model)), model, where,
+  return BoxForceFrom(GatherWindow(particles, model, WindowAroundBox(where, model)), model, where,
                       spacing, time);
 }
 
