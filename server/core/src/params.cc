@@ -88,6 +88,10 @@ const std::array kParamTable = {
     DYSA_PARAM(warm_start, "", 0.0, 1.0, kLive, kDfsph,
                "Fraction of the previous step's pressure impulse each solve starts from "
                "(0 turns the warm start off)"),
+    DYSA_PARAM(signed_corrections, "", 0, 1, kLive, kDfsph,
+               "0: each solve iteration only adds pressure; 1: its corrections take either "
+               "sign, the solve's total pressure stays >= 0 (a warm start's overshoot is "
+               "taken back)"),
     DYSA_PARAM(density_diffusion, "", 0.0, 1.0, kLive, kWcsph,
                "delta of the density diffusion in the continuity equation (delta-SPH, Fourtakas "
                "et al. 2019; 0: none; the literature's 0.1; above 1 it over-damps the pressure)"),

@@ -24,6 +24,21 @@ using dysa::testing::WendlandDamScene;
 
 const char* const kSolver = "dfsph";
 
+// Every particle within 1 um of where the CPU has it (matched by id).
+void ExpectSamePositions(const Simulation& cpu, const Simulation& gpu) {
+  const ParticleArrays& pc = cpu.state().particles;
+  const ParticleArrays& pg = gpu.state().particles;
+  ASSERT_EQ(pg.size(), pc.size());
+  std::vector<Vec3> by_id_cpu(pc.size()), by_id_gpu(pg.size());
+  for (size_t i = 0; i < pc.size(); ++i) by_id_cpu[pc.id[i]] = pc.position[i];
+  for (size_t i = 0; i < pg.size(); ++i) by_id_gpu[pg.id[i]] = pg.position[i];
+  double worst = 0;
+  for (size_t k = 0; k < pc.size(); ++k) {
+    worst = std::max(worst, double((by_id_gpu[k] - by_id_cpu[k]).norm()));
+  }
+  EXPECT_LT(worst, 1e-6) << "m, the largest distance between a particle on the CPU and the GPU";
+}
+
 TEST(DfsphGpuTest, FollowsTheCpuThroughADamBreakPastObstacles) {
   SKIP_WITHOUT_GPU();
   ExpectAgreement(DamScene(kSolver), 0.3);
@@ -50,17 +65,28 @@ TEST(DfsphGpuTest, TheFirstStepsMatchTheCpusSolves) {
     EXPECT_NEAR(g.density_iterations, c.density_iterations, 1) << "step " << i + 1;
     EXPECT_NEAR(g.divergence_iterations, c.divergence_iterations, 1) << "step " << i + 1;
   }
-  const ParticleArrays& pc = cpu.state().particles;
-  const ParticleArrays& pg = gpu.state().particles;
-  ASSERT_EQ(pg.size(), pc.size());
-  std::vector<Vec3> by_id_cpu(pc.size()), by_id_gpu(pg.size());
-  for (size_t i = 0; i < pc.size(); ++i) by_id_cpu[pc.id[i]] = pc.position[i];
-  for (size_t i = 0; i < pg.size(); ++i) by_id_gpu[pg.id[i]] = pg.position[i];
-  double worst = 0;
-  for (size_t k = 0; k < pc.size(); ++k) {
-    worst = std::max(worst, double((by_id_gpu[k] - by_id_cpu[k]).norm()));
+  ExpectSamePositions(cpu, gpu);
+}
+
+// Signed corrections (signed_corrections 1) from all of the previous step's pressure: the first
+// steps' time steps, iteration counts and positions as the CPU's, then the same run within the
+// agreement's tolerances.
+TEST(DfsphGpuTest, SignedCorrectionsFollowTheCpu) {
+  SKIP_WITHOUT_GPU();
+  Scene scene = DamScene(kSolver);
+  scene.params.signed_corrections = 1;
+  scene.params.warm_start = 1;
+  Simulation cpu(scene);
+  Simulation gpu(scene, kGpu);
+  for (int i = 0; i < 5; ++i) {
+    cpu.Step();
+    gpu.Step();
+    EXPECT_EQ(gpu.last_dt(), cpu.last_dt()) << "step " << i + 1;
+    EXPECT_NEAR(gpu.solver_stats().density_iterations, cpu.solver_stats().density_iterations, 1)
+        << "step " << i + 1;
   }
-  EXPECT_LT(worst, 1e-6) << "m, the largest distance between a particle on the CPU and the GPU";
+  ExpectSamePositions(cpu, gpu);
+  ExpectAgreement(scene, 0.3);
 }
 
 // The Wendland kernel at a larger support (kernel and smoothing_length_ratio) on the GPU.
@@ -84,17 +110,7 @@ TEST(DfsphGpuTest, MovingObstaclesFollowTheCpu) {
     gpu.Step();
     EXPECT_EQ(gpu.last_dt(), cpu.last_dt()) << "step " << i + 1;
   }
-  const ParticleArrays& pc = cpu.state().particles;
-  const ParticleArrays& pg = gpu.state().particles;
-  ASSERT_EQ(pg.size(), pc.size());
-  std::vector<Vec3> by_id_cpu(pc.size()), by_id_gpu(pg.size());
-  for (size_t i = 0; i < pc.size(); ++i) by_id_cpu[pc.id[i]] = pc.position[i];
-  for (size_t i = 0; i < pg.size(); ++i) by_id_gpu[pg.id[i]] = pg.position[i];
-  double worst = 0;
-  for (size_t k = 0; k < pc.size(); ++k) {
-    worst = std::max(worst, double((by_id_gpu[k] - by_id_cpu[k]).norm()));
-  }
-  EXPECT_LT(worst, 1e-6) << "m, the largest distance between a particle on the CPU and the GPU";
+  ExpectSamePositions(cpu, gpu);
   ExpectAgreement(MovingDamScene(kSolver), 0.3);
 }
 

@@ -136,7 +136,8 @@ class DfsphGpuBackend final : public PipelineBackend<cuda::DfsphPipeline> {
             .Min(),
         prm.max_time_step);
     const cuda::SolveResult divergence = pipeline_.DivergenceSolve(
-        divergence_dt, {prm.divergence_tolerance, prm.max_iterations, Real(prm.warm_start)});
+        divergence_dt, {prm.divergence_tolerance, prm.max_iterations, Real(prm.warm_start),
+                        prm.signed_corrections != 0});
     Record(divergence, "divergence", prm.divergence_tolerance, step, stats.divergence_iterations,
            stats.divergence_error, state);
     // ChooseIncompressibleTimeStepPass from the GPU's maxima (over the processes: floats convert
@@ -154,8 +155,9 @@ class DfsphGpuBackend final : public PipelineBackend<cuda::DfsphPipeline> {
                       std::to_string(kIncompressibleMaxCfl);
     }
     const Real dt = Real(state.dt);
-    const cuda::SolveResult density = pipeline_.DensitySolve(
-        dt, {prm.density_tolerance, prm.max_iterations, Real(prm.warm_start)});
+    const cuda::SolveResult density =
+        pipeline_.DensitySolve(dt, {prm.density_tolerance, prm.max_iterations, Real(prm.warm_start),
+                                    prm.signed_corrections != 0});
     Record(density, "density", prm.density_tolerance, step, stats.density_iterations,
            stats.density_error, state);
     if (moving) MoveContactSurfaces(model, state.time, state.dt, pipeline_);

@@ -20,6 +20,8 @@ using namespace sph;  // NOLINT: the shared half of these kernels
 // The largest density error, as a fraction of rho0, one iteration of the density solve
 // corrects (kMaxCorrection in bender_koschier_solver.cc).
 constexpr float kMaxCorrection = 0.05f;
+// The signed corrections' step (kSignedStep there).
+constexpr float kSignedStep = 0.5f;
 
 // m, the domain's length along each periodic axis, 0 along the others (Model::MinimumImage).
 struct Periods {
@@ -243,12 +245,47 @@ __global__ void WarmStartKernel(Fluid f, Boundary b, Solver s, SphConstants c, f
   if (kappa > 0) *any = 1;  // every writer writes the same value
 }
 
+// TakenBack (bender_koschier_solver.cc): what a signed correction corrects.
+__device__ inline float TakenBack(float difference, float kappa, float per_density) {
+  if (difference > 0.0f) return difference;
+  return kappa < 0.0f ? -kappa / per_density : 0.0f;
+}
+
+// One iteration's error and kappa with signed corrections (the CPU's signed branches): the solve's
+// total, applied, stays >= 0.
+__device__ inline void SignedErrorAndKappa(Fluid f, Boundary b, Solver s, SphConstants c, float dt,
+                                           float inv_dt_power, bool density_solve,
+                                           const float* applied, uint32_t i) {
+  const float rho0 = c.psi_scale;
+  const float floor = -applied[i];
+  if (density_solve) {
+    const float difference = f.density[i] + dt * DensityRate(f, b, s, c, i) - rho0;
+    const float cap = kMaxCorrection * rho0;
+    const float bounded = difference < -cap ? -cap : (cap < difference ? cap : difference);
+    const float raw = kSignedStep * bounded * inv_dt_power * s.alpha[i];
+    const float kappa = raw < floor ? floor : raw;  // std::max(raw, floor)
+    s.kappa[i] = kappa;
+    s.error[i] = TakenBack(difference, kappa, kSignedStep * inv_dt_power * s.alpha[i]);
+  } else {
+    const float rate = f.density[i] >= rho0 ? DensityRate(f, b, s, c, i) : 0.0f;
+    const float raw = kSignedStep * rate * s.alpha[i] * inv_dt_power;
+    const float kappa = raw < floor ? floor : raw;
+    s.kappa[i] = kappa;
+    s.error[i] = TakenBack(rate, kappa, kSignedStep * s.alpha[i] * inv_dt_power);
+  }
+}
+
 // One iteration's error and kappa: the divergence solve (density_solve false) or the density
-// solve.
+// solve; with signed corrections where `applied` is given.
 __global__ void SolveErrorKernel(Fluid f, Boundary b, Solver s, SphConstants c, float dt,
-                                 float inv_dt_power, bool density_solve, uint32_t n) {
+                                 float inv_dt_power, bool density_solve, const float* applied,
+                                 uint32_t n) {
   const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= n) return;
+  if (applied) {
+    SignedErrorAndKappa(f, b, s, c, dt, inv_dt_power, density_solve, applied, i);
+    return;
+  }
   const float rho0 = c.psi_scale;
   if (density_solve) {
     const float predicted = f.density[i] + dt * DensityRate(f, b, s, c, i);

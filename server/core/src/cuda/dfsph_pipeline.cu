@@ -167,9 +167,9 @@ struct DfsphPipeline::Impl : PhysicalArrays {
     int iteration = 0;
     for (;; ++iteration) {
       if (n > 0) {
-        SolveErrorKernel<<<Blocks(n), kBlock, 0, s()>>>(View(), BoundaryView(), SolverView(),
-                                                        config.constants, dt, inv_dt_power,
-                                                        density_solve, n);
+        SolveErrorKernel<<<Blocks(n), kBlock, 0, s()>>>(
+            View(), BoundaryView(), SolverView(), config.constants, dt, inv_dt_power, density_solve,
+            settings.signed_corrections ? carried : nullptr, n);
       }
       result.error = MeanError(error.data(), error_times / error_over);
       if (iteration >= 2 && result.error <= settings.tolerance) break;

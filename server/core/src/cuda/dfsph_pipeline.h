@@ -44,6 +44,7 @@ struct SolveSettings {
   double tolerance = 0;  // of the mean error, as a fraction of rho0
   int max_iterations = 0;
   float warm_start = 0;
+  bool signed_corrections = false;  // Params::signed_corrections
 };
 struct SolveResult {
   int iterations = 0;

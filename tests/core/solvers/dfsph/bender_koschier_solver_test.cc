@@ -208,6 +208,72 @@ TEST(DfsphWarmStartTest, ARestingColumnNeedsFewerIterations) {
   EXPECT_LT(double(warm), 0.8 * double(cold));
 }
 
+// Signed corrections take back what a warm start over-applies. A column at rest, started from all
+// of the previous step's pressure (warm_start 1): one-signed solves keep the excess and the
+// column's pressure drifts off rho0 g (H - y) (printed: the worst layer 5.5% of rho0 g H off);
+// signed ones hold it as close as the one-signed default (warm_start 0.2; 1.5%, most of it the
+// layers' binning) with fewer iterations, and no particle's pressure below zero (the solves'
+// totals stay >= 0).
+TEST(DfsphSignedCorrectionsTest, TakeBackWhatTheWarmStartOverApplies) {
+  struct Outcome {
+    double worst_error;  // the worst layer's |<p> - rho0 g (H - y)| / (rho0 g H)
+    double lowest_pressure;
+    uint64_t iterations;  // both solves', over the counted 0.3 s
+  };
+  auto run = [](double warm_start, int signed_corrections) {
+    Scene scene = ParseScene(R"({
+      "domain": {"min": [0, 0, 0], "max": [0.2, 0.4, 0.08]},
+      "fluid_blocks": [{"center": [0.1, 0.15, 0.04], "size": [0.2, 0.3, 0.08]}],
+      "solver": "dfsph",
+      "params": {"gravity": -9.81, "gravity_ramp_time": 0.1, "particle_spacing": 0.02,
+                 "kinematic_viscosity": 1e-3, "max_time_step": 0.004}
+    })");
+    scene.params.warm_start = warm_start;
+    scene.params.signed_corrections = signed_corrections;
+    Simulation sim(scene);
+    while (sim.state().time < 0.3) sim.Step(0.3);
+    // Each 0.02 m layer's pressure, averaged over its particles and the counted steps, below the
+    // top two layers (their kernel deficit).
+    constexpr int kLayers = 13;
+    std::vector<double> sum(kLayers, 0), count(kLayers, 0);
+    Outcome out{0, 0, 0};
+    while (sim.state().time < 0.6) {
+      sim.Step(0.6);
+      out.iterations += uint64_t(sim.solver_stats().density_iterations +
+                                 sim.solver_stats().divergence_iterations);
+      const ParticleArrays& p = sim.state().particles;
+      for (size_t i = 0; i < p.size(); ++i) {
+        out.lowest_pressure = std::min(out.lowest_pressure, double(p.pressure[i]));
+        const int layer = int(double(p.position[i].y()) / 0.02);
+        if (layer >= 0 && layer < kLayers) {
+          sum[size_t(layer)] += double(p.pressure[i]);
+          count[size_t(layer)] += 1;
+        }
+      }
+    }
+    const double rho0_g = 1000 * 9.81, height = 0.3;
+    for (int k = 0; k < kLayers; ++k) {
+      if (count[size_t(k)] == 0) continue;
+      const double expected = rho0_g * (height - 0.02 * (k + 0.5));
+      const double error = std::abs(sum[size_t(k)] / count[size_t(k)] - expected);
+      out.worst_error = std::max(out.worst_error, error / (rho0_g * height));
+    }
+    return out;
+  };
+  const Outcome one_signed = run(1, 0), signed_warm = run(1, 1), baseline = run(0.2, 0);
+  std::printf(
+      "warm_start 1: worst error %.2f%% one-signed, %.2f%% signed (%llu iterations; "
+      "warm_start 0.2 one-signed: %.2f%%, %llu)\n",
+      100 * one_signed.worst_error, 100 * signed_warm.worst_error,
+      (unsigned long long)signed_warm.iterations, 100 * baseline.worst_error,
+      (unsigned long long)baseline.iterations);
+  EXPECT_LT(signed_warm.worst_error, 1.1 * baseline.worst_error);
+  EXPECT_GT(one_signed.worst_error, 2 * baseline.worst_error);
+  EXPECT_LT(signed_warm.iterations, baseline.iterations);
+  // >= 0 up to the rounding of summing kappa_i dt of either sign (1e-6 of rho0 g H).
+  EXPECT_GE(signed_warm.lowest_pressure, -1e-6 * 1000 * 9.81 * 0.3);
+}
+
 // Through the collapse, the impact on the obstacles and the run-up: every solve reaches its
 // tolerance (none stops at the cap), the density error stays at the tolerance, and no
 // particle leaves the domain (strictly inside: the clamp would put it on the wall) or enters

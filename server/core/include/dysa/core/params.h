@@ -83,6 +83,11 @@ struct Params {
   // solve adds pressure only, and stops at its tolerance nearer the warm start (docs/validation.md,
   // the hydrostatic tank with 0, 0.2 and 0.5).
   double warm_start = 0.2;
+  // 0: each iteration of a solve only adds pressure (kappa >= 0, Bender & Koschier 2017); 1: its
+  // corrections take either sign and only the solve's total is held >= 0 (a projected Jacobi
+  // iteration, as IISPH clamps p >= 0), so pressure that the warm start over-applied is taken
+  // back where the fluid expands.
+  int signed_corrections = 0;
 };
 
 struct ParamDecl {
