@@ -31,11 +31,15 @@
 // pressure reported (p_i, which the probes read) is both solves' velocity change over the step
 // taken as one acceleration, p_i = mu rho_i sum kappa_i dt_solve / dt, with mu the gradient moment
 // of kernels.h as in wcsph. Warm start (2017, Sec. 4.4): each solve first applies the fraction
-// warm_start (0.2, below 1 because a solve only adds pressure, kappa >= 0, and could not take an
-// overshoot back) of what it applied in the previous step, then iterates on the error left; the
-// solve stops nearer where it started, so more is faster and less accurate (with 0.5 the tank at
-// 0.02 m is 3.5% off rho0 g (H - y), with 0.2 0.07%; 0.3 failed the stress test of particles
-// started on top of each other: docs/validation.md). The solves' totals are carried per particle as
+// warm_start (0.2) of what it applied in the previous step, then iterates on the error left.
+// Its iterations only add pressure (kappa >= 0, in full steps), so a solve cannot take an
+// overshoot back and stops nearer the warm start: more is faster and less accurate (0.5 left
+// the tank at 0.02 m 2.2% off rho0 g H, 0.2 0.74%; 0.3 failed the stress test of particles
+// started on top of each other). With signed_corrections an iteration applies half the kappa_i
+// the error asks for, of either sign, and holds the solve's total >= 0 (a projected, relaxed
+// Jacobi iteration, as IISPH's omega 0.5 with p >= 0): what the warm start over-applies is
+// taken back, so warm_start 1 is usable (23.6 density iterations a step at 1 M particles against
+// 39.6; bench/README.md). The solves' totals are carried per particle as
 // kappa dt^2 and kappa dt (BenderKoschierData::density_stiffness, divergence_stiffness), which do
 // not depend on the step size, and permuted with the particles; a checkpoint holds them
 // (SaveArrays). Without it (0) every step rebuilds the hydrostatic pressure from zero: twice the
