@@ -1,12 +1,12 @@
-// A TCP relay that adds a fixed one-way delay, for tests of a link that is far away (a laptop
-// 10-60 ms from the server) on a kernel without netem. It accepts connections on a listen
-// address and, for each, connects to an upstream address and forwards the bytes both ways, each
-// chunk held until `delay` after it was read (order kept). Memory is bounded: a direction stops
-// reading while more than `max_queued_bytes` wait in it, so TCP's flow control pushes back on the
-// sender. A half-close (EOF) is forwarded after the delay like the bytes before it; a reset or an
-// error closes both sides. The listening socket may be opened inside one network namespace and
-// the upstream connections inside another (/var/run/netns/NAME, as `ip netns add` makes them),
-// so the relay can bridge a shaped namespace and an unshaped one.
+// A TCP relay that adds a fixed one-way delay, and optionally a rate limit, for tests of a link
+// that is far away (a laptop 10-60 ms from the server) on a kernel without netem. It accepts
+// connections on a listen address and, for each, connects to an upstream address and forwards the
+// bytes both ways, each chunk held until `delay` after it was read (order kept). Memory is bounded:
+// a direction stops reading while more than `max_queued_bytes` wait in it, so TCP's flow control
+// pushes back on the sender. A half-close (EOF) is forwarded after the delay like the bytes before
+// it; a reset or an error closes both sides. The listening socket may be opened inside one network
+// namespace and the upstream connections inside another (/var/run/netns/NAME, as `ip netns add`
+// makes them), so the relay can bridge a shaped namespace and an unshaped one.
 #pragma once
 
 #include <atomic>
@@ -28,14 +28,19 @@ struct RelayOptions {
   int listen_port = 0;  // 0: any free port (see DelayRelay::port())
   std::string upstream_host = "127.0.0.1";
   int upstream_port = 0;
-  std::chrono::microseconds delay{0};          // each way
+  std::chrono::microseconds delay{0};  // each way
+  // bit/s each way, 0: unlimited. A rate-limited direction forwards its bytes as a link of that
+  // rate would (serialised in slices, then delayed): a shaped link without tc, e.g. where no
+  // iproute2 is installed.
+  double rate_bits_per_second = 0;
   std::string listen_netns;                    // "" : the caller's namespace
   std::string upstream_netns;                  // "" : the caller's namespace
   size_t max_queued_bytes = size_t(16) << 20;  // per direction of a connection
 };
 
 // The flags of dysa-delay-relay (--listen HOST:PORT, --upstream HOST:PORT, --delay-ms N,
-// --listen-netns NAME, --upstream-netns NAME, --max-queue-mib N, --port-file PATH). Returns
+// --rate-mbit R, --listen-netns NAME, --upstream-netns NAME, --max-queue-mib N,
+// --port-file PATH). Returns
 // nullopt and sets `error` (naming the flag and what it allows) on a bad or missing flag.
 struct RelayFlags {
   RelayOptions options;

@@ -2,7 +2,8 @@
 // server through it at 10 ms each way answers in 20-25 ms; a large random transfer comes back
 // byte for byte, in order, pipelined (not one delay per chunk); a direction whose receiver stops
 // reading holds no more than its bound; several connections at once; a close travels both ways, as
-// late as the bytes before it; bad flags are refused naming the flag and its range. As root, the
+// late as the bytes before it; a rate-limited relay carries no more than its rate; bad flags are
+// refused naming the flag and its range. As root, the
 // relay also bridges two network namespaces (skipped, saying why, otherwise).
 #include "link/delay_relay.h"
 
@@ -265,6 +266,37 @@ TEST(DelayRelayTest, ALargeRandomTransferComesBackExactlyInOrderAndPipelined) {
   EXPECT_LE(relay.peak_queued_bytes(), RelayOptions().max_queued_bytes + (size_t(256) << 10));
 }
 
+// A rate-limited relay is a link of that rate: 8 MiB echoed through it at 100 Mbit/s each way
+// (the two directions overlap) take at least one direction's 0.67 s, never less (the bytes come
+// back intact); a loaded machine may only make it later. A 32-byte echo then still answers in
+// about its round trip (10 ms; the pacing adds a slice's 1.3 ms at most, not a queue).
+TEST(DelayRelayTest, ARateLimitedRelayCarriesNoMoreThanItsRate) {
+  TestServer echo(Echo);
+  RelayOptions o = To(echo.port(), 5);
+  o.rate_bits_per_second = 100e6;
+  DelayRelay relay(o);
+  const std::vector<char> data = RandomBytes(size_t(8) << 20, 5);
+  const int fd = Connect(relay.port());
+  ASSERT_GE(fd, 0);
+  double seconds = 0;
+  EXPECT_TRUE(EchoTransfer(fd, data, seconds)) << "every byte, in order";
+  const double link_s = double(data.size()) * 8 / 100e6;
+  std::cout << data.size() / (1 << 20) << " MiB there and back at 100 Mbit/s each way: " << seconds
+            << " s (" << double(data.size()) * 8 / seconds / 1e6
+            << " Mbit/s each way; the link alone: " << link_s << " s)\n";
+  EXPECT_GE(seconds, link_s) << "faster than the rate";
+  EXPECT_LT(seconds, 4 * link_s + 1) << "the pacing stalls";
+  close(fd);  // EchoTransfer shut it down
+  const int fresh = Connect(relay.port());
+  ASSERT_GE(fresh, 0);
+  const std::vector<double> ms = RoundTrips(fresh, 5);
+  ASSERT_EQ(ms.size(), 5u);
+  std::cout << "32-byte round trips after it: " << ms.front() << "-" << ms.back() << " ms\n";
+  EXPECT_GE(ms.front(), 10);
+  EXPECT_LT(ms[2], 100) << "a small message waits its delays, not a queue";
+  close(fresh);
+}
+
 TEST(DelayRelayTest, AReceiverThatStopsReadingHoldsTheQueueAtItsBound) {
   std::atomic<bool> read{false};
   std::vector<char> received;
@@ -472,6 +504,8 @@ TEST(DelayRelayTest, BadFlagsAreRefusedNamingTheFlagAndItsRange) {
        "--max-queue-mib: 0 is out of range (allowed: 1 to 1024 MiB)"},
       {with({"--delay-ms", "1", "--max-queue-mib", "1.5"}),
        "--max-queue-mib: 1.5 is not a whole number (allowed: 1 to 1024 MiB)"},
+      {with({"--delay-ms", "1", "--rate-mbit", "0"}),
+       "--rate-mbit: 0 is out of range (allowed: 0.1 to 100000 Mbit/s)"},
       {with({"--delay-ms", "1", "--jitter-ms", "3"}), "unknown argument '--jitter-ms'"},
   };
   for (const Case& c : cases) {
@@ -480,11 +514,13 @@ TEST(DelayRelayTest, BadFlagsAreRefusedNamingTheFlagAndItsRange) {
     EXPECT_NE(error.find(c.says), std::string::npos) << error << "\nexpected: " << c.says;
   }
   std::string error;
-  const auto parsed = ParseRelayFlags(with({"--delay-ms=12.5", "--max-queue-mib", "4",
-                                            "--listen-netns", "a", "--upstream-netns=b"}),
-                                      error);
+  const auto parsed =
+      ParseRelayFlags(with({"--delay-ms=12.5", "--max-queue-mib", "4", "--listen-netns", "a",
+                            "--upstream-netns=b", "--rate-mbit", "250"}),
+                      error);
   ASSERT_TRUE(parsed) << error;
   EXPECT_EQ(parsed->options.delay, std::chrono::microseconds(12500));
+  EXPECT_EQ(parsed->options.rate_bits_per_second, 250e6);
   EXPECT_EQ(parsed->options.max_queued_bytes, size_t(4) << 20);
   EXPECT_EQ(parsed->options.upstream_port, 9);
   EXPECT_EQ(parsed->options.listen_netns, "a");
