@@ -28,7 +28,7 @@ class SimulatedLink {
 
   void Run(double until, SimResult& out) {
     const double dt = 1.0 / fps_;
-    for (; t_ < until; t_ += dt) {
+    for (; t_ < until; t_ += dt, ++frame_) {
       // Finish the frame in flight as far as the link gets by now.
       Advance(t_, out);
       if (sending_) {
@@ -50,6 +50,7 @@ class SimulatedLink {
     sent_level_ = level;
     bytes_ = size_t((key ? 5.6 : 2.6) * particles) + 150;
     left_ = double(bytes_);
+    c_.OnSourceFrame(frame_, now - 0.002);
     c_.OnFrameStart(now, bytes_, particles, total_, key, now - 0.002);
     out.levels.emplace_back(now, level);
     sending_ = true;
@@ -78,6 +79,7 @@ class SimulatedLink {
   bool sending_ = false;
   size_t bytes_ = 0;
   int sent_level_ = -1, since_key_ = 0;
+  uint64_t frame_ = 0;  // the source's frame number (skipped frames count)
 };
 
 int LevelChanges(const SimResult& r, double from, double to) {
@@ -133,6 +135,30 @@ TEST(DetailController, ConvergesToTheDetailThatFitsAndHoldsIt) {
   EXPECT_NEAR(s.link_bytes_per_second, 2e6, 0.1e6);  // the link model's 1 ms steps
   EXPECT_GT(s.age_s, 0);
   EXPECT_LT(s.age_s, 0.1);
+}
+
+// A source slower than the target: the simulation makes 3 frames/s, the subscriber asks for
+// 30. Spread over 30 frames/s the 2 MB/s link would allow a quarter of the particles (above);
+// every frame the source makes fits it whole (260 KB x 3 = 0.78 MB/s), so the detail is full.
+TEST(DetailController, ASourceSlowerThanTheTargetGetsTheDetailItsOwnRateFits) {
+  DetailController c({.fps_target = 30});
+  SimulatedLink link(c, kParticles, 3, [](double) { return 2e6; });
+  SimResult r;
+  link.Run(30, r);
+  EXPECT_EQ(c.fraction(), 1.0);
+  EXPECT_NEAR(c.source_fps(), 3, 0.01);
+  EXPECT_NEAR(c.fitted_fps(), 3, 0.01);
+  EXPECT_GE(FramesPerSecond(r, 10, 30), 2.9) << "every frame the source makes";
+  EXPECT_EQ(LevelChanges(r, 10, 30), 0);
+  // A source of 15 frames/s on a 2 MB/s link: 133 KB a frame, about half of the particles.
+  DetailController faster({.fps_target = 30});
+  SimulatedLink link15(faster, kParticles, 15, [](double) { return 2e6; });
+  SimResult r15;
+  link15.Run(30, r15);
+  EXPECT_NEAR(faster.fitted_fps(), 15, 0.01);
+  EXPECT_LE(faster.fraction(), 0.52);
+  EXPECT_GT(faster.fraction(), 0.3);
+  EXPECT_GE(FramesPerSecond(r15, 10, 30), 14.5);
 }
 
 TEST(DetailController, RecoversAfterABurstWithoutStalling) {

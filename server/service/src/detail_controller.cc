@@ -79,6 +79,27 @@ void DetailController::OnFrameStart(double now, size_t bytes, uint32_t particles
   }
 }
 
+void DetailController::OnSourceFrame(uint64_t frame, double produced) {
+  // A reset or a step back starts the count afresh; a view stream's completion of the same
+  // frame adds nothing.
+  if (source_frame_ && frame > *source_frame_ && produced > source_produced_) {
+    const double period = (produced - source_produced_) / double(frame - *source_frame_);
+    source_period_ =
+        source_period_ > 0 ? source_period_ + 0.25 * (period - source_period_) : period;
+  } else if (source_frame_ && frame < *source_frame_) {
+    source_period_ = 0;
+  }
+  if (!source_frame_ || frame != *source_frame_) {
+    source_frame_ = frame;
+    source_produced_ = produced;
+  }
+}
+
+double DetailController::fitted_fps() const {
+  const double source = source_fps();
+  return source > 0 ? std::min(budget_.fps_target, source) : budget_.fps_target;
+}
+
 void DetailController::OnBytesDelivered(double now, size_t bytes, bool frame_done) {
   if (acknowledged_) {  // the client's acknowledgements measure delivery
     if (frame_done) Decide(now);
@@ -199,7 +220,7 @@ bool DetailController::Fits(int level, double share) const {
     available = std::min(available, (share < 1 ? 0.9 : 1.0) * budget_.bytes_per_second);
   }
   const double frame_bytes = delta_bpp_ * LevelFraction(level) * total_ + 200.0;  // + headers
-  return frame_bytes * budget_.fps_target <= available;
+  return frame_bytes * fitted_fps() <= available;
 }
 
 int DetailController::BudgetLevel() const {

@@ -38,6 +38,7 @@ void FrameHub::FrameStarted(const std::shared_ptr<Subscription>& s, double now,
   uint32_t threshold = 0;
   {
     std::lock_guard lock(s->detail_mu_);
+    s->detail_->OnSourceFrame(frame.frame, produced);
     s->detail_->OnFrameStart(now, frame.bytes, frame.particles, frame.total_particles,
                              frame.keyframe, produced);
     if (!s->detail_->budget().active()) return;

@@ -13,6 +13,9 @@
 //   link rate, the delivered rates and the age of the shown data come from acknowledgements:
 //   bytes acknowledged over the time the link was busy with them (a lower bound when the
 //   stream leaves the link idle);
+// - the link is spread over fps_target frames per second, or over the source's own frame rate
+//   where the simulation makes fewer (OnSourceFrame): every frame it makes then gets the
+//   detail the link allows at that rate;
 // - the detail is a level on a ladder of fractions 2^(-level/4) (1, 0.84, 0.71, ... 1/4096):
 //   subscribers at the same level share one encoder;
 // - decrease at once (multiplicative) when the current level does not fit the measured link at
@@ -76,6 +79,16 @@ class DetailController {
                     double produced);
   // A write of `bytes` completed at `now`; `frame_done`: it was the frame's last.
   void OnBytesDelivered(double now, size_t bytes, bool frame_done);
+  // The source's frame `frame` (the simulation's frame number), produced at `produced`, is
+  // about to start on this stream. The frame numbers give the source's frame rate whatever the
+  // stream skips, and a source slower than fps_target caps the rate the link is spread over:
+  // a simulation that makes 1.4 frames/s gets every frame at the detail 1.4 frames/s fit, not
+  // the detail of fps_target (which left a 10 M stream at 9% of its particles on a link with room
+  // for all of them).
+  void OnSourceFrame(uint64_t frame, double produced);
+  // Frames per second the source makes (0: not known yet), and the rate the detail is fitted to.
+  double source_fps() const { return source_period_ > 0 ? 1 / source_period_ : 0; }
+  double fitted_fps() const;
   // A new frame was ready at `now` while the current one was still being written.
   void OnLate(double now);
   // The client has received `frames` frames completely on this stream so far (its
@@ -131,6 +144,9 @@ class DetailController {
   bool frame_keyframe_ = false;
   int frame_level_ = 0;
   double frame_produced_ = 0;
+  // The source: the last frame number seen, when it was produced, and the smoothed period.
+  std::optional<uint64_t> source_frame_;
+  double source_produced_ = 0, source_period_ = 0;
   // Delivered rates: exponentially decayed sums (value / tau is the rate) at rates_at_.
   double bytes_sum_ = 0, frames_sum_ = 0, rates_at_ = 0;
   std::optional<double> shown_produced_;
