@@ -79,7 +79,7 @@ json.dump(scene, open(sys.argv[1], "w"))
 PY
 
 "$server_bin" --scene "$work/scene.json" --device "$device" --listen 127.0.0.1:0 \
-  --port-file "$work/port" --frame-rate 0 --max-particles 500000000 --history-frames 1 \
+  --port-file "$work/port" --frame-rate 0 --max-particles 500000000 \
   > "$work/server.txt" 2>&1 &
 pids+=($!)
 for _ in $(seq 600); do [[ -s "$work/port" ]] && break; sleep 0.5; done
