@@ -179,15 +179,20 @@ TEST(DfsphPairListTest, TheLayoutDoesNotDependOnTheThreadCount) {
   EXPECT_EQ(run(1), run(3));
 }
 
+// A water column 0.3 m deep in a 0.2 m wide tank, gravity ramped in over 0.1 s.
+Scene RestingColumnScene() {
+  return ParseScene(R"({
+    "domain": {"min": [0, 0, 0], "max": [0.2, 0.4, 0.08]},
+    "fluid_blocks": [{"center": [0.1, 0.15, 0.04], "size": [0.2, 0.3, 0.08]}],
+    "solver": "dfsph",
+    "params": {"gravity": -9.81, "gravity_ramp_time": 0.1, "particle_spacing": 0.02,
+               "kinematic_viscosity": 1e-3, "max_time_step": 0.004}
+  })");
+}
+
 TEST(DfsphWarmStartTest, ARestingColumnNeedsFewerIterations) {
   auto iterations = [](double warm_start) {
-    Scene scene = ParseScene(R"({
-      "domain": {"min": [0, 0, 0], "max": [0.2, 0.4, 0.08]},
-      "fluid_blocks": [{"center": [0.1, 0.15, 0.04], "size": [0.2, 0.3, 0.08]}],
-      "solver": "dfsph",
-      "params": {"gravity": -9.81, "gravity_ramp_time": 0.1, "particle_spacing": 0.02,
-                 "kinematic_viscosity": 1e-3, "max_time_step": 0.004}
-    })");
+    Scene scene = RestingColumnScene();
     scene.params.warm_start = warm_start;
     Simulation sim(scene);
     while (sim.state().time < 0.2) sim.Step(0.2);
@@ -221,13 +226,7 @@ TEST(DfsphSignedCorrectionsTest, TakeBackWhatTheWarmStartOverApplies) {
     uint64_t iterations;  // both solves', over the counted 0.3 s
   };
   auto run = [](double warm_start, int signed_corrections) {
-    Scene scene = ParseScene(R"({
-      "domain": {"min": [0, 0, 0], "max": [0.2, 0.4, 0.08]},
-      "fluid_blocks": [{"center": [0.1, 0.15, 0.04], "size": [0.2, 0.3, 0.08]}],
-      "solver": "dfsph",
-      "params": {"gravity": -9.81, "gravity_ramp_time": 0.1, "particle_spacing": 0.02,
-                 "kinematic_viscosity": 1e-3, "max_time_step": 0.004}
-    })");
+    Scene scene = RestingColumnScene();
     scene.params.warm_start = warm_start;
     scene.params.signed_corrections = signed_corrections;
     Simulation sim(scene);
