@@ -259,7 +259,8 @@ void FinishWarmStart(const State& state, Real dt, bool density_solve, Real* carr
 // velocity change carries kappa_i + kappa_j, so the mode in which neighbours alternate is
 // corrected twice over: a one-signed solve cuts that overshoot off (it never takes pressure
 // back), a signed one would swing on it without decay. Half steps, as IISPH's relaxed Jacobi
-// (omega 0.5, Ihmsen et al. 2014), damp it (without them the tank at 0.02 m ended 10% off rho0).
+// (omega 0.5, Ihmsen et al. 2014), damp it (with full steps the quick tank's density ended 10.6%
+// off rho0; bench/README.md, "Signed corrections", has the other steps tried).
 constexpr Real kSignedStep = 0.5;
 
 // With signed corrections (Params::signed_corrections) a solve's iteration asks particle i for
