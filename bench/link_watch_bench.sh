@@ -11,7 +11,12 @@
 #
 #   bench/link_watch_bench.sh [--particles N] [--device cuda] [--rate-mbit R] [--delay-ms D]
 #                             [--fps-target F] [--seconds S] [--view EX,EY,EZ,TX,TY,TZ]
-#                             [--out bench/results]
+#                             [--view-jumps J] [--dwell S] [--pause-wait S] [--out bench/results]
+#
+# With --view-jumps J > 0, view_link_bench then watches through the same link with a camera
+# that jumps J times (--dwell seconds on each) and pauses the server at the end: how soon the
+# new view and the complete frame (waited for --pause-wait seconds at most) arrive
+# (bench/view_link_bench.cc). Appends to OUT/view_link_<device name>.csv.
 #
 # Appends a row to OUT/link_watch_<device name>.csv and writes the status samples to
 # OUT/link_watch_<particles>_<rate>mbit_<device name>.txt. Needs a release build of
@@ -26,8 +31,11 @@ delay_ms=0
 fps_target=15
 seconds=20
 view=""
+view_jumps=0
+dwell=4
+pause_wait=60
 out=bench/results
-usage="usage: bench/link_watch_bench.sh [--particles N] [--device D] [--rate-mbit R] [--delay-ms D] [--fps-target F] [--seconds S] [--view EX,EY,EZ,TX,TY,TZ] [--out DIR]"
+usage="usage: bench/link_watch_bench.sh [--particles N] [--device D] [--rate-mbit R] [--delay-ms D] [--fps-target F] [--seconds S] [--view EX,EY,EZ,TX,TY,TZ] [--view-jumps J] [--dwell S] [--pause-wait S] [--out DIR]"
 while [[ $# -gt 0 ]]; do
   case "$1" in
     --particles) particles="$2"; shift 2 ;;
@@ -37,6 +45,9 @@ while [[ $# -gt 0 ]]; do
     --fps-target) fps_target="$2"; shift 2 ;;
     --seconds) seconds="$2"; shift 2 ;;
     --view) view="$2"; shift 2 ;;
+    --view-jumps) view_jumps="$2"; shift 2 ;;
+    --dwell) dwell="$2"; shift 2 ;;
+    --pause-wait) pause_wait="$2"; shift 2 ;;
     --out) out="$2"; shift 2 ;;
     *) echo "$usage" >&2; exit 2 ;;
   esac
@@ -46,7 +57,10 @@ build=build/release
 server_bin="$build/server/dysa-server"
 cli_bin="$build/clients/cli/dysa"
 relay_bin="$build/tests/dysa-delay-relay"
-for bin in "$server_bin" "$cli_bin" "$relay_bin"; do
+view_bin="$build/bench/view_link_bench"
+bins=("$server_bin" "$cli_bin" "$relay_bin")
+(( view_jumps > 0 )) && bins+=("$view_bin")
+for bin in "${bins[@]}"; do
   [[ -x "$bin" ]] || { echo "link_watch_bench: $bin missing; build it first" >&2; exit 1; }
 done
 
@@ -101,10 +115,12 @@ wait_frame() {  # prints the first frame number above $1, once it shows (120 s a
   echo "$f"
 }
 f0=$(wait_frame "$(status_json | field "['frame']")"); t0=$(date +%s.%N)
+status_json > "$work/status_alone_0.json"
 sleep 5
 f1=$(status_json | field "['frame']")
 if (( f1 < f0 + 3 )); then f1=$(wait_frame $((f0 + 2))); fi
 t1=$(date +%s.%N)
+status_json > "$work/status_alone_1.json"
 alone=$(python3 -c "print(($f1 - $f0) / ($t1 - $t0))")
 n_real=$(status_json | field "['particles']")
 echo "link_watch_bench: $n_real particles on $device: $alone frames/s unwatched"
@@ -127,20 +143,52 @@ fi
 samples="$out/link_watch_${particles}_${rate_mbit}mbit_${gpu}.txt"
 { echo "# bench/link_watch_bench.sh --particles $particles --device $device --rate-mbit $rate_mbit --delay-ms $delay_ms --fps-target $fps_target --seconds $seconds"
   echo "# $n_real particles, $alone frames/s unwatched; the server's stream status once a second while watched"; } > "$samples"
-for _ in $(seq "$seconds"); do
+for k in $(seq "$seconds"); do
   sleep 1
-  status_json | python3 -c "import json,sys; s=json.load(sys.stdin); import time; print(json.dumps({'t': time.time(), 'frame': s['frame'], **(s['streams'][0] if s['streams'] else {})}))" >> "$samples" || true
+  # The first and the last sample's whole status: the stages' times while watched.
+  status_json > "$work/status.json" || continue
+  [[ $k -eq 2 ]] && cp "$work/status.json" "$work/status_watched_0.json"
+  cp "$work/status.json" "$work/status_watched_1.json"
+  python3 -c "import json,sys; s=json.load(sys.stdin); import time; print(json.dumps({'t': time.time(), 'frame': s['frame'], **(s['streams'][0] if s['streams'] else {})}))" < "$work/status.json" >> "$samples" || true
 done
 wait "$watch_pid" || { echo "link_watch_bench: watch failed"; cat "$work/watch_err.txt"; exit 1; }
 cat "$samples"
 
 python3 - "$work/watch.json" "$samples" "$out/link_watch_${gpu}.csv" "$n_real" "$device" \
-  "$rate_mbit" "$delay_ms" "$fps_target" "$alone" <<'PY'
+  "$rate_mbit" "$delay_ms" "$fps_target" "$alone" "$work" <<'PY'
 import json, os, sys
 watch = json.load(open(sys.argv[1]))
 samples, csv = sys.argv[2], sys.argv[3]
 n, device, rate, delay, target, alone = sys.argv[4:10]
 alone = float(alone)
+work = sys.argv[10]
+
+
+def per_frame(before, after):
+    """Each stage's milliseconds per simulated frame between two statuses (the solver's passes
+    summed as "solver"): from the passes' mean times their calls, so a window's own average."""
+    a, b = (json.load(open(os.path.join(work, f))) for f in (before, after))
+    frames = b["frame"] - a["frame"]
+    if frames <= 0:
+        return {}
+    total = lambda s: {p["name"]: p["mean_ms"] * p["calls"] for p in s["passes"]}
+    ta, tb = total(a), total(b)
+    stages = {"solver": 0.0}
+    for name, ms in tb.items():
+        # A stage that first ran inside the window (gather, publish) started from zero.
+        d = (ms - ta.get(name, 0.0)) / frames
+        if name in ("record_history", "gather_frames", "publish_frames"):
+            stages[name] = d
+        else:
+            stages["solver"] += d
+    return stages
+
+
+alone_ms = per_frame("status_alone_0.json", "status_alone_1.json")
+watched_ms = per_frame("status_watched_0.json", "status_watched_1.json")
+with open(samples, "a") as f:
+    f.write("# ms per simulated frame, unwatched: %s\n" % json.dumps(alone_ms))
+    f.write("# ms per simulated frame, watched: %s\n" % json.dumps(watched_ms))
 # The samples taken while the stream was open: its age, and the simulated frame rate meanwhile.
 streamed = [json.loads(line) for line in open(samples) if line.startswith("{")]
 streamed = [x for x in streamed if "age_s" in x]
@@ -161,6 +209,15 @@ row = {
     "age_ms_median": f"{sorted(ages)[len(ages) // 2]:.0f}" if ages else "",
     "age_ms_max": f"{max(ages):.0f}" if ages else "",
     "frames_skipped": watch["frames_skipped"],
+    # Where a frame's time goes, per simulated frame (the status's stages): the solver's passes,
+    # the history's bookkeeping, and while watched the subset's read and (on the publishing
+    # thread, beside the stepping) its encoding.
+    "solver_ms_unwatched": f"{alone_ms.get('solver', 0):.2f}",
+    "solver_ms_watched": f"{watched_ms.get('solver', 0):.2f}",
+    "history_ms_unwatched": f"{alone_ms.get('record_history', 0):.2f}",
+    "history_ms_watched": f"{watched_ms.get('record_history', 0):.2f}",
+    "gather_ms": f"{watched_ms.get('gather_frames', 0):.2f}",
+    "publish_ms_per_simulated_frame": f"{watched_ms.get('publish_frames', 0):.2f}",
 }
 new = not os.path.exists(csv)
 with open(csv, "a") as f:
@@ -169,3 +226,11 @@ with open(csv, "a") as f:
     f.write(",".join(str(v) for v in row.values()) + "\n")
 print(", ".join(f"{k} {v}" for k, v in row.items()))
 PY
+
+if (( view_jumps > 0 )); then
+  # The same link, a camera that jumps: the new view's arrival and, paused, the complete frame.
+  "$view_bin" --server "$relay" --fps-target "$fps_target" --jumps "$view_jumps" --dwell "$dwell" \
+    --pause-wait "$pause_wait" \
+    --label "${n_real}_${rate_mbit}mbit_${delay_ms}ms" --csv "$out/view_link_${gpu}.csv" \
+    | tee -a "$samples"
+fi

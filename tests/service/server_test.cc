@@ -127,10 +127,12 @@ TEST(ServerTest, EveryControlRpcAppliesAndReports) {
   EXPECT_EQ(reply.frames_moved(), 4u);
   EXPECT_EQ(reply.status().solver_threads(), 1u);
   // seed_basic has no obstacles: external_forces, neighbour_grid, density, pressure_force,
-  // viscosity, integrate.
-  ASSERT_EQ(reply.status().passes_size(), 6);
+  // viscosity, integrate; then the history's bookkeeping, once per frame.
+  ASSERT_EQ(reply.status().passes_size(), 7);
   EXPECT_EQ(reply.status().passes(0).name(), "external_forces");
   EXPECT_EQ(reply.status().passes(0).calls(), 4u * 3);
+  EXPECT_EQ(reply.status().passes(6).name(), "record_history");
+  EXPECT_EQ(reply.status().passes(6).calls(), 4u);
   v1::StepBackRequest back;
   back.set_count(3);
   ASSERT_TRUE(stub.StepBack(Context().get(), back, &reply).ok());

@@ -199,12 +199,14 @@ bool SimulationHost::AdvanceFrame(const std::function<bool()>& interrupted) {
     return false;  // never recorded, never streamed
   }
   if (!complete) return false;
+  const auto record_start = Clock::now();
   if (params_changed_in_frame_) {
     history_.RecordParameterChange(*sim_);
     params_changed_in_frame_ = false;
   } else {
     history_.Record(*sim_);
   }
+  record_.Add(std::chrono::duration<double, std::milli>(Clock::now() - record_start).count());
   recent_frames_.push_back(Clock::now());
   while (recent_frames_.front() < recent_frames_.back() - std::chrono::seconds(1)) {
     recent_frames_.pop_front();
@@ -272,6 +274,7 @@ void SimulationHost::StartScene() {
   stepper_.Forget();
   recent_frames_.clear();
   gather_ = {};
+  record_ = {};
   publisher_.ResetTiming();
   const Scene& scene = sim_->scene();
   Log("scene '" + scene.name + "': " + std::to_string(sim_->particle_count()) +
@@ -314,6 +317,7 @@ void SimulationHost::RefreshStatus() {
   const auto add_stage = [&](const char* name, const StageTiming& t) {
     if (t.calls > 0) s.passes.push_back(PassStatus{name, t.last_ms, t.mean_ms, t.calls});
   };
+  add_stage("record_history", record_);
   add_stage("gather_frames", gather_);
   add_stage("publish_frames", publisher_.timing());
   s.solver_threads = uint32_t(running_threads_);
