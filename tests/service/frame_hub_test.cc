@@ -182,6 +182,32 @@ TEST(FrameHubTest, AFrameRateCapSkipsFramesUnlessForced) {
   hub.Unsubscribe(sub);
 }
 
+// A simulation faster than a capped stream does not read the frames the cap would skip: between
+// two due frames GatherNeeds leaves the stream out, unless the publish is forced; a stream
+// without a cap is always in.
+TEST(FrameHubTest, AFrameTheCapWouldSkipIsNotGathered) {
+  FrameHub hub(8);
+  CountingListener l;
+  SubscriptionOptions capped = Options();
+  capped.max_fps = 1;
+  auto sub = hub.Subscribe(capped, &l);
+  // Its first frame is due.
+  EXPECT_EQ(hub.GatherNeeds(/*any_time=*/false).fields, capped.stream.fields);
+  hub.Publish(Snapshot(0), false, false);
+  ASSERT_EQ(hub.frames_encoded(), 1u);
+  // The next is due in a second: nothing to read now, except for a forced publish.
+  EXPECT_EQ(hub.GatherNeeds(false).fields, 0u);
+  EXPECT_EQ(hub.GatherNeeds(/*any_time=*/true).fields, capped.stream.fields);
+  // An uncapped stream beside it is read for every frame, and only it takes the next one.
+  CountingListener l2;
+  auto uncapped = hub.Subscribe(Options(codec::kPositions), &l2);
+  EXPECT_EQ(hub.GatherNeeds(false).fields, uint32_t(codec::kPositions));
+  hub.Publish(Snapshot(1), false, false);
+  EXPECT_EQ(hub.frames_encoded(), 2u);
+  hub.Unsubscribe(uncapped);
+  hub.Unsubscribe(sub);
+}
+
 // Frames produced at twice the cap, each a hair early or late (a real producer's jitter), must
 // come at the cap: the next frame is due a period after the previous was due, not after it was
 // sent (sent-based, every early frame was skipped and the rate fell to 2/3 of the cap or less).

@@ -81,7 +81,7 @@ struct Watcher {
       if (full) {
         GatherSnapshot(sim, fields, 0, snapshot);
       } else {
-        GatherSnapshot(sim, hub, false, snapshot);
+        GatherSnapshot(sim, hub, /*any_time=*/true, false, snapshot);
       }
       reads.push_back(snapshot.particles_read);
       hub.Publish(snapshot, force, false);

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <limits>
 #ifdef __GLIBC__
 #include <malloc.h>
 #endif
@@ -51,6 +52,16 @@ struct FrameGroup {
   uint64_t next_seq = 0;
   // When the frame-rate cap lets the next frame through (FrameHub::Publish).
   std::optional<Clock::time_point> next_due;
+  // The earliest time a frame passes that cap (next_due less its quarter period of slack), in
+  // steady-clock nanoseconds, for the simulation thread's GatherNeeds; written with next_due.
+  std::atomic<int64_t> passes_from_ns{std::numeric_limits<int64_t>::min()};
+  void SetNextDue(std::optional<Clock::time_point> due, Clock::duration period) {
+    next_due = due;
+    passes_from_ns = due ? std::chrono::duration_cast<std::chrono::nanoseconds>(
+                               (*due - period / 4).time_since_epoch())
+                               .count()
+                         : std::numeric_limits<int64_t>::min();
+  }
   // The snapshot last encoded (frame, step, particles): a republish of it changes nothing.
   std::optional<std::array<uint64_t, 3>> last_snapshot;
   // Its subscriber's view, when options.view_owner is set (set at creation).
@@ -216,10 +227,16 @@ uint32_t FrameHub::NeededThreshold() const {
   return widest;
 }
 
-FrameHub::Needs FrameHub::GatherNeeds() const {
+FrameHub::Needs FrameHub::GatherNeeds(bool any_time, Clock::time_point now) const {
+  const int64_t now_ns =
+      std::chrono::duration_cast<std::chrono::nanoseconds>(now.time_since_epoch()).count();
   std::lock_guard lock(mu_);
   Needs needs;
   for (const auto& g : groups_) {
+    // Publish would skip this frame for a group under its frame-rate cap (a keyframe it needs
+    // waits for the cap too): not read for it. A frame read for another group that turns due
+    // meanwhile is a missed one for it, and the next frame is read.
+    if (!any_time && g->options.max_fps > 0 && now_ns < g->passes_from_ns) continue;
     const codec::StreamConfig& c = g->options.stream;
     needs.fields |= c.fields;
     if (g->view) {
@@ -347,7 +364,10 @@ void FrameHub::Publish(const FrameSnapshot& snapshot, bool force, bool discontin
     std::lock_guard lock(mu_);
     for (const auto& g : groups_) work.emplace_back(g, g->members);
   }
-  const auto now = Clock::now();
+  // The frame-rate caps judge a frame by when it was read, as GatherNeeds did: were it judged
+  // later, when this thread gets to it, a frame read just before its due time would be read for
+  // nothing, or one read for another stream pass a cap a little early.
+  const auto now = snapshot.read_at.value_or(Clock::now());
   const std::array<uint64_t, 3> this_snapshot = {snapshot.frame, snapshot.step,
                                                  snapshot.positions.size() / 3};
   const auto total = uint32_t(snapshot.positions.size() / 3);
@@ -396,17 +416,18 @@ void FrameHub::Publish(const FrameSnapshot& snapshot, bool force, bool discontin
     // at a multiple of the cap (50/s under a cap of 25) came at 2/3 of it, jitter deciding.
     const double max_fps = group->options.max_fps;
     const auto due_before = group->next_due;
+    const auto period = std::chrono::duration_cast<Clock::duration>(
+        std::chrono::duration<double>(max_fps > 0 ? 1.0 / max_fps : 0.0));
     if (max_fps > 0) {
-      const auto period =
-          std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / max_fps));
       if (!force && group->next_due && now < *group->next_due - period / 4) {
         if (keyframe_needed) group->keyframe_needed = true;  // for the frame that passes
         continue;
       }
       // At most one period behind: no burst of frames after a pause or a slow spell.
-      group->next_due = group->next_due && now - *group->next_due < period
+      group->SetNextDue(group->next_due && now - *group->next_due < period
                             ? *group->next_due + period
-                            : now + period;
+                            : now + period,
+                        period);
     }
     std::optional<ViewStream::Plan> plan;
     if (group->view) {
@@ -417,7 +438,7 @@ void FrameHub::Publish(const FrameSnapshot& snapshot, bool force, bool discontin
       if (plan->missing) {
         // The snapshot was read for another plan: as if this frame had not come (its cap and
         // keyframe request stay for the frame read anew).
-        group->next_due = due_before;
+        group->SetNextDue(due_before, period);
         if (keyframe_needed || discontinuity) group->keyframe_needed = true;
         missed = true;
         continue;

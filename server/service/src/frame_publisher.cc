@@ -41,6 +41,7 @@ void PrepareSnapshot(const Simulation& sim, uint32_t fields, FrameSnapshot& s) {
     s.domain_max[a] = domain.max[a];
   }
   s.produced_unix_us = UnixMicros();
+  s.read_at.reset();
   // Storage order is cell order and changes every step; subscribers index by id. Only the fields
   // asked for are read, in id order.
   const bool velocities = fields & (codec::kSpeed | codec::kVelocity);
@@ -77,18 +78,22 @@ void GatherSnapshot(const Simulation& sim, uint32_t fields, uint32_t threshold, 
       sim.ReadParticlesByIdBelowRank(threshold, {s.positions, s.velocities, s.densities});
 }
 
-void GatherSnapshot(const Simulation& sim, const FrameHub& hub, bool discontinuity,
+bool GatherSnapshot(const Simulation& sim, const FrameHub& hub, bool any_time, bool discontinuity,
                     FrameSnapshot& s) {
-  const FrameHub::Needs needs = hub.GatherNeeds();
+  const auto now = std::chrono::steady_clock::now();
+  const FrameHub::Needs needs = hub.GatherNeeds(any_time || discontinuity, now);
+  if (needs.fields == 0) return false;
   // A stream of every particle reads them all anyway: the view streams then choose from them on
   // the host, as before (the same ids, ViewKeys either way). On a GPU too, each view stream
   // reads only what it sends: the selection, the kept ids' gather and the bounds all run on the
   // device (Simulation::ReadViewSubset, ReadParticlesByIds, ReadPositionBounds).
   if (needs.views.empty() || (needs.plain && needs.plain_threshold == 0)) {
     GatherSnapshot(sim, needs.fields, needs.plain_threshold, s);
-    return;
+    s.read_at = now;
+    return true;
   }
   PrepareSnapshot(sim, needs.fields, s);
+  s.read_at = now;
   s.complete = false;
   s.plain_read = needs.plain;
   s.threshold = needs.plain_threshold;
@@ -110,6 +115,7 @@ void GatherSnapshot(const Simulation& sim, const FrameHub& hub, bool discontinui
   s.has_position_bounds = true;
   s.position_lo = bounds.lo;
   s.position_hi = bounds.hi;
+  return true;
 }
 
 FramePublisher::FramePublisher(FrameHub& hub, int threads) : hub_(hub) {

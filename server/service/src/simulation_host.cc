@@ -295,10 +295,10 @@ void SimulationHost::DescribeScene() {
 }
 
 void SimulationHost::Publish(bool force, bool discontinuity) {
-  const uint32_t fields = hub_.NeededFields();
-  if (fields == 0) return;  // no one watches: nothing gathered, nothing encoded
+  if (hub_.NeededFields() == 0) return;  // no one watches: nothing gathered, nothing encoded
   const auto start = Clock::now();
-  GatherSnapshot(*sim_, hub_, discontinuity, snapshot_);
+  // Running, a frame that every stream's frame-rate cap would skip is not read.
+  if (!GatherSnapshot(*sim_, hub_, /*any_time=*/force, discontinuity, snapshot_)) return;
   gather_.Add(std::chrono::duration<double, std::milli>(Clock::now() - start).count());
   publisher_.Offer(snapshot_, force, discontinuity);
 }

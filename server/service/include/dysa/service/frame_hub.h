@@ -42,6 +42,9 @@ struct FrameSnapshot {
   std::vector<float> velocities;                     // 3 per particle, m/s
   std::vector<float> densities;                      // kg/m^3
   int64_t produced_unix_us = 0;                      // wall clock, microseconds since the epoch
+  // When GatherSnapshot read it (steady clock): the time the frame-rate caps judge it by, in
+  // GatherNeeds and Publish alike (unset: when Publish gets it).
+  std::optional<std::chrono::steady_clock::time_point> read_at;
   // The particles the arrays hold: those of DetailRank(id) below it (0: every one). The others'
   // entries are stale (GatherSnapshot copies only what the widest subscribed detail sends).
   uint32_t threshold = 0;
@@ -179,7 +182,11 @@ class FrameHub {
   uint32_t NeededThreshold() const;
   // What a frame must read for the streams subscribed now (GatherSnapshot): the streams without
   // a camera (`plain`: some; their fields and the widest detail's threshold) and each view
-  // stream's group (its ViewStream reads for it, ViewStream::Gather).
+  // stream's group (its ViewStream reads for it, ViewStream::Gather). Unless `any_time` (a
+  // forced publish, a discontinuity), only for the streams that would take a frame now: one under
+  // a frame-rate cap (max_fps, or an fps_target) that is not due at `now` is left out, so a
+  // simulation faster than its watchers does not read the frames they would skip (`fields` 0:
+  // no stream takes this frame).
   struct ViewNeed {
     std::shared_ptr<ViewStream> view;
     uint32_t fields = 0, threshold = 0, stride = 1;
@@ -191,7 +198,8 @@ class FrameHub {
     uint32_t plain_threshold = 0;
     std::vector<ViewNeed> views;
   };
-  Needs GatherNeeds() const;
+  Needs GatherNeeds(bool any_time = true, std::chrono::steady_clock::time_point now =
+                                              std::chrono::steady_clock::now()) const;
   uint64_t frames_encoded() const;
   // Encoded frames alive (held by the hub, subscribers or writes in flight): at most two per
   // subscriber plus one per group, whatever the subscribers do.

@@ -40,8 +40,10 @@ void GatherSnapshot(const Simulation& sim, uint32_t fields, uint32_t threshold,
 // it keeps, or its next refinement), with the streams without a camera's subset by rank and
 // every particle's position extremes (the codec's range for a view keyframe); otherwise as
 // above. `discontinuity`: the frame does not follow the previous one (FrameHub::Publish's).
+// Unless `any_time` (a forced publish) or a discontinuity, only for the streams that would take
+// the frame now (FrameHub::GatherNeeds); false, nothing read, when none would.
 // snapshot.particles_read says how many particles were read.
-void GatherSnapshot(const Simulation& sim, const FrameHub& hub, bool discontinuity,
+bool GatherSnapshot(const Simulation& sim, const FrameHub& hub, bool any_time, bool discontinuity,
                     FrameSnapshot& snapshot);
 
 // The time a per-frame stage took (gathering a frame, publishing it), as GetStatus shows it.
