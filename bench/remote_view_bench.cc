@@ -5,7 +5,7 @@
 //       Steps the scene N frames (bit for bit the frame a server shows after `dysa step N`),
 //       then encodes that frame (a keyframe) and the next --deltas frames (delta frames) at the
 //       detail a particle budget of each percentage gets (the server's ladder, DetailController),
-//       and at the detail a 100 Mbit/s link holds at --fps frames/s. Prints one CSV row per
+//       and at the detail a --link-mbit link (100) holds at --fps frames/s. Prints one CSV row per
 //       detail: bytes per keyframe and delta frame, frames/s at 100 Mbit/s and 1 Gbit/s, and the
 //       particle budget that gets this detail (what the script asks the viewer for).
 //
@@ -68,7 +68,7 @@ int BudgetLevel(uint64_t budget, uint32_t total) {
 }
 
 int Bytes(const std::string& scene_path, int frames, int deltas, const std::string& percents,
-          double fps, int threads) {
+          double fps, double link_mbit, int threads) {
   omp_set_num_threads(threads);
   dysa::Simulation sim(dysa::LoadScene(scene_path));
   const auto total = uint32_t(sim.particle_count());
@@ -116,15 +116,17 @@ int Bytes(const std::string& scene_path, int frames, int deltas, const std::stri
     }
     rows.push_back({item + "%", BudgetLevel(uint64_t(std::ceil(percent / 100 * total)), total)});
   }
-  // The detail a 100 Mbit/s link holds at `fps`: the largest fraction on the ladder whose delta
-  // frames fit 12.5 MB/s (the controller's rule, with the measured cost instead of its estimate).
-  const double link = 100e6 / 8;
+  // The detail a link of `link_mbit` holds at `fps`: the largest fraction on the ladder whose
+  // delta frames fit its bytes per second (the controller's rule, with the measured cost instead
+  // of its estimate).
+  const double link = link_mbit * 1e6 / 8;
   int fit = 0;
   while (fit + 1 < dysa::service::DetailController::kLevels &&
          std::get<1>(encode(fit)) * fps > link) {
     ++fit;
   }
-  rows.push_back({"100Mbit@" + std::to_string(int(fps)) + "fps", fit});
+  rows.push_back(
+      {std::to_string(int(link_mbit)) + "Mbit@" + std::to_string(int(fps)) + "fps", fit});
 
   std::printf(
       "budget,fraction,particles,particle_budget,keyframe_bytes,delta_bytes,delta_bytes_per_"
@@ -134,7 +136,7 @@ int Bytes(const std::string& scene_path, int frames, int deltas, const std::stri
     const double fraction = dysa::service::DetailController::LevelFraction(r.level);
     std::printf("%s,%.5f,%u,%llu,%zu,%.0f,%.3f,%.1f,%.1f\n", r.label.c_str(), fraction, count,
                 (unsigned long long)std::ceil(fraction * total), key, delta,
-                count ? delta / count : 0.0, link / delta, 10 * link / delta);
+                count ? delta / count : 0.0, 100e6 / 8 / delta, 1e9 / 8 / delta);
   }
   return 0;
 }
@@ -226,7 +228,7 @@ int main(int argc, char** argv) {
   std::string scene;
   int frames = 24, deltas = 3, threads = 2;
   std::string percents = "100,30,10,3,1";
-  double fps = 30;
+  double fps = 30, link_mbit = 100;
   auto* bytes = app.add_subcommand("bytes", "Bytes per frame at each detail (CSV on stdout)");
   bytes->add_option("--scene", scene, "Scene file (JSON)")->required()->check(CLI::ExistingFile);
   bytes->add_option("--frames", frames, "Frames stepped before the compared one")
@@ -237,8 +239,11 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   bytes->add_option("--percent", percents, "Particle budgets, percent of the scene")
       ->capture_default_str();
-  bytes->add_option("--fps", fps, "Frame rate the 100 Mbit/s row holds")
+  bytes->add_option("--fps", fps, "Frame rate the link's row holds")
       ->check(CLI::Range(1.0, 1000.0))
+      ->capture_default_str();
+  bytes->add_option("--link-mbit", link_mbit, "The link of that row, Mbit/s")
+      ->check(CLI::Range(1.0, 100000.0))
       ->capture_default_str();
   bytes->add_option("--threads", threads, "OpenMP threads")
       ->check(CLI::Range(1, 1024))
@@ -266,7 +271,7 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
 
   try {
-    if (*bytes) return Bytes(scene, frames, deltas, percents, fps, threads);
+    if (*bytes) return Bytes(scene, frames, deltas, percents, fps, link_mbit, threads);
     if (*gather) return Gather(scene, percents, repeats, threads);
     return Compare(reference, csv_in, images, csv_out, sheet);
   } catch (const std::exception& e) {

@@ -7,6 +7,10 @@
 # not a GPU), SSIM against full detail and the largest screen gap between drawn particles.
 #
 #   bench/remote_view_bench.sh [--frames N] [--per-axis P] [--mode particles|fluid]
+#                              [--percent 100,30,10,3,1] [--link-mbit 100] [--fps 30] [--tag T]
+#
+# --link-mbit and --fps name the link row (the detail that link holds at that frame rate);
+# --tag T names the outputs remote_view_T* instead (e.g. a 10 M block: --per-axis 215 --tag 10m).
 #
 # Writes bench/results/remote_view[_MODE].csv, remote_view[_MODE]_gather.csv (the server's cost
 # of copying and encoding a frame at each detail), remote_view[_MODE]_sheet.png (the renderings,
@@ -19,6 +23,10 @@ cd "$(dirname "${BASH_SOURCE[0]}")/.."
 frames=24
 per_axis=100
 mode=particles
+percent=100,30,10,3,1
+link_mbit=100
+fps=30
+tag=""
 width=1280
 height=800
 while [[ $# -gt 0 ]]; do
@@ -26,7 +34,11 @@ while [[ $# -gt 0 ]]; do
     --frames) frames="$2"; shift 2 ;;
     --per-axis) per_axis="$2"; shift 2 ;;
     --mode) mode="$2"; shift 2 ;;
-    *) echo "usage: bench/remote_view_bench.sh [--frames N] [--per-axis P] [--mode particles|fluid]" >&2
+    --percent) percent="$2"; shift 2 ;;
+    --link-mbit) link_mbit="$2"; shift 2 ;;
+    --fps) fps="$2"; shift 2 ;;
+    --tag) tag="$2"; shift 2 ;;
+    *) echo "usage: bench/remote_view_bench.sh [--frames N] [--per-axis P] [--mode particles|fluid] [--percent LIST] [--link-mbit M] [--fps F] [--tag T]" >&2
        exit 2 ;;
   esac
 done
@@ -69,13 +81,16 @@ json.dump(scene, open(sys.argv[1], "w"))
 PY
 
 suffix=""
-[[ "$mode" == particles ]] || suffix="_$mode"
+[[ -n "$tag" ]] && suffix="_$tag"
+[[ "$mode" == particles ]] || suffix="${suffix}_$mode"
 echo "remote_view_bench: bytes per frame at each detail (frame $frames) ..."
-"$bench_bin" bytes --scene "$work/block.json" --frames "$frames" > "$work/bytes.csv"
+"$bench_bin" bytes --scene "$work/block.json" --frames "$frames" --percent "$percent" \
+  --link-mbit "$link_mbit" --fps "$fps" > "$work/bytes.csv"
 cat "$work/bytes.csv"
 echo "remote_view_bench: the server's cost of a frame at each detail ..."
 # Passive OpenMP waits: spinning threads on a shared 2-core machine swamp the small encodes.
-OMP_WAIT_POLICY=PASSIVE "$bench_bin" gather --scene "$work/block.json" --repeats 15 > "bench/results/remote_view${suffix}_gather.csv"
+OMP_WAIT_POLICY=PASSIVE "$bench_bin" gather --scene "$work/block.json" --repeats 15 \
+  --percent "$percent" > "bench/results/remote_view${suffix}_gather.csv"
 cat "bench/results/remote_view${suffix}_gather.csv"
 
 "$server_bin" --scene "$work/block.json" --paused --listen 127.0.0.1:0 --port-file "$work/port" \
@@ -96,19 +111,21 @@ for _ in $(seq 3000); do
 done
 echo "remote_view_bench: server at frame $frame"
 
-shot() {  # shot PNG [viewer options...]: prints the viewer's render rate
+shot() {  # shot PNG [viewer options...]: prints the viewer's render rate and particles drawn
   local png="$1"; shift
   local line
   line="$(xvfb-run -a -s "-screen 0 ${width}x${height}x24" "$viewer_bin" --server "$address" \
     --screenshot "$png" --frames 5 --width "$width" --height "$height" --mode "$mode" \
     --timeout 300 "$@")"
   echo "$line" >&2
-  sed -E 's/.* s, ([0-9.]+) frames\/s.*/\1/' <<<"$line"
+  # The paused server completes a view stream's frame progressively: a slow rendering may draw
+  # a refinement or two beyond the budget, so the particles drawn are recorded beside it.
+  sed -E 's/.*, ([0-9]+) particles\): .* s, ([0-9.]+) frames\/s.*/\2,\1/' <<<"$line"
 }
 
 shot "$work/full.png" >/dev/null
 cp "$work/full.png" "bench/results/remote_view${suffix}_full.png"
-header="$(head -1 "$work/bytes.csv"),render_fps"
+header="$(head -1 "$work/bytes.csv"),render_fps,drawn_particles"
 echo "$header" > "$work/rows.csv"
 images=()
 index=0
