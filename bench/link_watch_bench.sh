@@ -177,7 +177,7 @@ def per_frame(before, after):
     for name, ms in tb.items():
         # A stage that first ran inside the window (gather, publish) started from zero.
         d = (ms - ta.get(name, 0.0)) / frames
-        if name in ("record_history", "gather_frames", "publish_frames"):
+        if name in ("keep_frame_start", "record_history", "gather_frames", "publish_frames"):
             stages[name] = d
         else:
             stages["solver"] += d
@@ -210,10 +210,12 @@ row = {
     "age_ms_max": f"{max(ages):.0f}" if ages else "",
     "frames_skipped": watch["frames_skipped"],
     # Where a frame's time goes, per simulated frame (the status's stages): the solver's passes,
-    # the history's bookkeeping, and while watched the subset's read and (on the publishing
+    # a long frame's kept start, the history's bookkeeping, and while watched the subset's read and (on the publishing
     # thread, beside the stepping) its encoding.
     "solver_ms_unwatched": f"{alone_ms.get('solver', 0):.2f}",
     "solver_ms_watched": f"{watched_ms.get('solver', 0):.2f}",
+    "keep_start_ms_unwatched": f"{alone_ms.get('keep_frame_start', 0):.2f}",
+    "keep_start_ms_watched": f"{watched_ms.get('keep_frame_start', 0):.2f}",
     "history_ms_unwatched": f"{alone_ms.get('record_history', 0):.2f}",
     "history_ms_watched": f"{watched_ms.get('record_history', 0):.2f}",
     "gather_ms": f"{watched_ms.get('gather_frames', 0):.2f}",

@@ -350,6 +350,31 @@ TEST(FrameInPiecesTest, APartialFrameCountsNoFrameAndResumesWhereItStopped) {
   EXPECT_NEAR(sim.time(), 1.5 * frame_time, 1e-12);
 }
 
+// A checkpoint saved into an older one (FrameStepper keeps each long frame's start so) is the
+// fresh one's, in the older one's memory.
+TEST(CheckpointTest, SavingIntoAnOlderCheckpointReusesItsMemoryAndMatchesAFreshOne) {
+  Simulation sim(DenseBasicScene());
+  sim.StepFrame();
+  Checkpoint reused = sim.SaveCheckpoint();
+  const Vec3* memory = reused.position.data();
+  sim.StepFrame();
+  sim.SaveCheckpoint(reused);
+  const Checkpoint fresh = sim.SaveCheckpoint();
+  EXPECT_EQ(reused.position.data(), memory);
+  EXPECT_EQ(reused.frame, 2u);
+  EXPECT_EQ(reused.step, fresh.step);
+  EXPECT_EQ(reused.time, fresh.time);
+  EXPECT_EQ(reused.id, fresh.id);
+  EXPECT_EQ(reused.position, fresh.position);
+  EXPECT_EQ(reused.velocity, fresh.velocity);
+  EXPECT_EQ(reused.solver_arrays.size(), fresh.solver_arrays.size());
+  // And it restores to the same state.
+  const uint64_t at_frame_2 = StateHash(sim.state());
+  sim.StepFrame();
+  sim.RestoreCheckpoint(reused);
+  EXPECT_EQ(StateHash(sim.state()), at_frame_2);
+}
+
 TEST(FrameInPiecesTest, ResetAndRestoringACheckpointDropAPartialFrame) {
   Simulation sim(DenseBasicScene());
   const int steps_per_frame = sim.params().iterations_per_frame;

@@ -8,6 +8,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <future>
@@ -305,6 +306,11 @@ TEST(SimulationHostStepsTest, APauseInsideALongFrameRollsItBackAndItIsSteppedAga
     std::lock_guard lock(mu);
     EXPECT_THAT(lines, ::testing::Contains(::testing::HasSubstr("rolled back to its start")));
   }
+  // The kept start is timed in the status, once per frame begun.
+  const auto kept = std::find_if(r.status.passes.begin(), r.status.passes.end(),
+                                 [](const PassStatus& p) { return p.name == "keep_frame_start"; });
+  ASSERT_NE(kept, r.status.passes.end());
+  EXPECT_GE(kept->calls, 1u);
   r = Apply(host, StepControl{1});
   ASSERT_EQ(r.code, ControlCode::kOk) << r.message;
   EXPECT_EQ(r.frames_moved, 1u);

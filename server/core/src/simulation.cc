@@ -360,25 +360,33 @@ size_t Checkpoint::bytes() const {
 
 Checkpoint Simulation::SaveCheckpoint() const {
   Checkpoint checkpoint;
+  SaveCheckpoint(checkpoint);
+  return checkpoint;
+}
+
+void Simulation::SaveCheckpoint(Checkpoint& checkpoint) const {
   checkpoint.params = model_.params;
   checkpoint.time = state_.time;
   checkpoint.step = state_.step;
   checkpoint.frame = state_.frame;
   if (backend_) {
-    // Only what the checkpoint holds crosses from the GPU; the host copy stays as it was.
+    // Only what the checkpoint holds crosses from the GPU; the host copy stays as it was. The
+    // checkpoint's arrays lend their memory (the backend resizes them).
     ParticleArrays p;
+    p.id = std::move(checkpoint.id);
+    p.position = std::move(checkpoint.position);
+    p.velocity = std::move(checkpoint.velocity);
     backend_->DownloadCheckpointArrays(p, checkpoint.solver_arrays);
     checkpoint.id = std::move(p.id);
     checkpoint.position = std::move(p.position);
     checkpoint.velocity = std::move(p.velocity);
-    return checkpoint;
+    return;
   }
   const ParticleArrays& p = state_.particles;
-  checkpoint.id = p.id;
-  checkpoint.position = p.position;
-  checkpoint.velocity = p.velocity;
+  checkpoint.id.assign(p.id.begin(), p.id.end());
+  checkpoint.position.assign(p.position.begin(), p.position.end());
+  checkpoint.velocity.assign(p.velocity.begin(), p.velocity.end());
   checkpoint.solver_arrays = solver_->SaveArrays();
-  return checkpoint;
 }
 
 void Simulation::RestoreCheckpoint(const Checkpoint& checkpoint) {

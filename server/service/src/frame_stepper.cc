@@ -20,7 +20,12 @@ bool FrameStepper::Advance(Simulation& sim, const std::function<bool()>& interru
   if (!sim.frame_in_progress()) {
     frame_first_step_ = sim.step();
     start_kept_ = ExpectLongFrame();
-    if (start_kept_) start_ = sim.SaveCheckpoint();
+    if (start_kept_) {
+      const auto keep_begin = Clock::now();
+      sim.SaveCheckpoint(start_);  // into the last frame's buffers
+      last_keep_ms_ = std::chrono::duration<double, std::milli>(Clock::now() - keep_begin).count();
+      ++keeps_;
+    }
   }
   const auto begin = Clock::now();
   const uint64_t first = sim.step();

@@ -188,7 +188,9 @@ void SimulationHost::Answer(QueuedControl& job, ControlResult result) {
 }
 
 bool SimulationHost::AdvanceFrame(const std::function<bool()>& interrupted) {
+  const uint64_t keeps = stepper_.keeps();
   const bool complete = stepper_.Advance(*sim_, interrupted);
+  if (stepper_.keeps() != keeps) keep_start_.Add(stepper_.last_keep_ms());
   if (!sim_->alarm().empty()) {
     // The core stopped at the first step that diverged.
     alarm_ = sim_->alarm() + " (frame " + std::to_string(sim_->frame()) +
@@ -275,6 +277,7 @@ void SimulationHost::StartScene() {
   recent_frames_.clear();
   gather_ = {};
   record_ = {};
+  keep_start_ = {};
   publisher_.ResetTiming();
   const Scene& scene = sim_->scene();
   Log("scene '" + scene.name + "': " + std::to_string(sim_->particle_count()) +
@@ -317,6 +320,7 @@ void SimulationHost::RefreshStatus() {
   const auto add_stage = [&](const char* name, const StageTiming& t) {
     if (t.calls > 0) s.passes.push_back(PassStatus{name, t.last_ms, t.mean_ms, t.calls});
   };
+  add_stage("keep_frame_start", keep_start_);
   add_stage("record_history", record_);
   add_stage("gather_frames", gather_);
   add_stage("publish_frames", publisher_.timing());

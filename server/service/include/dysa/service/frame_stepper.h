@@ -54,6 +54,9 @@ class FrameStepper {
 
   Clock::duration budget() const { return budget_; }
   double step_seconds() const { return step_seconds_; }  // wall time per step, smoothed; 0: none
+  // Frame starts kept so far, and the wall time the latest took (the checkpoint's copy).
+  uint64_t keeps() const { return keeps_; }
+  double last_keep_ms() const { return last_keep_ms_; }
 
  private:
   bool ExpectLongFrame() const;
@@ -64,6 +67,8 @@ class FrameStepper {
   double step_seconds_ = 0;
   uint64_t frame_first_step_ = 0;  // Simulation::step() when the frame in progress began
   uint64_t last_frame_steps_ = 0;  // steps the latest complete frame took; 0: none yet
+  uint64_t keeps_ = 0;
+  double last_keep_ms_ = 0;
 };
 
 }  // namespace dysa::service

@@ -32,11 +32,13 @@ struct HostStatus {
   std::string scene;
   double frames_per_second = 0;  // simulated frames per wall second, over the last second
   double target_frame_rate = 0;
-  // The solver's passes, then "record_history" (the step-back history's bookkeeping at each
-  // frame's end: a checkpoint of the state every History::interval() frames, on the simulation
-  // thread), then, once anyone has subscribed, "gather_frames" (copying the particles into a
-  // frame in id order, on the simulation thread) and "publish_frames" (encoding it and starting
-  // the writes, on the publishing thread), per frame.
+  // The solver's passes, then "keep_frame_start" once a frame was long enough for its start to
+  // be kept (FrameStepper: a checkpoint, so that a pause can roll the frame back; per frame
+  // kept), "record_history" (the step-back history's bookkeeping at each frame's end: a
+  // checkpoint of the state every History::interval() frames, on the simulation thread), then,
+  // once anyone has subscribed, "gather_frames" (copying the particles into a frame in id order,
+  // on the simulation thread) and "publish_frames" (encoding it and starting the writes, on the
+  // publishing thread), per frame.
   std::vector<PassStatus> passes;
   uint32_t solver_threads = 0;  // OpenMP threads the simulation thread steps with
   // Simulation::DeviceDescription(): "cpu" or e.g. "cuda:0 NVIDIA H200, 139.8 GiB, sm_90".

@@ -172,8 +172,9 @@ class SimulationHost {
   bool params_changed_in_frame_ = false;
   FrameSnapshot snapshot_;  // reused buffers
   std::deque<std::chrono::steady_clock::time_point> recent_frames_;
-  StageTiming gather_;  // gathering frames for subscribers
-  StageTiming record_;  // History::Record at each frame's end (a checkpoint every interval)
+  StageTiming gather_;      // gathering frames for subscribers
+  StageTiming record_;      // History::Record at each frame's end (a checkpoint every interval)
+  StageTiming keep_start_;  // FrameStepper's checkpoint of a long frame's start
   // OpenMP threads of the simulation thread, as it reads them; the configured count until it
   // starts.
   int running_threads_ = solver_threads_;
