@@ -9,6 +9,11 @@ mpi_require() {
   fi
   # Waiting OpenMP threads sleep rather than spin: the ranks share CI's 2 cores.
   export OMP_WAIT_POLICY=PASSIVE
+  # No X display: Open MPI's hwloc probes any display it is given for GPUs (its gl component),
+  # and the viewer tests' Xvfb servers come and go beside these tests: one that closed in the
+  # middle of that probe killed mpirun ("X connection to :0 broken") in a full ctest run.
+  unset DISPLAY
+  export HWLOC_COMPONENTS="${HWLOC_COMPONENTS:+$HWLOC_COMPONENTS,}-gl"
   # In an ASan build, LeakSanitizer would report Open MPI's own allocations left at exit; our
   # code's leaks are checked by the in-process tests (distributed_simulation_test).
   export ASAN_OPTIONS="${ASAN_OPTIONS:+$ASAN_OPTIONS:}detect_leaks=0"
