@@ -70,6 +70,16 @@ TEST(FrameStepperTest, ARollBackKeepsTheParametersChangedInsideTheFrame) {
   EXPECT_EQ(StateHash(sim.state()), StateHash(expected.state()));
 }
 
+// The rule, in numbers (a 100 ms budget).
+TEST(FrameStepperTest, AStartIsKeptWhenTheTailOutlastsTheBudgetOrKeepingIsCheap) {
+  EXPECT_TRUE(FrameStepper::WorthKeeping(0.150, 0.160, 10.0, 0.1));   // late otherwise: always
+  EXPECT_FALSE(FrameStepper::WorthKeeping(0.040, 0.050, 0.0, 0.1));   // fits half the budget
+  EXPECT_TRUE(FrameStepper::WorthKeeping(0.080, 0.090, 0.0, 0.1));    // not measured yet
+  EXPECT_TRUE(FrameStepper::WorthKeeping(0.080, 0.090, 0.020, 0.1));  // 22% of the frame
+  // A frame of 96 ms, 84 after its first step, whose copy takes 290 ms.
+  EXPECT_FALSE(FrameStepper::WorthKeeping(0.084, 0.096, 0.290, 0.1));
+}
+
 TEST(FrameStepperTest, AFrameExpectedToFitTheBudgetKeepsNoStartAndIsFinished) {
   Simulation sim(SeedScene());
   FrameStepper stepper(1h);

@@ -15,8 +15,10 @@
 // A pause thus lands within the step in flight plus the budget. Keeping a frame's start costs a
 // checkpoint copy (28-36 bytes a particle; from device memory on a GPU), so it is kept only for
 // frames expected to outlast half the budget, judged from the last frame's step count and the
-// measured wall time per step; a shorter frame is finished. Only when a frame turns out far
-// longer than the last one (the CFL step collapsing, say) can a pause land later than that.
+// measured wall time per step; a shorter frame is finished. Between half the budget and the
+// budget, where finishing is still expected to land in time, it is kept only while the copy
+// costs at most a quarter of the frame (WorthKeeping). Only when a frame turns out far longer
+// than the last one (the CFL step collapsing, say) can a pause land later than that.
 #pragma once
 
 #include <chrono>
@@ -57,6 +59,13 @@ class FrameStepper {
   // Frame starts kept so far, and the wall time the latest took (the checkpoint's copy).
   uint64_t keeps() const { return keeps_; }
   double last_keep_ms() const { return last_keep_ms_; }
+
+  // Whether to keep the start of a frame whose steps are expected to take `frame_s` seconds,
+  // `tail_s` of them after its first step, when keeping costs `keep_s` (0: not measured yet) and
+  // the landing budget is `budget_s`: always when the tail outlasts the budget; never when it
+  // fits half of it; in between only while keeping costs at most kKeepShare of the frame.
+  static constexpr double kKeepShare = 0.25;
+  static bool WorthKeeping(double tail_s, double frame_s, double keep_s, double budget_s);
 
  private:
   bool ExpectLongFrame() const;
