@@ -183,44 +183,6 @@ TEST(ViewDetail, AViewStreamKeepsItsSubsetAcrossFramesSoDeltaCodingPays) {
   EXPECT_EQ(decoded->ids, first_ids);
 }
 
-// A moved camera's first frame is a coarse keyframe (an eighth of the budget, inside the subset
-// that follows), so that the new view arrives in a fraction of a frame's link time; the next
-// frame holds the whole budget. The stream's first camera gets the whole budget at once.
-TEST(ViewDetail, AMovedCamerasFirstFrameIsCoarseAndTheNextHoldsTheBudget) {
-  FrameHub hub(4);
-  Listener l;
-  SubscriptionOptions o;
-  o.budget = {.particles_per_frame = 800};
-  auto s = hub.Subscribe(o, &l);
-  hub.SetStreamView(s->id(), NarrowView());
-  const std::vector<float> p = Cloud(8000);
-  codec::FrameDecoder decoder;
-  const auto publish = [&](uint64_t f) {
-    hub.Publish(Snapshot(f, p), false, false);
-    auto frame = s->Take(nullptr);
-    EXPECT_TRUE(frame) << f;
-    if (!frame) return std::vector<uint32_t>{};
-    EXPECT_TRUE(frame->keyframe) << f;
-    auto decoded = decoder.AddChunks(frame->chunks);
-    EXPECT_TRUE(decoded) << f;
-    return decoded ? decoded->ids : std::vector<uint32_t>{};
-  };
-  // The budget: the detail ladder's step at or below 800 of 8,000 particles.
-  const size_t budget = publish(1).size();
-  EXPECT_GT(budget, 600u) << "the first camera: the whole budget";
-  EXPECT_LE(budget, 800u);
-  StreamView moved = NarrowView();
-  moved.eye = {0, 0, -3};  // from the side
-  hub.SetStreamView(s->id(), moved);
-  const std::vector<uint32_t> coarse = publish(2);
-  EXPECT_EQ(coarse.size(), budget / 8);  // ViewStream::kCoarseDivisor
-  const std::vector<uint32_t> whole = publish(3);
-  EXPECT_EQ(whole.size(), budget);
-  EXPECT_TRUE(std::includes(whole.begin(), whole.end(), coarse.begin(), coarse.end()))
-      << "the coarse subset is part of the whole one";
-  hub.Unsubscribe(s);
-}
-
 TEST(ViewDetail, RepublishedFramesCompleteTheShownFrameBitExactly) {
   FrameHub hub(4);
   std::atomic<int> needed{0};

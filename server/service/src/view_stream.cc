@@ -16,11 +16,6 @@ uint64_t BudgetOf(uint32_t threshold, uint64_t candidates) {
                               1, uint64_t(codec::DetailFraction(threshold) * double(candidates)));
 }
 
-// A selection's budget: a moved camera's first frame holds a coarse share of it.
-uint64_t SelectionBudget(uint64_t budget, bool coarse) {
-  return coarse ? std::max<uint64_t>(1, budget / ViewStream::kCoarseDivisor) : budget;
-}
-
 // The selection level `level` of a refinement asks for (level >= 1).
 uint64_t LevelBudget(int level, uint64_t budget, uint64_t candidates) {
   return level >= 40 ? candidates : std::min(candidates, budget << level);
@@ -55,7 +50,7 @@ ViewRead ViewStream::Gather(const Simulation& sim, const FrameSnapshot& snapshot
   r.threshold = threshold;
   r.stride = std::max<uint32_t>(1, stride);
   r.total = snapshot.positions.size() / 3;
-  Key key{r.view_version, r.threshold, r.stride, r.total};
+  const Key key{r.view_version, r.threshold, r.stride, r.total};
   const uint64_t candidates = (r.total + r.stride - 1) / r.stride;
   const uint64_t budget = BudgetOf(threshold, candidates);
 
@@ -68,7 +63,6 @@ ViewRead ViewStream::Gather(const Simulation& sim, const FrameSnapshot& snapshot
   std::vector<uint32_t> kept, shown;
   {
     std::lock_guard lock(state_mu_);
-    key.coarse = r.coarse = CoarseFor(key.view_version);
     const bool jump = discontinuity || pending_discontinuity_;
     const uint64_t in_flight = std::min<uint64_t>(2, r.seq - 1 - planned_seq_);
     may_select = jump || !(key == selected_key_) ||
@@ -77,14 +71,13 @@ ViewRead ViewStream::Gather(const Simulation& sim, const FrameSnapshot& snapshot
     may_keep = !jump && key == selected_key_ && frames_since_selection_ < keyframe_interval;
     if (may_keep) kept = selected_, r.generation = generation_;
     may_refine = have_shown_ && !jump && partial_ && snapshot.frame == shown_frame_ &&
-                 snapshot.step == shown_step_ && key.SameFrameAs(shown_key_);
+                 snapshot.step == shown_step_ && key == shown_key_;
     if (may_refine) shown = shown_, r.from_level = level_;
   }
   const ViewSubsetRequest request =
       ViewRequest(view, snapshot.domain_min, snapshot.domain_max, r.stride);
   if (may_select) {
-    r.particles_read +=
-        sim.ReadViewSubset(request, SelectionBudget(budget, r.coarse), r.selection, out);
+    r.particles_read += sim.ReadViewSubset(request, budget, r.selection, out);
     r.selected = true;
   }
   if (may_refine) {
@@ -127,7 +120,6 @@ std::optional<ViewStream::Plan> ViewStream::Next(const FrameSnapshot& snapshot, 
     key.view_version = version_;
   }
   std::lock_guard state_lock(state_mu_);
-  key.coarse = CoarseFor(key.view_version);
   discontinuity = discontinuity || pending_discontinuity_;
   key.threshold = threshold;
   key.stride = std::max<uint32_t>(1, stride);
@@ -143,7 +135,7 @@ std::optional<ViewStream::Plan> ViewStream::Next(const FrameSnapshot& snapshot, 
   if (read) planned_seq_ = std::max(planned_seq_, read->seq);
   const bool read_fits = read && read->view_version == key.view_version &&
                          read->threshold == key.threshold && read->stride == key.stride &&
-                         read->total == key.total && read->coarse == key.coarse;
+                         read->total == key.total;
   const auto missing = [&] {
     // The stream's state stays as it was; a discontinuity still selects at the next frame.
     pending_discontinuity_ = discontinuity;
@@ -154,7 +146,7 @@ std::optional<ViewStream::Plan> ViewStream::Next(const FrameSnapshot& snapshot, 
 
   const bool same_frame = have_shown_ && !fresh && !discontinuity &&
                           snapshot.frame == shown_frame_ && snapshot.step == shown_step_ &&
-                          key.SameFrameAs(shown_key_);
+                          key == shown_key_;
   if (same_frame) {
     if (!partial_) return std::nullopt;  // the client has all of it
     if (!snapshot.complete && !(read_fits && read->refined && read->from_level == level_)) {
@@ -197,7 +189,7 @@ std::optional<ViewStream::Plan> ViewStream::Next(const FrameSnapshot& snapshot, 
   }
   if (select) {
     if (snapshot.complete) {
-      selected_ = order().Select(SelectionBudget(budget, key.coarse));
+      selected_ = order().Select(budget);
     } else {
       selected_ = read->selection;
     }

@@ -1,12 +1,8 @@
 // One subscriber's view-dependent stream (FrameHub::SetStreamView): its camera, the subset it is
 // sent (view_detail.h) and the progressive completion of a frame that stays on screen.
 //
-// A new frame is sent as the view subset of the budget. After the camera moves (a new view, not
-// the stream's first), the first frame is a coarse subset, 1/kCoarseDivisor of the budget, and the
-// next frame selects the whole budget: a jump's first image then costs a fraction of a frame's
-// bytes on the link (its keyframe, about twice a delta frame's bytes per particle, would take
-// two frame periods or more) at the price of a second keyframe. The subset is re-selected only when
-// the camera, the budget or the particle count changed, after a discontinuity, or once per keyframe
+// A new frame is sent as the view subset of the budget. The subset is re-selected only when the
+// camera, the budget or the particle count changed, after a discontinuity, or once per keyframe
 // interval (the particles' cells drift as the fluid moves), so between those the same ids go out
 // and delta coding pays. A republish of the frame already sent (the server is paused and asks
 // for a frame) instead sends a refinement: the particles of the selection at twice the previous
@@ -45,7 +41,6 @@ struct ViewRead {
   uint64_t view_version = 0;
   uint32_t threshold = 0, stride = 1;
   size_t total = 0;
-  bool coarse = false;              // read for a moved camera's first, coarse frame
   bool selected = false;            // `selection`: the budget's selection on this frame
   std::vector<uint32_t> selection;  // increasing
   bool kept = false;                // the kept ids of selection number `generation` were read
@@ -58,9 +53,6 @@ struct ViewRead {
 
 class ViewStream {
  public:
-  // A moved camera's first frame holds 1/kCoarseDivisor of the budget.
-  static constexpr uint64_t kCoarseDivisor = 8;
-
   // Any thread. `view` must be valid.
   void SetView(const StreamView& view);
 
@@ -102,18 +94,8 @@ class ViewStream {
     uint64_t view_version = 0;
     uint32_t threshold = 0, stride = 0;
     size_t total = 0;
-    bool coarse = false;  // a moved camera's first selection (the shown frame's ids differ only)
     bool operator==(const Key&) const = default;
-    bool SameFrameAs(const Key& o) const {
-      return view_version == o.view_version && threshold == o.threshold && stride == o.stride &&
-             total == o.total;
-    }
   };
-  // Whether a selection for `view_version` after selected_key_ is a moved camera's coarse one
-  // (state_mu_ held).
-  bool CoarseFor(uint64_t view_version) const {
-    return selected_key_.view_version != 0 && selected_key_.view_version != view_version;
-  }
   Key selected_key_;
   std::vector<uint32_t> selected_;  // the subset new frames are sent
   uint64_t generation_ = 0;         // +1 per selection
