@@ -10,7 +10,9 @@
 //                  camera jumps (the coarse share outside the old view: what the viewer draws at
 //                  once), as a share of the steady count below;
 //   steady         the median count inside the new frustum over the dwell's second half;
-//   t_half, t_90   seconds from SetStreamView to the first frame holding half and 90% of it.
+//   t_half, t_90   seconds from SetStreamView to the first frame holding half and 90% of it;
+//   t_view         to the first frame chosen for the new view, coarse or not: whose share of
+//                  particles inside the new view is at least half the settled frames' share.
 // For the pause: seconds from Pause to the first frame that is not partial (every particle, the
 // positions bit-exact as quantised), the refinements and bytes on the way.
 // Prints a line per event and appends rows to --csv.
@@ -207,37 +209,44 @@ int main(int argc, char** argv) {
   std::ofstream out(csv, std::ios::app);
   if (out.tellp() == 0) {
     out << "label,event,at_s,frames,particles_per_frame,steady_in_view,shown_at_jump_share,"
-           "t_half_s,t_90_s,complete_s,refinements,bytes\n";
+           "t_half_s,t_90_s,complete_s,refinements,bytes,t_view_s\n";
   }
   const std::vector<Received>& f = log.frames;
   for (size_t j = 0; j < jump_at.size(); ++j) {
     const int to = int((j + 1) % 2);
     const double t0 = jump_at[j], t1 = j + 1 < jump_at.size() ? jump_at[j + 1] : pause_at;
     const auto in_view = [&](const Received& r) { return double(to == 0 ? r.in_a : r.in_b); };
-    std::vector<double> late, counts;
+    const auto share = [&](const Received& r) { return r.count ? in_view(r) / r.count : 0.0; };
+    std::vector<double> late, late_share, counts;
     double shown = 0;
     size_t frames = 0;
     for (const Received& r : f) {
       if (r.t <= t0) shown = in_view(r);
       if (r.t > t0 && r.t <= t1) ++frames, counts.push_back(r.count);
-      if (r.t > 0.5 * (t0 + t1) && r.t <= t1) late.push_back(in_view(r));
+      if (r.t > 0.5 * (t0 + t1) && r.t <= t1) {
+        late.push_back(in_view(r));
+        late_share.push_back(share(r));
+      }
     }
-    const double steady = Median(late);
-    double t_half = -1, t_90 = -1;
+    const double steady = Median(late), steady_share = Median(late_share);
+    double t_half = -1, t_90 = -1, t_view = -1;
     for (const Received& r : f) {
       if (r.t <= t0 || r.t > t1) continue;
+      if (t_view < 0 && share(r) >= 0.5 * steady_share && steady_share > 0) t_view = r.t - t0;
       if (t_half < 0 && in_view(r) >= 0.5 * steady) t_half = r.t - t0;
       if (t_90 < 0 && in_view(r) >= 0.9 * steady) t_90 = r.t - t0;
     }
     char line[512];
     std::snprintf(line, sizeof line,
                   "jump to %c at %.1f s: %zu frames of %.0f particles, %.0f in view when steady, "
-                  "%.0f%% of them shown at once, half in %.3f s, 90%% in %.3f s",
+                  "%.0f%% of them shown at once, the new view's first frame in %.3f s, half in "
+                  "%.3f s, 90%% in %.3f s",
                   to == 0 ? 'A' : 'B', t0, frames, Median(counts), steady,
-                  steady > 0 ? 100 * shown / steady : 0, t_half, t_90);
+                  steady > 0 ? 100 * shown / steady : 0, t_view, t_half, t_90);
     std::printf("%s\n", line);
     out << label << ",jump," << t0 << "," << frames << "," << Median(counts) << "," << steady << ","
-        << (steady > 0 ? shown / steady : 0) << "," << t_half << "," << t_90 << ",,,\n";
+        << (steady > 0 ? shown / steady : 0) << "," << t_half << "," << t_90 << ",,,," << t_view
+        << "\n";
   }
   int refinements = 0;
   uint64_t bytes = 0;
@@ -260,6 +269,6 @@ int main(int argc, char** argv) {
                 pause_at, paused_end - pause_at, refinements, (unsigned long long)bytes);
   }
   out << label << ",pause," << pause_at << ",,,,,,," << complete_s << "," << refinements << ","
-      << bytes << "\n";
+      << bytes << ",\n";
   return 0;  // a measurement, not a check: a pause that did not complete is a row too
 }
