@@ -52,15 +52,20 @@ struct FrameGroup {
   uint64_t next_seq = 0;
   // When the frame-rate cap lets the next frame through (FrameHub::Publish).
   std::optional<Clock::time_point> next_due;
-  // The earliest time a frame passes that cap (next_due less its quarter period of slack), in
-  // steady-clock nanoseconds, for the simulation thread's GatherNeeds; written with next_due.
+  // The earliest time a frame passes that cap (next_due less a quarter period of slack), in
+  // steady-clock nanoseconds: the one rule both Publish and the simulation thread's GatherNeeds
+  // apply (CapPasses); written with next_due.
   std::atomic<int64_t> passes_from_ns{std::numeric_limits<int64_t>::min()};
   void SetNextDue(std::optional<Clock::time_point> due, Clock::duration period) {
     next_due = due;
-    passes_from_ns = due ? std::chrono::duration_cast<std::chrono::nanoseconds>(
-                               (*due - period / 4).time_since_epoch())
-                               .count()
-                         : std::numeric_limits<int64_t>::min();
+    passes_from_ns = due ? Nanoseconds(*due - period / 4) : std::numeric_limits<int64_t>::min();
+  }
+  // Whether a frame read at `t` passes the frame-rate cap (always without one).
+  bool CapPasses(Clock::time_point t) const {
+    return options.max_fps <= 0 || Nanoseconds(t) >= passes_from_ns;
+  }
+  static int64_t Nanoseconds(Clock::time_point t) {
+    return std::chrono::duration_cast<std::chrono::nanoseconds>(t.time_since_epoch()).count();
   }
   // The snapshot last encoded (frame, step, particles): a republish of it changes nothing.
   std::optional<std::array<uint64_t, 3>> last_snapshot;
@@ -228,15 +233,13 @@ uint32_t FrameHub::NeededThreshold() const {
 }
 
 FrameHub::Needs FrameHub::GatherNeeds(bool any_time, Clock::time_point now) const {
-  const int64_t now_ns =
-      std::chrono::duration_cast<std::chrono::nanoseconds>(now.time_since_epoch()).count();
   std::lock_guard lock(mu_);
   Needs needs;
   for (const auto& g : groups_) {
     // Publish would skip this frame for a group under its frame-rate cap (a keyframe it needs
     // waits for the cap too): not read for it. A frame read for another group that turns due
     // meanwhile is a missed one for it, and the next frame is read.
-    if (!any_time && g->options.max_fps > 0 && now_ns < g->passes_from_ns) continue;
+    if (!any_time && !g->CapPasses(now)) continue;
     const codec::StreamConfig& c = g->options.stream;
     needs.fields |= c.fields;
     if (g->view) {
@@ -419,7 +422,7 @@ void FrameHub::Publish(const FrameSnapshot& snapshot, bool force, bool discontin
     const auto period = std::chrono::duration_cast<Clock::duration>(
         std::chrono::duration<double>(max_fps > 0 ? 1.0 / max_fps : 0.0));
     if (max_fps > 0) {
-      if (!force && group->next_due && now < *group->next_due - period / 4) {
+      if (!force && !group->CapPasses(now)) {
         if (keyframe_needed) group->keyframe_needed = true;  // for the frame that passes
         continue;
       }

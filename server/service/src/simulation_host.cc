@@ -298,9 +298,9 @@ void SimulationHost::DescribeScene() {
 }
 
 void SimulationHost::Publish(bool force, bool discontinuity) {
-  if (hub_.NeededFields() == 0) return;  // no one watches: nothing gathered, nothing encoded
   const auto start = Clock::now();
-  // Running, a frame that every stream's frame-rate cap would skip is not read.
+  // Nothing is read or encoded when no one watches or, running, when every stream's frame-rate
+  // cap would skip the frame.
   if (!GatherSnapshot(*sim_, hub_, /*any_time=*/force, discontinuity, snapshot_)) return;
   gather_.Add(std::chrono::duration<double, std::milli>(Clock::now() - start).count());
   publisher_.Offer(snapshot_, force, discontinuity);
