@@ -4,9 +4,12 @@
 # slab axis; ranks_predictor_corrector.json; ranks_dfsph.json: dfsph, its solves refreshing the
 # ghosts every iteration), N steps with plain `dysa run` and under mpirun on each rank count must
 # end in the same state hash and write the same probes.csv and VTK frames, byte for byte; on more
-# than one rank particles must have migrated between ranks and at least two ranks hold some.
-# (Whether the step-time balance moves a cut depends on the machine's timing: mpi_balance_test
-# slows a rank on purpose to check it.)
+# than one rank particles must have migrated between ranks and at least two ranks must have held,
+# in the mean over the steps, a twentieth of the particles each. (Where the step-time balance moves
+# the cuts depends on the machine's timing: mpi_balance_test slows a rank on purpose to check it.
+# The count at the end is not asserted: the scenes' fluid moves, the cuts follow it a window
+# later, and the seed's block thrown along +x once ended `0 3072` on 2 ranks of a loaded CI
+# machine, having held a mean of about a fifth on the first rank.)
 # Usage: mpi_ranks_test.sh [--steps N] [--ranks "R..."] DYSA MPIEXEC SCENE... (default: 150
 # steps on 1 2 3 4 ranks; ranks_dfsph.json runs 200 steps on 1, 2 and 3). Exits 77 (skipped,
 # with the reason printed) when mpirun cannot be found.
@@ -51,19 +54,24 @@ for scene in "$@"; do
     migrated=$(field "migrated" "$log")
     recuts=$(field "re-balanced" "$log")
     counts=$(sed -n 's/^particles per rank: //p' <<< "$log")
+    means=$(sed -n 's/^mean particles per rank over the steps: //p' <<< "$log")
+    total=$(sed -n "s/^$steps steps of \([0-9]*\) particles.*/\1/p" <<< "$log")
     echo "$name, $ranks ranks: state hash $hash, migrated $migrated, re-balanced $recuts steps," \
-      "particles per rank $counts"
+      "particles per rank $counts at the end, $means in the mean"
     grep -q "^$steps steps of " <<< "$log" || fail "$name: $ranks ranks ran short: $log"
     [ "$hash" = "$reference" ] || fail "$name: $ranks ranks: hash $hash, not $reference: $log"
     diff -r "$out/$name/plain" "$out/$name/$ranks" > /dev/null ||
       fail "$name: $ranks ranks: probes.csv or frames differ from the plain run's"
     if [ $ranks -gt 1 ]; then
       [ "${migrated:-0}" -gt 0 ] || fail "$name: $ranks ranks: no particle migrated: $log"
+      [ "$(wc -w <<< "$means")" -eq "$ranks" ] || fail "$name: no mean per rank in: $log"
       holding=0
-      for n in $counts; do
-        [ "$n" -gt 0 ] && holding=$((holding + 1))
+      for n in $means; do
+        [ $((20 * n)) -ge "$total" ] && holding=$((holding + 1))
       done
-      [ $holding -ge 2 ] || fail "$name: $ranks ranks: fewer than two ranks hold particles ($counts)"
+      [ $holding -ge 2 ] ||
+        fail "$name: $ranks ranks: fewer than two ranks held a twentieth of the $total particles" \
+          "in the mean over the steps ($means)"
     fi
   done
 done
