@@ -44,7 +44,8 @@ void DetailBudget::Validate() const {
 
 double DetailController::LevelFraction(int level) { return std::exp2(-0.25 * level); }
 
-DetailController::DetailController(DetailBudget budget) : budget_(budget) {}
+DetailController::DetailController(DetailBudget budget)
+    : budget_(budget), slow_start_(budget.fps_target > 0) {}
 
 uint32_t DetailController::threshold() const {
   return level_ == 0 ? 0 : codec::DetailThreshold(fraction());
@@ -114,7 +115,12 @@ void DetailController::OnBytesDelivered(double now, size_t bytes, bool frame_don
   shown_particles_ = frame_particles_;
   const double took = now - frame_start_;
   if (took > 1e-4 && frame_bytes_ > 0) SampleLink(now, double(frame_bytes_) / took);
-  if (frame_level_ == level_) late_blocked_ = false;
+  if (frame_level_ == level_) {
+    late_blocked_ = false;
+    // A frame that outlasted its period measured the link: the slow start is over.
+    if (took * fitted_fps() > 1) slow_start_ = false;
+    OnDeliveredAtLevel();
+  }
   Decide(now);
 }
 
@@ -138,7 +144,9 @@ bool DetailController::Hold(double now) {
   // periods leave room for reports that come late (a busy client or server, a reply queued
   // behind frames): holding is not lateness and never lowers the detail, which the measured
   // link decides; it only keeps the transport's queue short.
-  return sent_.size() >= 2 && oldest > 3 / budget_.fps_target + rtt_min_;
+  const bool hold = sent_.size() >= 2 && oldest > 3 / budget_.fps_target + rtt_min_;
+  if (hold) slow_start_ = false;  // frames back up: the link is full
+  return hold;
 }
 
 void DetailController::OnAcknowledged(double now, uint64_t frames, double rtt) {
@@ -156,6 +164,7 @@ void DetailController::OnAcknowledged(double now, uint64_t frames, double rtt) {
   }
   size_t bytes = 0;
   double count = 0, first_start = INFINITY;
+  bool at_level = false;
   while (!sent_.empty() && sent_.front().ordinal <= frames) {
     const Sent& s = sent_.front();
     bytes += s.bytes;
@@ -166,6 +175,7 @@ void DetailController::OnAcknowledged(double now, uint64_t frames, double rtt) {
     // Lateness acts again once a frame at the level it chose has arrived: the frames queued
     // before it say nothing new (a queue of a few MiB drains for seconds on a slow link).
     if (s.level == level_) late_blocked_ = false;
+    at_level = at_level || s.level == level_;
     sent_.pop_front();
   }
   acked_frames_ = frames;
@@ -201,11 +211,27 @@ void DetailController::OnAcknowledged(double now, uint64_t frames, double rtt) {
     link_sampled_at_ = now;
   }
   last_ack_ = now;
+  // Frames queued on the link: it has shown its rate, and the slow start is over.
+  if (queued) slow_start_ = false;
+  if (at_level) OnDeliveredAtLevel();
   Decide(now);
 }
 
+void DetailController::OnDeliveredAtLevel() {
+  if (!slow_start_ || !budget_.active()) return;
+  int next = std::max(BudgetLevel(), level_ - kSlowStartStep);
+  while (next < level_ && !FitsByteBudget(next)) ++next;
+  if (next >= level_) {
+    slow_start_ = false;  // at the budgets' detail: nothing left to probe for
+    return;
+  }
+  level_ = next;
+}
+
 void DetailController::OnLate(double now) {
-  if (budget_.fps_target <= 0 || frame_keyframe_ || late_blocked_) return;
+  if (budget_.fps_target <= 0) return;
+  slow_start_ = false;  // a frame outlasted its period: the link is full
+  if (frame_keyframe_ || late_blocked_) return;
   last_late_ = now;
   if (now - last_increase_ < 2 * up_hold_ + 1.0) up_hold_ = std::min(kMaxHold, 2 * up_hold_);
   level_ = std::min(kLevels - 1, level_ + kLateStep);
@@ -219,8 +245,22 @@ bool DetailController::Fits(int level, double share) const {
   if (budget_.bytes_per_second > 0) {
     available = std::min(available, (share < 1 ? 0.9 : 1.0) * budget_.bytes_per_second);
   }
-  const double frame_bytes = delta_bpp_ * LevelFraction(level) * total_ + 200.0;  // + headers
-  return frame_bytes * fitted_fps() <= available;
+  return FrameBytes(level, delta_bpp_) * fitted_fps() <= available;
+}
+
+double DetailController::FrameBytes(int level, double bytes_per_particle) const {
+  return bytes_per_particle * LevelFraction(level) * total_ + 200.0;  // + headers
+}
+
+bool DetailController::FitsByteBudget(int level) const {
+  return budget_.bytes_per_second <= 0 ||
+         FrameBytes(level, delta_bpp_) * fitted_fps() <= budget_.bytes_per_second;
+}
+
+int DetailController::FirstFrameLevel() const {
+  int level = 0;
+  while (level + 1 < kLevels && FrameBytes(level, key_bpp_) > kFirstFrameBytes) ++level;
+  return level;
 }
 
 int DetailController::BudgetLevel() const {
@@ -242,6 +282,15 @@ int DetailController::BudgetLevel() const {
 void DetailController::Decide(double now) {
   if (!budget_.active()) return;
   const int floor = BudgetLevel();
+  if (slow_start_) {
+    // Before the first frame: a keyframe the slowest link takes in about a second. Later the
+    // deliveries move the level (OnDeliveredAtLevel), within the budgets.
+    if (started_ == 0 && total_ > 0) level_ = FirstFrameLevel();
+    level_ = std::max(level_, floor);
+    while (level_ + 1 < kLevels && !FitsByteBudget(level_)) ++level_;
+    if (level_ > floor) return;
+    slow_start_ = false;
+  }
   if (level_ < floor) {
     level_ = floor;
     headroom_since_.reset();
