@@ -20,7 +20,7 @@
 #
 # Appends a row to OUT/link_watch_<device name>.csv and writes the status samples to
 # OUT/link_watch_<particles>_<rate>mbit_<device name>.txt. Needs a release build of
-# dysa-server, dysa and dysa-delay-relay (tests/link).
+# dysa-server, dysa and dysa-delay-relay (tests/link), in build/release or $LINK_BENCH_BUILD.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 
@@ -53,7 +53,7 @@ while [[ $# -gt 0 ]]; do
   esac
 done
 
-build=build/release
+build=${LINK_BENCH_BUILD:-build/release}  # another build's binaries, to compare two versions
 server_bin="$build/server/dysa-server"
 cli_bin="$build/clients/cli/dysa"
 relay_bin="$build/tests/dysa-delay-relay"
@@ -202,6 +202,7 @@ row = {
     "simulated_fps_unwatched": f"{alone:.2f}", "simulated_fps_watched": f"{watched:.2f}",
     "slowdown": f"{(alone - watched) / alone:.3f}" if alone > 0 else "",
     "received_fps": f"{received:.2f}",
+    "first_frame_s": f"{watch.get('first_frame_s', -1):.2f}",
     "received_share_of_simulated": f"{received / watched:.3f}" if watched > 0 else "",
     "particles_per_frame": watch["particles"], "detail": f"{watch['detail']:.4f}",
     "bytes_per_frame": f"{watch['bytes_per_frame']:.0f}",
@@ -221,10 +222,21 @@ row = {
     "gather_ms": f"{watched_ms.get('gather_frames', 0):.2f}",
     "publish_ms_per_simulated_frame": f"{watched_ms.get('publish_frames', 0):.2f}",
 }
-new = not os.path.exists(csv)
+header = ",".join(row)
+if os.path.exists(csv):
+    lines = open(csv).read().splitlines()
+    if lines and lines[0] != header:
+        # Rows of an older bench: their columns by name, blank where they had none.
+        old = lines[0].split(",")
+        with open(csv, "w") as f:
+            f.write(header + "\n")
+            for line in lines[1:]:
+                values = dict(zip(old, line.split(",")))
+                f.write(",".join(values.get(k, "") for k in row) + "\n")
+else:
+    with open(csv, "w") as f:
+        f.write(header + "\n")
 with open(csv, "a") as f:
-    if new:
-        f.write(",".join(row) + "\n")
     f.write(",".join(str(v) for v in row.values()) + "\n")
 print(", ".join(f"{k} {v}" for k, v in row.items()))
 PY

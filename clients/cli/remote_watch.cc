@@ -36,6 +36,7 @@ struct WatchStats {
   double detail = 1;  // fraction of the particles the frame holds
   uint64_t frame_bytes = 0;
   double latency_ms = 0;
+  double first_frame_s = -1;  // s from the start to the first complete frame; -1: none
 
   void Trim(Clock::time_point now) {
     while (!recent.empty() && now - recent.front() > std::chrono::seconds(1)) recent.pop_front();
@@ -122,6 +123,9 @@ void Watch(Client& client, const WatchOptions& options, std::ostream& out) {
     stats.bytes += progress.frame_bytes;
     stats.frames_skipped = message_skips;
     const Clock::time_point now = Clock::now();
+    if (stats.first_frame_s < 0) {
+      stats.first_frame_s = std::chrono::duration<double>(now - stats.start).count();
+    }
     stats.recent.push_back(now);
     stats.Trim(now);
     stats.have_frame = true;
@@ -143,6 +147,7 @@ void Watch(Client& client, const WatchOptions& options, std::ostream& out) {
     return PrintJson({{"frames", stats.frames},
                       {"seconds", seconds},
                       {"frames_per_second", rate},
+                      {"first_frame_s", stats.first_frame_s},
                       {"bytes", stats.bytes},
                       {"bytes_per_frame", per_frame},
                       {"last_frame", stats.frame},
@@ -159,6 +164,8 @@ void Watch(Client& client, const WatchOptions& options, std::ostream& out) {
       << " frames/s), " << HumanBytes(per_frame) << "/frame";
   if (stats.frames_skipped) out << ", " << stats.frames_skipped << " skipped";
   if (stats.decode_errors) out << ", " << stats.decode_errors << " decode errors";
+  if (stats.first_frame_s >= 0)
+    out << ", the first after " << Fixed(stats.first_frame_s, 2) << " s";
   out << "\n";
 }
 

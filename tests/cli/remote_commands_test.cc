@@ -661,6 +661,7 @@ TEST_F(RemoteTest, WatchPrintsFramesAndStopsAfterSeconds) {
   EXPECT_THAT(r.out, HasSubstr("B/particle"));
   EXPECT_THAT(r.out, HasSubstr("latency"));
   EXPECT_THAT(r.out, HasSubstr("watched "));
+  EXPECT_THAT(r.out, HasSubstr(", the first after "));
   EXPECT_THAT(r.out, Not(HasSubstr("\r")));
 
   const Json j = DysaJson("watch --seconds 1.5 --fields velocity --stride 3");
@@ -668,6 +669,9 @@ TEST_F(RemoteTest, WatchPrintsFramesAndStopsAfterSeconds) {
   EXPECT_EQ(j["particles"], kSeedBasicParticles / 3);
   EXPECT_EQ(j["decode_errors"], 0);
   EXPECT_EQ(j["device"], "cpu");
+  // The first frame came after the stream opened, within the watch.
+  EXPECT_GT(j["first_frame_s"].get<double>(), 0) << j;
+  EXPECT_LT(j["first_frame_s"].get<double>(), j["seconds"].get<double>()) << j;
 }
 
 TEST_F(RemoteTest, WatchEndsCleanlyOnCtrlC) {
