@@ -125,6 +125,36 @@ TEST(FrameHubTest, ALateJoinerAsksForAFrameAndStartsFromAKeyframe) {
   hub.Unsubscribe(b);
 }
 
+// A subscriber behind (a frame waiting that it has not taken) keeps that frame: the frames
+// meanwhile are neither read nor encoded for its group, and the next one is a delta after it.
+TEST(FrameHubTest, ASubscriberBehindKeepsItsWaitingFrameAndTheNextIsADeltaAfterIt) {
+  FrameHub hub(8);
+  CountingListener l;
+  auto sub = hub.Subscribe(Options(), &l);
+  hub.Publish(Snapshot(0), false, false);
+  ASSERT_TRUE(sub->Take(nullptr));
+  hub.Publish(Snapshot(1), false, false);  // waits: the subscriber is still sending frame 0
+  EXPECT_EQ(hub.GatherNeeds(/*any_time=*/false).fields, 0u) << "nothing to read for it";
+  for (uint64_t f = 2; f <= 3; ++f) hub.Publish(Snapshot(f), false, false);
+  EXPECT_EQ(hub.frames_encoded(), 2u);
+  uint32_t skipped = 9;
+  auto frame = sub->Take(&skipped);
+  ASSERT_TRUE(frame);
+  EXPECT_EQ(frame->frame, 1u);
+  EXPECT_FALSE(frame->keyframe);
+  EXPECT_EQ(skipped, 0u);
+  EXPECT_NE(hub.GatherNeeds(false).fields, 0u) << "taken: the next frame is read again";
+  hub.Publish(Snapshot(4), false, false);
+  frame = sub->Take(&skipped);
+  ASSERT_TRUE(frame);
+  EXPECT_EQ(frame->frame, 4u);
+  EXPECT_FALSE(frame->keyframe) << "a delta after frame 1, not a keyframe";
+  EXPECT_EQ(skipped, 0u);
+  hub.Unsubscribe(sub);
+}
+
+// A forced frame (a pause, a step) replaces the waiting one: the subscriber then lacks the frame
+// before it, and gets the newest only after a keyframe, which it asks for.
 TEST(FrameHubTest, ASubscriberThatMissedFramesGetsTheNewestOnlyAfterAKeyframe) {
   FrameHub hub(8);
   int frames_needed = 0;
@@ -133,7 +163,7 @@ TEST(FrameHubTest, ASubscriberThatMissedFramesGetsTheNewestOnlyAfterAKeyframe) {
   auto sub = hub.Subscribe(Options(), &l);
   hub.Publish(Snapshot(0), false, false);
   ASSERT_TRUE(sub->Take(nullptr));
-  for (uint64_t f = 1; f <= 3; ++f) hub.Publish(Snapshot(f), false, false);
+  for (uint64_t f = 1; f <= 3; ++f) hub.Publish(Snapshot(f), /*force=*/true, false);
   // Frame 3 is a delta on frame 2, which this subscriber never had: it is not handed out.
   const int needed_before = frames_needed;
   EXPECT_FALSE(sub->Take(nullptr));
@@ -223,6 +253,7 @@ TEST(FrameHubTest, AFrameRateCapHoldsItsRateUnderJitter) {
     std::this_thread::sleep_until(start +
                                   std::chrono::microseconds(25'000 * f - 2'000 * (1 - f % 2)));
     hub.Publish(Snapshot(uint64_t(f)), false, false);
+    sub->Take(nullptr);  // a reader that keeps up
   }
   // 20 at the cap; fewer where a loaded machine made the producer itself slower than the cap.
   const double seconds =

@@ -142,7 +142,8 @@ TEST(FramePublisherTest, WithoutThreadsEveryFrameIsPublishedInlineOnTheCallersTh
   for (uint64_t f = 1; f <= 3; ++f) {
     FrameSnapshot frame = Snapshot(f);
     publisher.Offer(frame, /*force=*/false, false);
-    EXPECT_EQ(hub.frames_encoded(), f);  // published before Offer returned
+    EXPECT_EQ(hub.frames_encoded(), f);        // published before Offer returned
+    EXPECT_TRUE(subscription->Take(nullptr));  // a reader that keeps up
   }
   EXPECT_EQ(listener.thread, std::this_thread::get_id());
   EXPECT_EQ(publisher.timing().calls, 3u);

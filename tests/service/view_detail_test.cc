@@ -170,9 +170,10 @@ TEST(ViewDetail, AViewStreamKeepsItsSubsetAcrossFramesSoDeltaCodingPays) {
     if (f == 1) first_ids = decoded->ids;
     EXPECT_EQ(decoded->ids, first_ids) << "the same particles while the view holds";
   }
-  // The subscriber misses a frame: it gets a keyframe, of the same particles.
+  // The subscriber misses a frame (a forced one replaced the one it had waiting): it gets a
+  // keyframe, of the same particles.
   hub.Publish(Snapshot(5, p), false, false);
-  hub.Publish(Snapshot(6, p), false, false);
+  hub.Publish(Snapshot(6, p), /*force=*/true, false);
   EXPECT_FALSE(s->Take(nullptr)) << "a delta frame after a gap waits for a keyframe";
   hub.Publish(Snapshot(7, p), false, false);
   auto frame = s->Take(nullptr);

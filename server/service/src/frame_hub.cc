@@ -69,6 +69,10 @@ struct FrameGroup {
   }
   // The snapshot last encoded (frame, step, particles): a republish of it changes nothing.
   std::optional<std::array<uint64_t, 3>> last_snapshot;
+  // A frame was left out since the last one encoded, every subscriber having one waiting
+  // (FrameHub::LeftOutBehind): the first to take its frame asks for one (the simulation may
+  // have paused on the frame left out).
+  std::atomic<bool> owed{false};
   // Its subscriber's view, when options.view_owner is set (set at creation).
   std::shared_ptr<ViewStream> view;
   // Guarded by FrameHub::mu_.
@@ -82,6 +86,7 @@ bool SubscriptionOptions::operator==(const SubscriptionOptions& o) const {
 std::shared_ptr<const EncodedFrame> Subscription::Take(uint32_t* skipped) {
   std::shared_ptr<const EncodedFrame> frame;
   std::shared_ptr<FrameGroup> group;
+  bool decodes = false;
   {
     std::lock_guard lock(frame_mu_);
     if (!pending_ || !group_) return nullptr;  // nothing new, or unsubscribed
@@ -89,11 +94,16 @@ std::shared_ptr<const EncodedFrame> Subscription::Take(uint32_t* skipped) {
     frame = std::move(pending_);
     pending_.reset();
     const bool follows = last_seq_ && *last_seq_ + 1 == frame->seq;
-    if (frame->keyframe || follows) {
+    decodes = frame->keyframe || follows;
+    if (decodes) {
       if (skipped) *skipped = last_seq_ ? uint32_t(frame->seq - *last_seq_ - 1) : 0;
       last_seq_ = frame->seq;
-      return frame;
     }
+  }
+  if (decodes) {
+    // Read after the frame was taken (LeftOutBehind sets it before it looks).
+    if (group->owed.exchange(false) && hub_->frame_needed_) hub_->frame_needed_();
+    return frame;
   }
   // A delta frame after a gap: undecodable here. Wait for a keyframe.
   hub_->RequestKeyframe(*group);
@@ -239,7 +249,7 @@ FrameHub::Needs FrameHub::GatherNeeds(bool any_time, Clock::time_point now) cons
     // Publish would skip this frame for a group under its frame-rate cap (a keyframe it needs
     // waits for the cap too): not read for it. A frame read for another group that turns due
     // meanwhile is a missed one for it, and the next frame is read.
-    if (!any_time && !g->CapPasses(now)) continue;
+    if (!any_time && (!g->CapPasses(now) || LeftOutBehind(*g, g->members))) continue;
     const codec::StreamConfig& c = g->options.stream;
     needs.fields |= c.fields;
     if (g->view) {
@@ -353,6 +363,19 @@ void FrameHub::MaybeRefine(const std::shared_ptr<Subscription>& s) {
   if (group->view->partial() && frame_needed_) frame_needed_();
 }
 
+bool FrameHub::LeftOutBehind(FrameGroup& group,
+                             const std::vector<std::shared_ptr<Subscription>>& members) {
+  if (members.empty()) return false;
+  // Owed before looking: a subscriber that takes its frame meanwhile either is seen free here or
+  // finds the debt (Subscription::Take), never neither.
+  group.owed = true;
+  for (const auto& s : members) {
+    std::lock_guard lock(s->frame_mu_);
+    if (!s->pending_) return false;  // the frame is taken: encoded, which clears the debt
+  }
+  return true;
+}
+
 void FrameHub::RequestKeyframe(FrameGroup& group) {
   group.keyframe_needed = true;
   if (frame_needed_) frame_needed_();
@@ -413,6 +436,10 @@ void FrameHub::Publish(const FrameSnapshot& snapshot, bool force, bool discontin
       std::lock_guard lock(members.front()->frame_mu_);
       if (members.front()->pending_) continue;
     }
+    // Its subscribers are all behind, each with a frame waiting: the next frame waits for them
+    // (and its cap's due time stays), unless the frame must be seen (forced, or fresh: a
+    // keyframe asked for, a discontinuity).
+    if (!force && !fresh && LeftOutBehind(*group, members)) continue;
     // The frame-rate cap holds max_fps on average: the next frame is due one period after this
     // one was due (not after it was sent), and passes up to a quarter period early. Measuring
     // from the send instead skipped a frame whenever one came a hair early, so frames produced
@@ -449,6 +476,7 @@ void FrameHub::Publish(const FrameSnapshot& snapshot, bool force, bool discontin
     }
     if (fresh) group->encoder.RequestKeyframe();
     group->last_snapshot = this_snapshot;
+    group->owed = false;
 
     const uint32_t fields = group->options.stream.fields;
     codec::FrameInput input;

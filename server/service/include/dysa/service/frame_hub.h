@@ -1,10 +1,14 @@
 // Frame fan-out: each simulated frame is encoded once per distinct stream configuration and
 // offered to every subscriber of that configuration, newest first.
 //
-// Each subscriber holds at most one frame waiting (the newest) besides the one it is sending, so
-// a slow or stalled reader skips frames and never slows the simulation or grows memory. A delta
-// frame only decodes after the frame before it, so a subscriber that missed one (or just joined)
-// waits for a keyframe and asks its group for one.
+// Each subscriber holds at most one frame waiting besides the one it is sending, so a slow or
+// stalled reader skips frames and never slows the simulation or grows memory. A delta frame only
+// decodes after the frame before it, so a subscriber that missed one (or just joined) waits for a
+// keyframe and asks its group for one. A group whose every subscriber still has a frame waiting
+// skips the next frames (neither read nor encoded) until one of them takes it: its next frame is
+// then a delta after the waiting one. Replacing the waiting frame (newest wins) cost each such
+// gap a keyframe, several times a delta's bytes, on exactly the links that were behind. A forced
+// frame (a pause, a step, a reset) replaces it: the frame the subscribers see last is the state.
 //
 // Threads: Publish() runs on the simulation thread (it encodes, with OpenMP over chunks);
 // Subscribe(), Unsubscribe() and Subscription::Take() run on RPC threads.
@@ -184,9 +188,9 @@ class FrameHub {
   // a camera (`plain`: some; their fields and the widest detail's threshold) and each view
   // stream's group (its ViewStream reads for it, ViewStream::Gather). Unless `any_time` (a
   // forced publish, a discontinuity), only for the streams that would take a frame now: one under
-  // a frame-rate cap (max_fps, or an fps_target) that is not due at `now` is left out, so a
-  // simulation faster than its watchers does not read the frames they would skip (`fields` 0:
-  // no stream takes this frame).
+  // a frame-rate cap (max_fps, or an fps_target) that is not due at `now`, or whose subscribers
+  // all have a frame waiting, is left out, so a simulation faster than its watchers does not read
+  // the frames they would skip (`fields` 0: no stream takes this frame).
   struct ViewNeed {
     std::shared_ptr<ViewStream> view;
     uint32_t fields = 0, threshold = 0, stride = 1;
@@ -248,6 +252,10 @@ class FrameHub {
  private:
   friend class Subscription;
   void RequestKeyframe(FrameGroup& group);
+  // Whether every one of `members` (of `group`) still has a frame it has not taken (none:
+  // false): the frame is then left out for the group, which owes its subscribers one.
+  static bool LeftOutBehind(FrameGroup& group,
+                            const std::vector<std::shared_ptr<Subscription>>& members);
   // Moves `s` to the group of its options with this detail threshold (after a detail_mu_ scope).
   void ApplyDetail(const std::shared_ptr<Subscription>& s, uint32_t threshold);
   // Moves `s` to the group of its options changed by `change` (creating it); mu_ held. Returns
