@@ -73,6 +73,9 @@ struct FrameGroup {
   // (FrameHub::LeftOutBehind): the first to take its frame asks for one (the simulation may
   // have paused on the frame left out).
   std::atomic<bool> owed{false};
+  // Frames left out since the last one encoded, and the latest of them (its frame number).
+  std::atomic<uint32_t> left_out{0};
+  std::atomic<uint64_t> left_out_frame{FrameHub::kUnknownFrame};
   // Its subscriber's view, when options.view_owner is set (set at creation).
   std::shared_ptr<ViewStream> view;
   // Guarded by FrameHub::mu_.
@@ -96,7 +99,9 @@ std::shared_ptr<const EncodedFrame> Subscription::Take(uint32_t* skipped) {
     const bool follows = last_seq_ && *last_seq_ + 1 == frame->seq;
     decodes = frame->keyframe || follows;
     if (decodes) {
-      if (skipped) *skipped = last_seq_ ? uint32_t(frame->seq - *last_seq_ - 1) : 0;
+      if (skipped) {
+        *skipped = last_seq_ ? uint32_t(frame->seq - *last_seq_ - 1) + frame->left_out : 0;
+      }
       last_seq_ = frame->seq;
     }
   }
@@ -242,14 +247,14 @@ uint32_t FrameHub::NeededThreshold() const {
   return widest;
 }
 
-FrameHub::Needs FrameHub::GatherNeeds(bool any_time, Clock::time_point now) const {
+FrameHub::Needs FrameHub::GatherNeeds(bool any_time, Clock::time_point now, uint64_t frame) const {
   std::lock_guard lock(mu_);
   Needs needs;
   for (const auto& g : groups_) {
     // Publish would skip this frame for a group under its frame-rate cap (a keyframe it needs
     // waits for the cap too): not read for it. A frame read for another group that turns due
     // meanwhile is a missed one for it, and the next frame is read.
-    if (!any_time && (!g->CapPasses(now) || LeftOutBehind(*g, g->members))) continue;
+    if (!any_time && (!g->CapPasses(now) || LeftOutBehind(*g, g->members, frame))) continue;
     const codec::StreamConfig& c = g->options.stream;
     needs.fields |= c.fields;
     if (g->view) {
@@ -364,7 +369,8 @@ void FrameHub::MaybeRefine(const std::shared_ptr<Subscription>& s) {
 }
 
 bool FrameHub::LeftOutBehind(FrameGroup& group,
-                             const std::vector<std::shared_ptr<Subscription>>& members) {
+                             const std::vector<std::shared_ptr<Subscription>>& members,
+                             uint64_t frame) {
   if (members.empty()) return false;
   // Owed before looking: a subscriber that takes its frame meanwhile either is seen free here or
   // finds the debt (Subscription::Take), never neither.
@@ -373,6 +379,7 @@ bool FrameHub::LeftOutBehind(FrameGroup& group,
     std::lock_guard lock(s->frame_mu_);
     if (!s->pending_) return false;  // the frame is taken: encoded, which clears the debt
   }
+  if (frame == kUnknownFrame || group.left_out_frame.exchange(frame) != frame) ++group.left_out;
   return true;
 }
 
@@ -439,7 +446,7 @@ void FrameHub::Publish(const FrameSnapshot& snapshot, bool force, bool discontin
     // Its subscribers are all behind, each with a frame waiting: the next frame waits for them
     // (and its cap's due time stays), unless the frame must be seen (forced, or fresh: a
     // keyframe asked for, a discontinuity).
-    if (!force && !fresh && LeftOutBehind(*group, members)) continue;
+    if (!force && !fresh && LeftOutBehind(*group, members, snapshot.frame)) continue;
     // The frame-rate cap holds max_fps on average: the next frame is due one period after this
     // one was due (not after it was sent), and passes up to a quarter period early. Measuring
     // from the send instead skipped a frame whenever one came a hair early, so frames produced
@@ -477,6 +484,8 @@ void FrameHub::Publish(const FrameSnapshot& snapshot, bool force, bool discontin
     if (fresh) group->encoder.RequestKeyframe();
     group->last_snapshot = this_snapshot;
     group->owed = false;
+    const uint32_t left_out = group->left_out.exchange(0);
+    group->left_out_frame = kUnknownFrame;
 
     const uint32_t fields = group->options.stream.fields;
     codec::FrameInput input;
@@ -510,6 +519,7 @@ void FrameHub::Publish(const FrameSnapshot& snapshot, bool force, bool discontin
     encoded->particles = group->encoder.last_count();
     encoded->total_particles = uint32_t(snapshot.positions.size() / 3);
     encoded->produced_unix_us = snapshot.produced_unix_us;
+    encoded->left_out = left_out;
     if (plan) encoded->refines = plan->refines, encoded->partial = plan->partial;
     for (const codec::Chunk& c : encoded->chunks) encoded->bytes += c.size();
     if (transport_builder_) encoded->transport = transport_builder_(*encoded);

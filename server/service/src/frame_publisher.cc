@@ -81,7 +81,7 @@ void GatherSnapshot(const Simulation& sim, uint32_t fields, uint32_t threshold, 
 bool GatherSnapshot(const Simulation& sim, const FrameHub& hub, bool any_time, bool discontinuity,
                     FrameSnapshot& s) {
   const auto now = std::chrono::steady_clock::now();
-  const FrameHub::Needs needs = hub.GatherNeeds(any_time || discontinuity, now);
+  const FrameHub::Needs needs = hub.GatherNeeds(any_time || discontinuity, now, sim.frame());
   if (needs.fields == 0) return false;
   // A stream of every particle reads them all anyway: the view streams then choose from them on
   // the host, as before (the same ids, ViewKeys either way). On a GPU too, each view stream

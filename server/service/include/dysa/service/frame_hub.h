@@ -81,6 +81,9 @@ struct EncodedFrame {
   uint32_t particles = 0;        // in the frame (after stride and detail)
   uint32_t total_particles = 0;  // in the snapshot
   int64_t produced_unix_us = 0;
+  // Frames its group left out just before it, every subscriber having had one waiting: missed
+  // by whoever takes this frame after the one before it (Subscription::Take's `skipped`).
+  uint32_t left_out = 0;
   // A view stream's progressive completion (FrameHub::SetStreamView): the frame adds its
   // particles to the one sent before (the same simulation frame); the frame shown, with what it
   // refines, still lacks particles (more follow while the simulation stays paused).
@@ -202,8 +205,12 @@ class FrameHub {
     uint32_t plain_threshold = 0;
     std::vector<ViewNeed> views;
   };
-  Needs GatherNeeds(bool any_time = true, std::chrono::steady_clock::time_point now =
-                                              std::chrono::steady_clock::now()) const;
+  // `frame`: the simulation frame to be read (kUnknownFrame: each call counts as another frame
+  // left out for a group behind).
+  static constexpr uint64_t kUnknownFrame = UINT64_MAX;
+  Needs GatherNeeds(bool any_time = true,
+                    std::chrono::steady_clock::time_point now = std::chrono::steady_clock::now(),
+                    uint64_t frame = kUnknownFrame) const;
   uint64_t frames_encoded() const;
   // Encoded frames alive (held by the hub, subscribers or writes in flight): at most two per
   // subscriber plus one per group, whatever the subscribers do.
@@ -253,9 +260,11 @@ class FrameHub {
   friend class Subscription;
   void RequestKeyframe(FrameGroup& group);
   // Whether every one of `members` (of `group`) still has a frame it has not taken (none:
-  // false): the frame is then left out for the group, which owes its subscribers one.
+  // false): simulation frame `frame` is then left out for the group (counted once however often
+  // it is asked), which owes its subscribers one.
   static bool LeftOutBehind(FrameGroup& group,
-                            const std::vector<std::shared_ptr<Subscription>>& members);
+                            const std::vector<std::shared_ptr<Subscription>>& members,
+                            uint64_t frame);
   // Moves `s` to the group of its options with this detail threshold (after a detail_mu_ scope).
   void ApplyDetail(const std::shared_ptr<Subscription>& s, uint32_t threshold);
   // Moves `s` to the group of its options changed by `change` (creating it); mu_ held. Returns
