@@ -131,8 +131,9 @@ struct FrameGroup;
 
 class Subscription {
  public:
-  // The newest frame this subscriber can decode, or nullptr when there is none yet (OnFrameReady
-  // follows when one arrives). `skipped`: frames of its stream it never received.
+  // The frame waiting for this subscriber when it can decode it, or nullptr when there is none
+  // yet (OnFrameReady follows when one arrives). `skipped`: frames it missed since the one it
+  // took before (EncodedFrame::left_out included).
   std::shared_ptr<const EncodedFrame> Take(uint32_t* skipped);
   // The stream's id (FrameMessage.stream_id, SetStreamView), unique within the hub, from 1.
   uint64_t id() const { return id_; }
