@@ -50,6 +50,11 @@ def run(args, ranks, spacing):
         "step_ms": step_ms,
         "exchange_ms": float(passes["exchange"]),
         "exchange_share": float(passes["exchange"]) / step_ms if step_ms > 0 else 0.0,
+        # The decomposition's whole cost: the exchange and, after the step, dropping the ghosts
+        # and taking the next exchange's keys (one process without ranks does neither).
+        "drop_ghosts_ms": float(passes.get("drop_ghosts", 0)),
+        "halo_share": (float(passes["exchange"]) + float(passes.get("drop_ghosts", 0))) / step_ms
+        if step_ms > 0 else 0.0,
         "ghosts_per_step": float(moved.group(1)),
         "bytes_per_step": float(moved.group(2)),
         "hash": re.search(r"^state hash: (0x[0-9a-f]+)", text, re.M).group(1),
@@ -79,7 +84,8 @@ def main():
             print(f"{mode:6} {ranks:2} ranks x {row['threads']} threads: {row['particles']:8} "
                   f"particles, {row['million_particle_steps_per_s']:.3f} M particle-steps/s, "
                   f"step {row['step_ms']:.2f} ms, exchange {row['exchange_ms']:.2f} ms "
-                  f"({100 * row['exchange_share']:.0f}%), {row['bytes_per_step']:.3g} B/step, "
+                  f"({100 * row['exchange_share']:.0f}%), drop_ghosts {row['drop_ghosts_ms']:.2f} ms "
+                  f"(both {100 * row['halo_share']:.0f}%), {row['bytes_per_step']:.3g} B/step, "
                   f"hash {row['hash']}", flush=True)
     strong_hashes = {r["hash"] for r in rows if r["mode"] == "strong"}
     if len(strong_hashes) != 1:

@@ -37,15 +37,15 @@ void Append(Bytes& out, const LocalParticles& from, size_t i, bool ghost) {
   }
 }
 
-// Appends particle i of `from` to `to` (whose arrays match from's).
-void Push(LocalParticles& to, const LocalParticles& from, size_t i, bool ghost) {
-  to.particles.id.push_back(from.particles.id[i]);
-  to.particles.position.push_back(from.particles.position[i]);
-  to.particles.velocity.push_back(from.particles.velocity[i]);
-  to.key.push_back(from.key[i]);
-  to.ghost.push_back(ghost ? 1 : 0);
-  for (size_t k = 0; k < from.arrays.size(); ++k)
-    to.arrays[k].values.push_back(from.arrays[k].values[i]);
+// Moves particle i of `p` to index `out` <= i (the compaction of the particles that stay).
+void MoveDown(LocalParticles& p, size_t i, size_t out, bool ghost) {
+  p.ghost[out] = ghost ? 1 : 0;
+  if (out == i) return;
+  p.particles.id[out] = p.particles.id[i];
+  p.particles.position[out] = p.particles.position[i];
+  p.particles.velocity[out] = p.particles.velocity[i];
+  p.key[out] = p.key[i];
+  for (SolverArray& a : p.arrays) a.values[out] = a.values[i];
 }
 
 void Unpack(const Bytes& in, LocalParticles& to) {
@@ -96,38 +96,40 @@ std::vector<uint64_t> OrderKeys(std::span<const uint32_t> sorted_cells) {
 }
 
 LocalParticles ExchangeParticles(const Communicator& comm, const Slabs& slabs,
-                                 std::span<const int> layer, const LocalParticles& owned,
+                                 std::span<const int> layer, LocalParticles owned,
                                  ExchangeCounts& counts) {
   const int me = comm.rank();
-  LocalParticles mine;
-  for (const SolverArray& a : owned.arrays) mine.arrays.push_back({a.name, {}});
-  // Most particles stay: room for them and their ghosts' share without regrowing.
-  const size_t expected = owned.size() + owned.size() / 8;
-  mine.particles.id.reserve(expected);
-  mine.particles.position.reserve(expected);
-  mine.particles.velocity.reserve(expected);
-  mine.key.reserve(expected);
-  mine.ghost.reserve(expected);
-  for (SolverArray& a : mine.arrays) a.values.reserve(expected);
   std::vector<Bytes> to(size_t(comm.size()));
   counts = {};
-  for (size_t i = 0; i < owned.size(); ++i) {
+  const size_t n = owned.size();
+  owned.ghost.resize(n);
+  size_t kept = 0;
+  for (size_t i = 0; i < n; ++i) {
     const int owner = slabs.OwnerOf(layer[i]);
-    if (owner == me) {
-      Push(mine, owned, i, false);
-    } else {
+    bool stays = owner == me;
+    if (!stays) {
       Append(to[owner], owned, i, false);
       ++counts.migrated;
     }
+    bool ghost = false;
     for (int reader : slabs.GhostReaders(layer[i])) {
       if (reader == me) {
-        Push(mine, owned, i, true);
+        stays = ghost = true;
       } else {
         Append(to[reader], owned, i, true);
       }
       ++counts.ghosts_sent;
     }
+    // Read above before anything moves onto it: `kept` <= i.
+    if (stays) MoveDown(owned, i, kept++, ghost);
   }
+  LocalParticles& mine = owned;
+  mine.particles.id.resize(kept);
+  mine.particles.position.resize(kept);
+  mine.particles.velocity.resize(kept);
+  mine.key.resize(kept);
+  mine.ghost.resize(kept);
+  for (SolverArray& a : mine.arrays) a.values.resize(kept);
   for (const Bytes& b : to) counts.bytes_sent += b.size();
   const std::vector<Bytes> from = comm.AllToAll(to);
   for (size_t p = 0; p < from.size(); ++p) {
@@ -139,7 +141,7 @@ LocalParticles ExchangeParticles(const Communicator& comm, const Slabs& slabs,
   mine.particles.density.assign(mine.size(), Real(0));
   mine.particles.pressure.assign(mine.size(), Real(0));
   SortByKey(mine);
-  return mine;
+  return owned;  // mine: moved out, not copied
 }
 
 void SortByKey(LocalParticles& mine) {
