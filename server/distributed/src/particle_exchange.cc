@@ -123,25 +123,24 @@ LocalParticles ExchangeParticles(const Communicator& comm, const Slabs& slabs,
     // Read above before anything moves onto it: `kept` <= i.
     if (stays) MoveDown(owned, i, kept++, ghost);
   }
-  LocalParticles& mine = owned;
-  mine.particles.id.resize(kept);
-  mine.particles.position.resize(kept);
-  mine.particles.velocity.resize(kept);
-  mine.key.resize(kept);
-  mine.ghost.resize(kept);
-  for (SolverArray& a : mine.arrays) a.values.resize(kept);
+  owned.particles.id.resize(kept);
+  owned.particles.position.resize(kept);
+  owned.particles.velocity.resize(kept);
+  owned.key.resize(kept);
+  owned.ghost.resize(kept);
+  for (SolverArray& a : owned.arrays) a.values.resize(kept);
   for (const Bytes& b : to) counts.bytes_sent += b.size();
   const std::vector<Bytes> from = comm.AllToAll(to);
   for (size_t p = 0; p < from.size(); ++p) {
-    if (int(p) != me) Unpack(from[p], mine);
+    if (int(p) != me) Unpack(from[p], owned);
   }
-  for (uint8_t g : mine.ghost) counts.ghosts += g;
+  for (uint8_t g : owned.ghost) counts.ghosts += g;
 
   // Key order: arrival order must not matter.
-  mine.particles.density.assign(mine.size(), Real(0));
-  mine.particles.pressure.assign(mine.size(), Real(0));
-  SortByKey(mine);
-  return owned;  // mine: moved out, not copied
+  owned.particles.density.assign(owned.size(), Real(0));
+  owned.particles.pressure.assign(owned.size(), Real(0));
+  SortByKey(owned);
+  return owned;
 }
 
 void SortByKey(LocalParticles& mine) {

@@ -219,8 +219,7 @@ void DetailController::OnAcknowledged(double now, uint64_t frames, double rtt) {
 
 void DetailController::OnDeliveredAtLevel() {
   if (!slow_start_ || !budget_.active()) return;
-  int next = std::max(BudgetLevel(), level_ - kSlowStartStep);
-  while (next < level_ && !FitsByteBudget(next)) ++next;
+  const int next = WithinByteBudget(std::max(BudgetLevel(), level_ - kSlowStartStep));
   if (next >= level_) {
     slow_start_ = false;  // at the budgets' detail: nothing left to probe for
     return;
@@ -252,9 +251,12 @@ double DetailController::FrameBytes(int level, double bytes_per_particle) const 
   return bytes_per_particle * LevelFraction(level) * total_ + 200.0;  // + headers
 }
 
-bool DetailController::FitsByteBudget(int level) const {
-  return budget_.bytes_per_second <= 0 ||
-         FrameBytes(level, delta_bpp_) * fitted_fps() <= budget_.bytes_per_second;
+int DetailController::WithinByteBudget(int level) const {
+  while (level + 1 < kLevels && budget_.bytes_per_second > 0 &&
+         FrameBytes(level, delta_bpp_) * fitted_fps() > budget_.bytes_per_second) {
+    ++level;
+  }
+  return level;
 }
 
 int DetailController::FirstFrameLevel() const {
@@ -286,8 +288,7 @@ void DetailController::Decide(double now) {
     // Before the first frame: a keyframe the slowest link takes in about a second. Later the
     // deliveries move the level (OnDeliveredAtLevel), within the budgets.
     if (started_ == 0 && total_ > 0) level_ = FirstFrameLevel();
-    level_ = std::max(level_, floor);
-    while (level_ + 1 < kLevels && !FitsByteBudget(level_)) ++level_;
+    level_ = WithinByteBudget(std::max(level_, floor));
     if (level_ > floor) return;
     slow_start_ = false;
   }

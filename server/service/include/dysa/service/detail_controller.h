@@ -141,7 +141,8 @@ class DetailController {
   // Whether `level` fits the available bytes per second scaled by `share`.
   bool Fits(int level, double share) const;
   int BudgetLevel() const;  // the largest fraction the particle budget allows
-  bool FitsByteBudget(int level) const;
+  // The first level from `level` on whose frames fit the byte budget (no budget: `level`).
+  int WithinByteBudget(int level) const;
   // The slow start's first level: a keyframe of at most kFirstFrameBytes.
   int FirstFrameLevel() const;
   double FrameBytes(int level, double bytes_per_particle) const;
