@@ -27,7 +27,7 @@
 //   is a keyframe of at most kFirstFrameBytes, and each frame delivered at the current level
 //   doubles the particles of the next, until the link shows its rate (frames queue on it, a
 //   frame outlasts its period, or frames are held back) and the rules above take over. A full-
-//   detail first frame of 1 M particles (5.6 MB) took 45 s on a 1 Mbit/s link.
+//   detail first frame of 1 M particles (5.6 MB) needs 45 s on a 1 Mbit/s link.
 #pragma once
 
 #include <cstddef>
