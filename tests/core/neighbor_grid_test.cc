@@ -90,7 +90,7 @@ Neighbours BruteForce(const std::vector<Vec3>& points, Real h, const Vec3& perio
 }
 
 // The same through the grid, by both queries. Configure, Sort, PermuteInPlace, then for each
-// sorted point k the runs of ForEachNeighborRun(SortedCell(k)) (the 3x3x3 block) and of
+// sorted point k the runs of ForEachNeighborRun(SortedCell(k)) (the (2 reach + 1)^3 block) and of
 // ForEachCandidateRun(k, h) (the block trimmed, where the grid has that query), each mapped back to
 // input indices through order(). A point visited twice would show up as a repeated index. Also
 // checks the invariants of the sort.
@@ -101,10 +101,11 @@ struct GridNeighbours {
 };
 
 GridNeighbours ThroughGrid(NeighborGrid& grid, const Aabb& domain, Real h, std::vector<Vec3> points,
-                           const Periodicity& periodic = {}) {
+                           const Periodicity& periodic = {}, int reach = 1) {
   const size_t n = points.size();
-  grid.Configure(domain, h, periodic);
-  EXPECT_GE(grid.cell_size(), h);
+  grid.Configure(domain, h, periodic, reach);
+  EXPECT_EQ(grid.reach(), reach);
+  EXPECT_GE(grid.cell_size() * reach, h);
   grid.Sort(points);
   const std::vector<uint32_t> order(grid.order().begin(), grid.order().end());
   EXPECT_EQ(order.size(), n);
@@ -181,14 +182,14 @@ size_t CompareNeighbours(const std::vector<Vec3>& points, const Neighbours& want
 // Compares both grid queries with brute force for every point; returns the number of
 // neighbour pairs, so a test can check it exercised something.
 size_t ExpectSameNeighbours(const Aabb& domain, Real h, const std::vector<Vec3>& points,
-                            const Periodicity& periodic = {}) {
+                            const Periodicity& periodic = {}, int reach = 1) {
   NeighborGrid grid;
   Vec3 period = Vec3::Zero();
   for (int a = 0; a < 3; ++a) {
     if (periodic[a]) period[a] = Real(domain.max[a] - domain.min[a]);
   }
   const Neighbours want = BruteForce(points, h, period);
-  const GridNeighbours got = ThroughGrid(grid, domain, h, points, periodic);
+  const GridNeighbours got = ThroughGrid(grid, domain, h, points, periodic, reach);
   EXPECT_EQ(CompareNeighbours(points, want, got.block, "ForEachNeighborRun"), 0u);
   if (got.has_candidates) {
     EXPECT_EQ(CompareNeighbours(points, want, got.candidates, "ForEachCandidateRun"), 0u);
@@ -210,8 +211,10 @@ TEST(NeighborGridTest, UniformRandomPoints) {
       const Vec3d t(u(rng), u(rng), u(rng));
       points.push_back((domain.min + t.cwiseProduct(domain.Size())).cast<Real>());
     }
-    const size_t pairs = ExpectSameNeighbours(domain, h, points);
-    EXPECT_GT(pairs, points.size() * 2) << "h = " << h;  // more than self-pairs
+    for (int reach : {1, 2}) {
+      const size_t pairs = ExpectSameNeighbours(domain, h, points, {}, reach);
+      EXPECT_GT(pairs, points.size() * 2) << "h = " << h;  // more than self-pairs
+    }
   }
 }
 
@@ -493,17 +496,19 @@ TEST(NeighborGridTest, PeriodicAxesFindNeighboursAcrossTheSeams) {
     }
     points.push_back(domain.min.cast<Real>());
     points.push_back(Vec3d(domain.max.x(), domain.max.y(), 0.1).cast<Real>());
-    NeighborGrid grid;
-    grid.Configure(domain, h, periodic);
-    for (int a = 0; a < 2; ++a) {
-      // The period is tiled by whole cells of at least h.
-      EXPECT_GE(grid.cell_sizes()[a], h);
-      EXPECT_NEAR(grid.dims()[a] * grid.cell_sizes()[a], domain.Size()[a], 1e-12);
+    for (int reach : {1, 2}) {
+      NeighborGrid grid;
+      grid.Configure(domain, h, periodic, reach);
+      for (int a = 0; a < 2; ++a) {
+        // The period is tiled by whole cells of at least h / reach.
+        EXPECT_GE(grid.cell_sizes()[a] * reach, h);
+        EXPECT_NEAR(grid.dims()[a] * grid.cell_sizes()[a], domain.Size()[a], 1e-12);
+      }
+      const size_t pairs = ExpectSameNeighbours(domain, h, points, periodic, reach);
+      // Compared with the same points without wrapping: the seams add neighbours.
+      const size_t unwrapped = ExpectSameNeighbours(domain, h, points, {}, reach);
+      EXPECT_GT(pairs, unwrapped + 100) << "h = " << h << ", reach " << reach;
     }
-    const size_t pairs = ExpectSameNeighbours(domain, h, points, periodic);
-    // Compared with the same points without wrapping: the seams add neighbours.
-    const size_t unwrapped = ExpectSameNeighbours(domain, h, points);
-    EXPECT_GT(pairs, unwrapped + 100) << "h = " << h;
   }
 }
 
@@ -520,6 +525,51 @@ TEST(NeighborGridTest, PeriodOfThreeCells) {
   EXPECT_EQ(grid.dims().z(), 3);
   EXPECT_GT(ExpectSameNeighbours(domain, 0.1f, points, {false, false, true}), points.size());
   EXPECT_THROW(grid.Configure(domain, 0.11f, {false, false, true}), std::invalid_argument);
+}
+
+// The same with half-support cells: a period of 5 cells, each of the 5x5x5 block's a different
+// one; under 5 (2.5 supports) the grid refuses it, as it refuses a reach it does not have.
+TEST(NeighborGridTest, PeriodOfFiveHalfCells) {
+  const Aabb domain = Box(Vec3d(0, 0, 0), Vec3d(1, 1, 0.26));
+  std::mt19937 rng(13);
+  std::uniform_real_distribution<double> u(0, 1), uz(0, 0.26);
+  std::vector<Vec3> points;
+  for (int i = 0; i < 1200; ++i) points.push_back(Vec3d(u(rng), u(rng), uz(rng)).cast<Real>());
+  NeighborGrid grid;
+  grid.Configure(domain, 0.1f, {false, false, true}, 2);
+  EXPECT_EQ(grid.dims().z(), 5);
+  EXPECT_GT(ExpectSameNeighbours(domain, 0.1f, points, {false, false, true}, 2), points.size());
+  EXPECT_THROW(grid.Configure(domain, 0.11f, {false, false, true}, 2), std::invalid_argument);
+  EXPECT_THROW(grid.Configure(domain, 0.1f, {}, 0), std::invalid_argument);
+  EXPECT_THROW(grid.Configure(domain, 0.1f, {}, NeighborGrid::kMaxReach + 1),
+               std::invalid_argument);
+}
+
+// Why a reach of 2: on a fluid lattice (spacing d, support 2 d) half-support cells hand a
+// particle far fewer candidates for the same neighbours: (5/2)^3 = 15.6 support-cubes against
+// 27 in the bulk.
+TEST(NeighborGridTest, HalfSupportCellsTestFewerCandidates) {
+  const Real d = 0.01f, support = 2 * d;
+  const Aabb domain = Box(Vec3d(0, 0, 0), Vec3d(0.3, 0.3, 0.3));
+  std::vector<Vec3> points;
+  for (int z = 0; z < 30; ++z)
+    for (int y = 0; y < 30; ++y)
+      for (int x = 0; x < 30; ++x)
+        points.push_back(Vec3(d * (x + 0.5f), d * (y + 0.5f), d * (z + 0.5f)));
+  uint64_t candidates[3] = {};
+  for (int reach : {1, 2}) {
+    NeighborGrid grid;
+    grid.Configure(domain, support, {}, reach);
+    grid.Sort(points);
+    for (uint32_t k = 0; k < points.size(); ++k) {
+      grid.ForEachNeighborRun(grid.SortedCell(k), [&](uint32_t begin, uint32_t end, const Vec3&) {
+        candidates[reach] += end - begin;
+      });
+    }
+  }
+  const double ratio = double(candidates[2]) / double(candidates[1]);
+  EXPECT_LT(ratio, 0.7) << candidates[2] << " against " << candidates[1];
+  EXPECT_GT(ratio, 0.4) << candidates[2] << " against " << candidates[1];
 }
 
 }  // namespace

@@ -26,6 +26,7 @@ Model MakeModel(const Scene& scene, const Params& params, const SolverInfo& solv
     model.particle_mass = params.rest_density * d * d * d;
     model.kernel_kind = KernelKind(params.kernel);
     model.kernel_support = 2 * params.smoothing_length_ratio * d;
+    model.grid_cells_per_support = params.grid_cells_per_support;
     model.gradient_moment = LatticeGradientMoment(model.Kernel<double>(), d);
     model.viscosity_moment = LatticeViscosityMoment(model.Kernel<double>(), d);
     // Only a kernel sum above 1 is corrected: it reads as compression, which both solvers act

@@ -3,14 +3,22 @@
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+#include <string>
 
 namespace dysa {
 
-void NeighborGrid::Configure(const Aabb& domain, Real min_cell_size, const Periodicity& periodic) {
+void NeighborGrid::Configure(const Aabb& domain, Real support, const Periodicity& periodic,
+                             int cells_per_support) {
+  if (cells_per_support < 1 || cells_per_support > kMaxReach) {
+    throw std::invalid_argument("NeighborGrid: cells_per_support must be 1 or 2");
+  }
+  const int reach = cells_per_support;
+  const int min_dims = 2 * reach + 1;  // along a periodic axis: no cell met twice in a block
+  const double min_cell_size = double(support) / reach;
   const Vec3d size = domain.Size();
   // 1e-6 relative covers the float rounding of the distance tests and the double rounding of
   // CellOf for any grid under kMaxCells cells per axis.
-  double cell = double(min_cell_size) * (1 + 1e-6);
+  double cell = min_cell_size * (1 + 1e-6);
   // Grow the cell edge until the grid fits in kMaxCells (a cube root estimate, then a guard for
   // rounding up of the per-axis counts).
   const double estimate = std::cbrt(size.prod() / double(kMaxCells));
@@ -26,13 +34,15 @@ void NeighborGrid::Configure(const Aabb& domain, Real min_cell_size, const Perio
     cell *= 1.01;
   }
   for (int a = 0; a < 3; ++a) {
-    // A period of exactly 3 min_cell_size loses its third cell to the margin above; with 3
-    // cells each one neighbours the others across the seam, so rounding cannot split a pair.
-    if (periodic[a] && dims[a] < 3 && size[a] >= 3 * double(min_cell_size) * (1 - 1e-6)) {
-      dims[a] = 3;
+    // A period of exactly 2r + 1 cell edges loses its last cell to the margin above; with
+    // 2r + 1 cells each one lies within r of the others across the seam, so rounding cannot
+    // split a pair.
+    if (periodic[a] && dims[a] < min_dims && size[a] >= min_dims * min_cell_size * (1 - 1e-6)) {
+      dims[a] = min_dims;
     }
-    if (periodic[a] && dims[a] < 3) {
-      throw std::invalid_argument("NeighborGrid: a periodic axis needs at least 3 cells");
+    if (periodic[a] && dims[a] < min_dims) {
+      throw std::invalid_argument("NeighborGrid: a periodic axis needs at least " +
+                                  std::to_string(min_dims) + " cells");
     }
     cell_[a] = periodic[a] ? size[a] / dims[a] : cell;
     inv_cell_[a] = 1.0 / cell_[a];
@@ -40,6 +50,7 @@ void NeighborGrid::Configure(const Aabb& domain, Real min_cell_size, const Perio
   }
   origin_ = domain.min;
   dims_ = dims;
+  reach_ = reach;
   periodic_ = periodic;
   any_periodic_ = periodic[0] || periodic[1] || periodic[2];
 }

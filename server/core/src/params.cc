@@ -71,6 +71,9 @@ const std::array kParamTable = {
     DYSA_PARAM(smoothing_length_ratio, "", 1.0, 2.5, kReset, kPhysical,
                "Smoothing length h over the spacing d; the kernel support is 2 h (1: 2 d, about "
                "33 neighbours; 1.732: 3.46 d, about 170)"),
+    DYSA_PARAM(grid_cells_per_support, "", 1, 2, kReset, kPhysical,
+               "Neighbour-grid cells per kernel support: 1 (cells of the support, 27 searched) "
+               "or 2 (half-support cells, 125 searched, 42% fewer candidates)"),
     DYSA_PARAM(speed_of_sound, "m/s", 0.1, 1e5, kLive, kWcsph,
                "Speed of sound c0 of the Tait equation; stiffness B = rho0 c0^2 / 7"),
     DYSA_PARAM(kinematic_viscosity, "m^2/s", 0.0, 10.0, kLive, kPhysical,

@@ -89,7 +89,8 @@ void CheckParticlesPerCell(const Scene& scene, const Params& params, const Fluid
                                   : params.smoothing_radius;
   NeighborGrid grid;
   try {
-    grid.Configure(scene.domain, Real(support), scene.periodic);
+    grid.Configure(scene.domain, Real(support), scene.periodic,
+                   physical ? params.grid_cells_per_support : 1);
   } catch (const std::invalid_argument&) {
     return;  // a periodic axis too short for the grid: CheckPeriodicDomain names it
   }

@@ -68,6 +68,23 @@ TEST(DfsphGpuTest, TheFirstStepsMatchTheCpusSolves) {
   ExpectSamePositions(cpu, gpu);
 }
 
+// Half-support cells (grid_cells_per_support 2): the same solves as the CPU's, step by step.
+TEST(DfsphGpuTest, HalfSupportCellsMatchTheCpusSolves) {
+  SKIP_WITHOUT_GPU();
+  for (Scene scene : {DamScene(kSolver), PeriodicScene(kSolver)}) {
+    scene.params.grid_cells_per_support = 2;
+    Simulation cpu(scene);
+    Simulation gpu(scene, kGpu);
+    for (int i = 0; i < 5; ++i) {
+      cpu.Step();
+      gpu.Step();
+      EXPECT_EQ(gpu.last_dt(), cpu.last_dt()) << scene.name << ", step " << i + 1;
+      EXPECT_NEAR(gpu.solver_stats().density_iterations, cpu.solver_stats().density_iterations, 1);
+    }
+    ExpectSamePositions(cpu, gpu);
+  }
+}
+
 // Signed corrections (signed_corrections 1) from all of the previous step's pressure: the first
 // steps' time steps, iteration counts and positions as the CPU's, then the same run within the
 // agreement's tolerances.

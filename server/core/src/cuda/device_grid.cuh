@@ -45,17 +45,18 @@ struct DeviceGrid {
   }
 
   // NeighborGrid::ForEachNeighborRun: visit(begin, end, shift_x, shift_y, shift_z) for each
-  // non-empty run of the 3x3x3 block around `cell`, in the same order.
+  // non-empty run of the (2 reach + 1)^3 block around `cell`, in the same order.
   template <class Visit>
   __device__ void ForEachNeighborRun(int3 cell, Visit&& visit) const {
     const int nx = layout.dims[0], ny = layout.dims[1], nz = layout.dims[2];
-    const int x0 = cell.x > 0 ? cell.x - 1 : 0;
-    const int x1 = cell.x + 1 < nx ? cell.x + 1 : nx - 1;
+    const int r = layout.reach;
+    const int x0 = cell.x - r > 0 ? cell.x - r : 0;
+    const int x1 = cell.x + r < nx - 1 ? cell.x + r : nx - 1;
     if (!any_periodic) {
-      const int z_lo = cell.z - 1 > 0 ? cell.z - 1 : 0,
-                z_hi = cell.z + 1 < nz - 1 ? cell.z + 1 : nz - 1;
-      const int y_lo = cell.y - 1 > 0 ? cell.y - 1 : 0,
-                y_hi = cell.y + 1 < ny - 1 ? cell.y + 1 : ny - 1;
+      const int z_lo = cell.z - r > 0 ? cell.z - r : 0,
+                z_hi = cell.z + r < nz - 1 ? cell.z + r : nz - 1;
+      const int y_lo = cell.y - r > 0 ? cell.y - r : 0,
+                y_hi = cell.y + r < ny - 1 ? cell.y + r : ny - 1;
       for (int z = z_lo; z <= z_hi; ++z) {
         for (int y = y_lo; y <= y_hi; ++y) {
           const uint32_t row = uint32_t(nx) * (y + uint32_t(ny) * z);
@@ -66,17 +67,20 @@ struct DeviceGrid {
       }
       return;
     }
-    int wrapped_x = -1;
+    int wrap_x0 = -1, wrap_x1 = -1;
     float shift_x = 0;
     if (layout.periodic[0]) {
-      if (cell.x == 0) wrapped_x = nx - 1, shift_x = layout.period[0];
-      if (cell.x == nx - 1) wrapped_x = 0, shift_x = -layout.period[0];
+      if (cell.x - r < 0) {
+        wrap_x0 = nx + cell.x - r, wrap_x1 = nx - 1, shift_x = layout.period[0];
+      } else if (cell.x + r > nx - 1) {
+        wrap_x0 = 0, wrap_x1 = cell.x + r - nx, shift_x = -layout.period[0];
+      }
     }
-    for (int dz = -1; dz <= 1; ++dz) {
+    for (int dz = -r; dz <= r; ++dz) {
       int z = cell.z + dz;
       float shift_z = 0;
       if (!Wrap(2, z, shift_z)) continue;
-      for (int dy = -1; dy <= 1; ++dy) {
+      for (int dy = -r; dy <= r; ++dy) {
         int y = cell.y + dy;
         float shift_y = 0;
         if (!Wrap(1, y, shift_y)) continue;
@@ -84,9 +88,9 @@ struct DeviceGrid {
         const uint32_t begin = cell_start[row + x0];
         const uint32_t end = cell_start[row + x1 + 1];
         if (begin < end) visit(begin, end, 0.0f, shift_y, shift_z);
-        if (wrapped_x >= 0) {
-          const uint32_t wrap_begin = cell_start[row + wrapped_x];
-          const uint32_t wrap_end = cell_start[row + wrapped_x + 1];
+        if (wrap_x0 >= 0) {
+          const uint32_t wrap_begin = cell_start[row + wrap_x0];
+          const uint32_t wrap_end = cell_start[row + wrap_x1 + 1];
           if (wrap_begin < wrap_end) visit(wrap_begin, wrap_end, shift_x, shift_y, shift_z);
         }
       }

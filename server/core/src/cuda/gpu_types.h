@@ -13,6 +13,7 @@ struct GridLayout {
   double origin[3] = {0, 0, 0};    // m
   double inv_cell[3] = {1, 1, 1};  // 1/m
   int dims[3] = {1, 1, 1};
+  int reach = 1;  // cells either side a run query visits (NeighborGrid::reach)
   bool periodic[3] = {false, false, false};
   float period[3] = {0, 0, 0};  // m, the domain's length along each periodic axis
 };

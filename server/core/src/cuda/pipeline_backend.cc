@@ -19,6 +19,7 @@ cuda::GridLayout Layout(const NeighborGrid& grid) {
     layout.periodic[a] = grid.periodic()[a];
     layout.period[a] = grid.periods()[a];
   }
+  layout.reach = grid.reach();
   return layout;
 }
 
@@ -37,7 +38,8 @@ void AddObstacles(const Model& model, std::vector<cuda::SphereObstacle>& spheres
 // The fluid grid of the physical solvers (physical::SortIntoGrid's layout).
 cuda::GridLayout PhysicalGrid(const Model& model) {
   NeighborGrid grid;
-  grid.Configure(model.domain, Real(model.kernel_support), model.periodic);
+  grid.Configure(model.domain, Real(model.kernel_support), model.periodic,
+                 model.grid_cells_per_support);
   return Layout(grid);
 }
 

@@ -26,7 +26,10 @@ struct Model {
   // simulated seconds.
   bool physical = false;
   double particle_mass = 1;   // kg
-  double kernel_support = 0;  // m, the kernel's radius, also the neighbour grid's cell edge
+  double kernel_support = 0;  // m, the kernel's radius
+  // The neighbour grid's cells per support (its cell edge: kernel_support / this; NeighborGrid's
+  // reach): Params::grid_cells_per_support for a physical solver, 1 for seed.
+  int grid_cells_per_support = 1;
   KernelKind kernel_kind = KernelKind::kCubicSpline;  // a physical solver's kernel
   // A physical solver's kernel gradient moment on the rest lattice, LatticeGradientMoment
   // (kernels.h); the pressure gradients are divided by it so that hydrostatic equilibrium holds

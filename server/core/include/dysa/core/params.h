@@ -47,6 +47,11 @@ struct Params {
   // about 33 neighbours) is the cubic spline's classic choice; DualSPHysics's cases use
   // Wendland C2 with 1.732 (support 3.46 d, about 170 neighbours).
   double smoothing_length_ratio = 1.0;
+  // The neighbour grid's cells per kernel support (NeighborGrid: 1 or 2). 2 halves the cell
+  // edge: a particle's neighbour search then tests the particles of 5^3 half-support cells
+  // instead of 3^3 support cells, 42% fewer candidates for the same neighbours, in another
+  // order (so other float sums: the results differ in their last bits).
+  int grid_cells_per_support = 1;
   double speed_of_sound = 50.0;       // m/s, c0 of the Tait equation of state
   double kinematic_viscosity = 1e-6;  // m^2/s, nu of the laminar viscosity term (water: 1e-6)
   double cfl_factor = 0.25;           // dt <= cfl_factor d / (c0 + v_max)

@@ -162,7 +162,7 @@ BoundaryParticles::BoundaryParticles(const Model& model, double spacing, double 
 
   // The same cells as the fluid's grid: points outside the domain fall into its border cells,
   // which the grid's neighbour query covers exactly (neighbor_grid.h).
-  grid_.Configure(model.domain, Real(support), model.periodic);
+  grid_.Configure(model.domain, Real(support), model.periodic, model.grid_cells_per_support);
   grid_.Sort(points);
   const size_t n = points.size();
   no_slip.resize(n, 0);  // the obstacles' samples are free-slip
@@ -173,7 +173,7 @@ BoundaryParticles::BoundaryParticles(const Model& model, double spacing, double 
   const Real* ys = grid_.ys().data();
   const Real* zs = grid_.zs().data();
   NeighborGrid fluid_grid;
-  fluid_grid.Configure(model.domain, Real(support), model.periodic);
+  fluid_grid.Configure(model.domain, Real(support), model.periodic, model.grid_cells_per_support);
   fluid_grid.Sort(fluid_side);
   const Real* fxs = fluid_grid.xs().data();
   const Real* fys = fluid_grid.ys().data();

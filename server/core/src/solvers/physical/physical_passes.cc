@@ -19,7 +19,8 @@ double GravityAt(const Params& params, double time) {
 
 void SortIntoGrid(const Model& model, State& state) {
   ParticleArrays& p = state.particles;
-  state.grid.Configure(model.domain, Real(model.kernel_support), model.periodic);
+  state.grid.Configure(model.domain, Real(model.kernel_support), model.periodic,
+                       model.grid_cells_per_support);
   state.grid.Sort(p.position);
   const auto order = state.grid.order();
   PermuteInPlace(order, p.position, state.vec3_scratch);
