@@ -1,5 +1,6 @@
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <cub/block/block_reduce.cuh>
 
 #include "cuda/probe_gatherer.cuh"
@@ -23,6 +24,13 @@ enum ReductionSlot : int {
   kFirstCount
 };
 
+// Whether two lists hold the same bytes (what was uploaded is what is asked for).
+template <class T>
+bool SameBytes(const std::vector<T>& a, const std::vector<T>& b) {
+  return a.size() == b.size() &&
+         (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0);
+}
+
 // std::max's choice: a NaN second argument is skipped.
 struct MaxOp {
   __device__ double operator()(double a, double b) const { return a < b ? b : a; }
@@ -31,7 +39,7 @@ struct MaxOp {
 __global__ void GatherKernel(ProbeParticles p, const ProbeWindow* windows, uint32_t window_count,
                              const ProbeBox* boxes, uint32_t box_count, ProbeWrap wrap,
                              bool density, bool kinetic_energy, uint32_t capacity, uint32_t* hits,
-                             ProbeCandidate* found, double* partials) {
+                             WindowHit* found, double* partials) {
   using Reduce = cub::BlockReduce<double, kBlock>;
   __shared__ typename Reduce::TempStorage storage;
   const double inf = INFINITY;
@@ -61,14 +69,13 @@ __global__ void GatherKernel(ProbeParticles p, const ProbeWindow* windows, uint3
     }
     for (uint32_t w = 0; w < window_count; ++w) {
       if (!InProbeWindow(wrap, windows[w], x)) continue;
-      const uint32_t slot = atomicAdd(&hits[w], 1u);
+      // Every window's particles in one buffer, each tagged with its window: one copy brings
+      // them all to the host.
+      const uint32_t slot = atomicAdd(hits, 1u);
       if (slot < capacity) {
-        found[size_t(w) * capacity + slot] = {i,
-                                              x[0],
-                                              x[1],
-                                              x[2],
-                                              p.pressure ? p.pressure[i] : 0.0f,
-                                              p.density ? p.density[i] : 0.0f};
+        found[slot] = {w,
+                       {i, x[0], x[1], x[2], p.pressure ? p.pressure[i] : 0.0f,
+                        p.density ? p.density[i] : 0.0f}};
       }
     }
   }
@@ -95,42 +102,74 @@ void ProbeGatherer::Gather(const ProbeParticles& particles, const ProbeGatherPla
   constexpr size_t kBoxesPerPass = 8;
   const uint32_t window_count = uint32_t(plan.windows.size());
   const uint32_t blocks = std::clamp<uint32_t>((particles.n + kBlock - 1) / kBlock, 1u, kMaxBlocks);
-  windows_.Assign(plan.windows, stream);
+  // The windows and boxes go up only when they change (a probe's box stays put while the
+  // domain does): each upload waits for the stream.
+  if (!SameBytes(plan.windows, windows_uploaded_)) {
+    windows_.Assign(plan.windows, stream);
+    windows_uploaded_ = plan.windows;
+  }
   out.reductions = ProbeReductions{};
   out.reductions.particles = particles.n;
   out.reductions.counts.assign(plan.count_boxes.size(), 0.0);
   out.candidates.assign(window_count, {});
+  hits_.Resize(1);
+  host_hits_.Resize(1);
   size_t box_begin = 0;
   bool first = true;
   while (first || box_begin < plan.count_boxes.size()) {
     const size_t box_count = std::min(kBoxesPerPass, plan.count_boxes.size() - box_begin);
-    boxes_.Assign(std::vector<ProbeBox>(plan.count_boxes.begin() + box_begin,
-                                        plan.count_boxes.begin() + box_begin + box_count),
-                  stream);
+    const std::vector<ProbeBox> boxes(plan.count_boxes.begin() + box_begin,
+                                      plan.count_boxes.begin() + box_begin + box_count);
+    if (!SameBytes(boxes, boxes_uploaded_)) {
+      boxes_.Assign(boxes, stream);
+      boxes_uploaded_ = boxes;
+    }
     const size_t values = kFirstCount + box_count;
     partials_.Resize(size_t(blocks) * values);
     host_partials_.Resize(size_t(blocks) * values);
-    hits_.Resize(std::max<uint32_t>(window_count, 1));
-    host_hits_.Resize(std::max<uint32_t>(window_count, 1));
-    // Windows only on the first pass; a window holding more than the capacity grows it and
-    // gathers again.
+    // Windows only on the first pass. The hits come back with the partial sums, as many as the
+    // last gather found and a quarter more (one wait for the stream); more need a second copy,
+    // more than the capacity a second gather into a larger buffer.
     const uint32_t windows_now = first ? window_count : 0;
+    uint32_t total = 0, copied = 0;
     for (;;) {
-      found_.Resize(std::max<size_t>(size_t(windows_now) * capacity_, 1));
-      CheckCuda(cudaMemsetAsync(hits_.data(), 0, hits_.capacity() * sizeof(uint32_t), stream),
-                "clearing the probes' hit counts");
+      found_.Resize(capacity_);
+      host_found_.Resize(capacity_);
+      CheckCuda(cudaMemsetAsync(hits_.data(), 0, sizeof(uint32_t), stream),
+                "clearing the probes' hit count");
       GatherKernel<<<blocks, kBlock, 0, stream>>>(
           particles, windows_.data(), windows_now, boxes_.data(), uint32_t(box_count), plan.wrap,
           first && plan.density, first && plan.kinetic_energy, capacity_, hits_.data(),
           found_.data(), partials_.data());
       CheckCuda(cudaGetLastError(), "launching the probes' gather");
       host_partials_.CopyFrom(partials_, size_t(blocks) * values, stream);
-      host_hits_.CopyFrom(hits_, std::max<uint32_t>(window_count, 1), stream);
+      host_hits_.CopyFrom(hits_, 1, stream);
+      copied = windows_now > 0 ? std::min(capacity_, last_hits_ + last_hits_ / 4 + 64) : 0;
+      if (copied > 0) host_found_.CopyFrom(found_, copied, stream);
       CheckCuda(cudaStreamSynchronize(stream), "gathering the probes");
-      uint32_t most = 0;
-      for (uint32_t w = 0; w < windows_now; ++w) most = std::max(most, host_hits_.data()[w]);
-      if (most <= capacity_) break;
-      capacity_ = most + most / 4;
+      total = host_hits_.data()[0];
+      if (total <= capacity_) break;
+      capacity_ = total + total / 4;
+    }
+    if (windows_now > 0) {
+      last_hits_ = total;
+      if (total > copied) {
+        CheckCuda(
+            cudaMemcpyAsync(host_found_.data() + copied, found_.data() + copied,
+                            (total - copied) * sizeof(WindowHit), cudaMemcpyDeviceToHost, stream),
+            "downloading the probes' particles");
+        CheckCuda(cudaStreamSynchronize(stream), "downloading the probes' particles");
+      }
+      for (uint32_t k = 0; k < total; ++k) {
+        const WindowHit& hit = host_found_.data()[k];
+        out.candidates[hit.window].push_back(hit.candidate);
+      }
+      // The atomics appended in no particular order; the finish visits storage order.
+      for (std::vector<ProbeCandidate>& list : out.candidates) {
+        std::sort(list.begin(), list.end(), [](const ProbeCandidate& a, const ProbeCandidate& b) {
+          return a.index < b.index;
+        });
+      }
     }
     // The partials in block order.
     ProbeReductions& r = out.reductions;
@@ -143,33 +182,6 @@ void ProbeGatherer::Gather(const ProbeParticles& particles, const ProbeGatherPla
         r.speed2_sum += v[kSpeed2Sum];
       }
       for (size_t k = 0; k < box_count; ++k) r.counts[box_begin + k] += v[kFirstCount + k];
-    }
-    if (windows_now > 0) {
-      size_t total = 0;
-      for (uint32_t w = 0; w < windows_now; ++w) total += host_hits_.data()[w];
-      host_found_.Resize(std::max<size_t>(total, 1));
-      size_t at = 0;
-      for (uint32_t w = 0; w < windows_now; ++w) {
-        const uint32_t count = host_hits_.data()[w];
-        if (count > 0) {
-          CheckCuda(cudaMemcpyAsync(host_found_.data() + at, found_.data() + size_t(w) * capacity_,
-                                    count * sizeof(ProbeCandidate), cudaMemcpyDeviceToHost, stream),
-                    "downloading the probes' particles");
-        }
-        at += count;
-      }
-      CheckCuda(cudaStreamSynchronize(stream), "downloading the probes' particles");
-      at = 0;
-      for (uint32_t w = 0; w < windows_now; ++w) {
-        const uint32_t count = host_hits_.data()[w];
-        std::vector<ProbeCandidate>& list = out.candidates[w];
-        list.assign(host_found_.data() + at, host_found_.data() + at + count);
-        // The atomics appended in no particular order; the finish visits storage order.
-        std::sort(list.begin(), list.end(), [](const ProbeCandidate& a, const ProbeCandidate& b) {
-          return a.index < b.index;
-        });
-        at += count;
-      }
     }
     box_begin += box_count;
     first = false;

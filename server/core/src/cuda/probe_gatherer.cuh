@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <vector>
 
 #include "cuda/device_buffer.cuh"
 #include "probe_gather.h"
@@ -33,6 +34,13 @@ ProbeParticles ProbeParticlesOf(const Arrays& a) {
   return p;
 }
 
+// A particle inside a local probe's window, and which window (the gather appends every window's
+// particles to one buffer).
+struct WindowHit {
+  uint32_t window;
+  ProbeCandidate candidate;
+};
+
 class ProbeGatherer {
  public:
   // Runs on `stream` and waits for it. The partial sums are added on the host in block order,
@@ -43,13 +51,16 @@ class ProbeGatherer {
  private:
   DeviceBuffer<ProbeWindow> windows_;
   DeviceBuffer<ProbeBox> boxes_;
-  DeviceBuffer<double> partials_;       // per block: the values of ReductionSlots
-  DeviceBuffer<uint32_t> hits_;         // per window: the particles found (may exceed the capacity)
-  DeviceBuffer<ProbeCandidate> found_;  // per window: `capacity_` slots
+  std::vector<ProbeWindow> windows_uploaded_;  // what windows_ and boxes_ hold
+  std::vector<ProbeBox> boxes_uploaded_;
+  DeviceBuffer<double> partials_;  // per block: the values of ReductionSlots
+  DeviceBuffer<uint32_t> hits_;    // the particles found in every window (may exceed capacity_)
+  DeviceBuffer<WindowHit> found_;  // `capacity_` slots
   PinnedBuffer<double> host_partials_;
   PinnedBuffer<uint32_t> host_hits_;
-  PinnedBuffer<ProbeCandidate> host_found_;
-  uint32_t capacity_ = 2048;  // candidates per window; grows when a window holds more
+  PinnedBuffer<WindowHit> host_found_;
+  uint32_t capacity_ = 16384;  // hits over all windows; grows when they find more
+  uint32_t last_hits_ = 0;     // what the last gather with windows found
 };
 
 }  // namespace dysa::cuda
