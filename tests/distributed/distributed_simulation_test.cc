@@ -163,6 +163,23 @@ TEST(DistributedSimulationTest, SolversNotSpreadAreRefusedByName) {
   }
 }
 
+// Half-support cells would make the solver's cell layers finer than the slabs' (the ghosts'
+// depth and the ownership are counted in them): refused by name, for the physical solvers; the
+// seed, which ignores the parameter, still runs.
+TEST(DistributedSimulationTest, HalfSupportCellsAreRefusedByName) {
+  Scene scene = LoadScene(DYSA_RANKS_SCENE);
+  scene.params.grid_cells_per_support = 2;
+  try {
+    DistributedSimulation::CheckSupported(scene, scene.params);
+    FAIL() << "grid_cells_per_support 2 accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.field(), "grid_cells_per_support");
+    EXPECT_THAT(e.message(), HasSubstr("must be 1 across processes"));
+  }
+  scene.solver = "seed";
+  EXPECT_NO_THROW(DistributedSimulation::CheckSupported(scene, scene.params));
+}
+
 TEST(DistributedSimulationTest, TheDevicePathGivesTheBitsOfSimulation) {
   // The device step (distributed_device_step.cc) with a host stand-in for the GPU
   // (host_device_backend.h): upload, the step, the cells read back, the keys from them; for

@@ -112,8 +112,15 @@ void DistributedSimulation::CheckSupported(const Scene& scene, const Params& par
                                     "dfsph (run other solvers without mpirun)");
   }
   // Every parameter runs across processes, wcsph's predictor-corrector (time_integration 1)
-  // included.
-  (void)params;
+  // included, but a finer neighbour grid: the slabs, the ghosts' depth and the ownership are
+  // counted in the solver grid's cell layers, which must then be the support's.
+  if (params.grid_cells_per_support != 1 && IsPhysicalSolver(scene.solver)) {
+    throw ConfigError("grid_cells_per_support",
+                      "must be 1 across processes (got " +
+                          std::to_string(params.grid_cells_per_support) +
+                          "): the ranks' slabs are layers of support-sized cells; half-support "
+                          "cells (2) run in one process");
+  }
 }
 
 void DistributedSimulation::CheckSupported(const Scene& scene, const Params& params,
