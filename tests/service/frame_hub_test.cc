@@ -1,5 +1,6 @@
 // Tests of dysa/service/frame_hub.h: one encoding per stream configuration, latest-wins
-// delivery, keyframes for late joiners and after gaps, bounded memory for a stalled subscriber,
+// delivery, keyframes for late joiners and after gaps (one subscriber's gap costs only it a
+// keyframe), bounded memory for a stalled subscriber,
 // limits, and that what a subscriber takes decodes to the published frame.
 #include "dysa/service/frame_hub.h"
 
@@ -179,6 +180,55 @@ TEST(FrameHubTest, ASubscriberThatMissedFramesGetsTheNewestOnlyAfterAKeyframe) {
   EXPECT_EQ(frame->frame, 4u);
   EXPECT_EQ(skipped, 3u);
   hub.Unsubscribe(sub);
+}
+
+// Of two subscribers sharing an encoder, the one that fell behind (its waiting frame replaced
+// while the other kept up) gets its keyframe from an encoder of its own; the other's stream
+// stays on deltas. Both still decode every frame they take.
+TEST(FrameHubTest, ASubscriberBehindItsGroupGetsItsKeyframeAloneAndTheOthersKeepTheirDeltas) {
+  FrameHub hub(8);
+  CountingListener fast_listener, slow_listener;
+  auto fast = hub.Subscribe(Options(), &fast_listener);
+  auto slow = hub.Subscribe(Options(), &slow_listener);
+  codec::FrameDecoder fast_decoder, slow_decoder;
+  hub.Publish(Snapshot(0), false, false);
+  for (auto [sub, decoder] : {std::pair{fast, &fast_decoder}, std::pair{slow, &slow_decoder}}) {
+    const auto frame = sub->Take(nullptr);
+    ASSERT_TRUE(frame);
+    ASSERT_TRUE(decoder->AddChunks(frame->chunks));
+  }
+  for (uint64_t f = 1; f <= 3; ++f) {
+    hub.Publish(Snapshot(f), false, false);
+    const auto frame = fast->Take(nullptr);
+    ASSERT_TRUE(frame) << f;
+    EXPECT_FALSE(frame->keyframe) << f;
+    ASSERT_TRUE(fast_decoder.AddChunks(frame->chunks)) << f;
+  }
+  // The slow one's frame 1 was replaced by 2, then 3: a delta on a frame it never had.
+  EXPECT_FALSE(slow->Take(nullptr));
+  const uint64_t encoded = hub.frames_encoded();
+  hub.Publish(Snapshot(4), false, false);
+  EXPECT_EQ(hub.frames_encoded(), encoded + 2) << "an encoder each now";
+  const auto fast_frame = fast->Take(nullptr);
+  ASSERT_TRUE(fast_frame);
+  EXPECT_FALSE(fast_frame->keyframe) << "the one that kept up keeps its deltas";
+  ASSERT_TRUE(fast_decoder.AddChunks(fast_frame->chunks));
+  const auto slow_frame = slow->Take(nullptr);
+  ASSERT_TRUE(slow_frame);
+  EXPECT_TRUE(slow_frame->keyframe);
+  EXPECT_EQ(slow_frame->frame, 4u);
+  ASSERT_TRUE(slow_decoder.AddChunks(slow_frame->chunks));
+  // From here each follows its own encoder's deltas.
+  hub.Publish(Snapshot(5), false, false);
+  for (auto [sub, decoder] : {std::pair{fast, &fast_decoder}, std::pair{slow, &slow_decoder}}) {
+    const auto frame = sub->Take(nullptr);
+    ASSERT_TRUE(frame);
+    EXPECT_FALSE(frame->keyframe);
+    EXPECT_EQ(frame->frame, 5u);
+    ASSERT_TRUE(decoder->AddChunks(frame->chunks));
+  }
+  hub.Unsubscribe(fast);
+  hub.Unsubscribe(slow);
 }
 
 TEST(FrameHubTest, AStalledSubscriberHoldsOneFrameAndDoesNotHoldBackOthers) {

@@ -83,7 +83,7 @@ struct FrameGroup {
 };
 
 bool SubscriptionOptions::operator==(const SubscriptionOptions& o) const {
-  return stream == o.stream && max_fps == o.max_fps && view_owner == o.view_owner;
+  return stream == o.stream && max_fps == o.max_fps && view_owner == o.view_owner && solo == o.solo;
 }
 
 std::shared_ptr<const EncodedFrame> Subscription::Take(uint32_t* skipped) {
@@ -111,7 +111,7 @@ std::shared_ptr<const EncodedFrame> Subscription::Take(uint32_t* skipped) {
     return frame;
   }
   // A delta frame after a gap: undecodable here. Wait for a keyframe.
-  hub_->RequestKeyframe(*group);
+  hub_->KeyframeFor(*this);
   return nullptr;
 }
 
@@ -285,6 +285,33 @@ std::string FrameHub::FrameLimitRefusal(uint64_t total, uint32_t stride) const {
 uint64_t FrameHub::frames_encoded() const {
   std::lock_guard lock(mu_);
   return frames_encoded_;
+}
+
+void FrameHub::KeyframeFor(Subscription& s) {
+  std::shared_ptr<FrameGroup> old_group, group;
+  {
+    std::lock_guard lock(mu_);
+    {
+      std::lock_guard frame_lock(s.frame_mu_);
+      group = s.group_;
+    }
+    if (!group) return;  // unsubscribed meanwhile
+    if (group->members.size() > 1) {
+      // The others keep up (or they would have left this frame out, LeftOutBehind): one
+      // subscriber's gap would cost each of them a keyframe's bytes.
+      const auto self = std::find_if(group->members.begin(), group->members.end(),
+                                     [&](const auto& m) { return m.get() == &s; });
+      if (self != group->members.end()) {
+        const std::shared_ptr<Subscription> shared = *self;
+        old_group = RegroupLocked(shared, [&](SubscriptionOptions& o) { o.solo = s.id_; });
+      }
+    }
+  }
+  if (old_group) {
+    Release(std::move(old_group));  // RegroupLocked asked the new group for its keyframe
+    return;
+  }
+  RequestKeyframe(*group);
 }
 
 void FrameHub::ApplyDetail(const std::shared_ptr<Subscription>& s, uint32_t threshold) {

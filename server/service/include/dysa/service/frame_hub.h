@@ -105,6 +105,10 @@ struct SubscriptionOptions {
   // Nonzero: the client acknowledges the frames it receives under this token (Acknowledge), the
   // delivery signal of its DetailController. Unique among the streams; not part of the identity.
   uint64_t ack_token = 0;
+  // Nonzero: the id of a subscriber that fell behind the others of its group and was given an
+  // encoder of its own (a group of its own), so that its gap asks only itself for a keyframe.
+  // Set by the hub, never by a client.
+  uint64_t solo = 0;
   bool operator==(const SubscriptionOptions& other) const;
 };
 
@@ -266,6 +270,10 @@ class FrameHub {
   static bool LeftOutBehind(FrameGroup& group,
                             const std::vector<std::shared_ptr<Subscription>>& members,
                             uint64_t frame);
+  // `s` took a frame it cannot decode (it missed the one before): it needs a keyframe. Where
+  // others share its group, it moves to a group of its own (SubscriptionOptions::solo) and only
+  // that group's next frame is a keyframe; alone, its group's next frame is.
+  void KeyframeFor(Subscription& s);
   // Moves `s` to the group of its options with this detail threshold (after a detail_mu_ scope).
   void ApplyDetail(const std::shared_ptr<Subscription>& s, uint32_t threshold);
   // Moves `s` to the group of its options changed by `change` (creating it); mu_ held. Returns
