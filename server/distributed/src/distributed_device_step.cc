@@ -68,7 +68,7 @@ int LayerOf(uint32_t cell, const Eigen::Vector3i& dims, int axis) {
 
 bool DistributedSimulation::RunDeviceStep(double start_time, bool& finite) {
   auto start = Clock::now();
-  Exchange();
+  WaitAndExchange();
   Record(0, MsSince(start));
   collective_ms_ = 0;
   const auto compute_start = Clock::now();

@@ -71,6 +71,9 @@ struct ExchangeTotals {
   uint64_t bytes_sent = 0;
   uint64_t recuts = 0;    // steps whose re-balance moved a cut (the same on every process)
   double compute_ms = 0;  // this process's compute time in its steps (no waits in collectives)
+  // Of the exchange pass's time: waiting for the other processes to end their step (the
+  // imbalance; the rest is the exchange's own packing, transfer and sorting).
+  double wait_ms = 0;
 };
 
 class DistributedSimulation {
@@ -102,7 +105,8 @@ class DistributedSimulation {
   // On GPU ranks (a device step backend) the balance is by work (BalanceSettings::by_work).
   void set_balance(BalanceSettings settings);
   const BalanceReport& balance() const { return balancer_.report(); }
-  // Per pass, with "exchange" first and "drop_ghosts" last: this process's time.
+  // Per pass, with "exchange" first and "drop_ghosts" last: this process's time. The exchange's
+  // includes the wait for the others (ExchangeTotals::wait_ms).
   const std::vector<PassProfile>& profile() const { return profile_; }
   // As Simulation::alarm; the same on every process.
   const std::string& alarm() const { return alarm_; }
@@ -191,6 +195,9 @@ class DistributedSimulation {
   // them) for the balance, after the test-only slow-down (BalanceSettings); then the
   // finiteness of the particles over the processes into `finite`.
   void FinishStep(double passes_ms, bool& finite);
+  // The exchange pass: waits for every process to end its step (timed into totals_.wait_ms),
+  // then Exchange().
+  void WaitAndExchange();
   // AfterSort's alarms: a cell holding `count` particles; `owned` of the particles owned.
   std::string CrowdedAlarm(uint64_t count, double start_time) const;
   std::string OwnerAlarm(int64_t owned, double start_time) const;
