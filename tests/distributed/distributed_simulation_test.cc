@@ -163,21 +163,14 @@ TEST(DistributedSimulationTest, SolversNotSpreadAreRefusedByName) {
   }
 }
 
-// Half-support cells would make the solver's cell layers finer than the slabs' (the ghosts'
-// depth and the ownership are counted in them): refused by name, for the physical solvers; the
-// seed, which ignores the parameter, still runs.
-TEST(DistributedSimulationTest, HalfSupportCellsAreRefusedByName) {
+// Half-support cells (grid_cells_per_support 2) run across processes: the slabs count the
+// solver grid's half-support layers, the ghosts reach twice as many of them. On one process,
+// frame by frame, a plain Simulation's bits (on 1-4 ranks: mpi_ranks_test, ranks_half_cells.json).
+TEST(DistributedSimulationTest, HalfSupportCellsGiveTheBitsOfSimulation) {
   Scene scene = LoadScene(DYSA_RANKS_SCENE);
   scene.params.grid_cells_per_support = 2;
-  try {
-    DistributedSimulation::CheckSupported(scene, scene.params);
-    FAIL() << "grid_cells_per_support 2 accepted";
-  } catch (const ConfigError& e) {
-    EXPECT_EQ(e.field(), "grid_cells_per_support");
-    EXPECT_THAT(e.message(), HasSubstr("must be 1 across processes"));
-  }
-  scene.solver = "seed";
   EXPECT_NO_THROW(DistributedSimulation::CheckSupported(scene, scene.params));
+  ExpectSameBits(scene, 3);
 }
 
 TEST(DistributedSimulationTest, TheDevicePathGivesTheBitsOfSimulation) {

@@ -1,7 +1,8 @@
 #!/bin/bash
 # ctest -L mpi: for each scene (tests/distributed/ranks_dam_break.json: wcsph;
 # ranks_seed.json: the seed model; ranks_periodic.json: wcsph across the periodic seam of the
-# slab axis; ranks_predictor_corrector.json; ranks_dfsph.json: dfsph, its solves refreshing the
+# slab axis; ranks_predictor_corrector.json; ranks_half_cells.json: the same with half-support
+# cells, the slabs in half-support layers; ranks_dfsph.json: dfsph, its solves refreshing the
 # ghosts every iteration), N steps with plain `dysa run` and under mpirun on each rank count must
 # end in the same state hash and write the same probes.csv and VTK frames, byte for byte; on more
 # than one rank particles must have migrated between ranks and at least two ranks must have held,

@@ -141,7 +141,7 @@ bool DistributedSimulation::RunDeviceStep(double start_time, bool& finite) {
     alarm_ = CrowdedAlarm(uint64_t(maxima[0]), start_time);
     return false;
   }
-  if (maxima[1] > 1) {
+  if (maxima[1] > model_.grid_cells_per_support) {  // the ghosts' slack: one support
     alarm_ = MovedAlarm(int(maxima[1]), start_time);
     return false;
   }

@@ -111,16 +111,10 @@ void DistributedSimulation::CheckSupported(const Scene& scene, const Params& par
                                     "' does not run across processes yet; allowed: wcsph, seed, "
                                     "dfsph (run other solvers without mpirun)");
   }
-  // Every parameter runs across processes, wcsph's predictor-corrector (time_integration 1)
-  // included, but a finer neighbour grid: the slabs, the ghosts' depth and the ownership are
-  // counted in the solver grid's cell layers, which must then be the support's.
-  if (params.grid_cells_per_support != 1 && IsPhysicalSolver(scene.solver)) {
-    throw ConfigError("grid_cells_per_support",
-                      "must be 1 across processes (got " +
-                          std::to_string(params.grid_cells_per_support) +
-                          "): the ranks' slabs are layers of support-sized cells; half-support "
-                          "cells (2) run in one process");
-  }
+  // Every parameter runs across processes, wcsph's predictor-corrector (time_integration 1) and
+  // half-support cells (grid_cells_per_support 2: the slabs then count half-support layers)
+  // included.
+  (void)params;
 }
 
 void DistributedSimulation::CheckSupported(const Scene& scene, const Params& params,
@@ -178,13 +172,16 @@ void DistributedSimulation::Configure(const Params& params) {
   }
 
   // The layout every step sorts into (cell edge: the kernel support, the seed's smoothing radius).
-  layout_.Configure(model_.domain, Real(model_.kernel_support), model_.periodic);
+  // The solver's own grid (its cells per support too): a layer is a cell plane of the grid the
+  // passes read by, and the depths below, counted in supports, become that many layers each.
+  layout_.Configure(model_.domain, Real(model_.kernel_support), model_.periodic,
+                    model_.grid_cells_per_support);
   const Eigen::Vector3i dims = layout_.dims();
   axis_ = 0;
   for (int a = 1; a < 3; ++a) {
     if (dims[a] > dims[axis_]) axis_ = a;
   }
-  ghost_depth_ = GhostDepth(scene_.solver, params.time_integration);
+  ghost_depth_ = GhostDepth(scene_.solver, params.time_integration) * model_.grid_cells_per_support;
   slabs_ = std::make_unique<Slabs>(dims[axis_], comm_.size(), model_.periodic[axis_], ghost_depth_);
   // The boundary particles weigh in the cost estimate of each layer (balancer.h).
   boundary_per_layer_.assign(size_t(slabs_->layers()), 0);
@@ -447,14 +444,16 @@ bool DistributedSimulation::AfterSort(double start_time, bool second) {
   // Between the predictor-corrector's sorts, the ghosts within kPredictorReach compute their
   // rates (their predicted state is read after the second sort), and the boundary particles
   // within a layer of those; after it, as after the only sort of the other schemes.
-  const int reach = predictor && !second ? kPredictorReach : 0;
+  const int per_support = model_.grid_cells_per_support;  // layers a support spans
+  const int reach = predictor && !second ? kPredictorReach * per_support : 0;
   state_.share.rate_reach = uint8_t(reach);
   state_.share.layer_axis = axis_;
   state_.share.boundary_layers.resize(size_t(slabs_->layers()));
   for (int l = 0; l < slabs_->layers(); ++l) {
-    state_.share.boundary_layers[l] = slabs_->Distance(l, comm_.rank()) <= reach + 1 ? 1 : 0;
+    state_.share.boundary_layers[l] =
+        slabs_->Distance(l, comm_.rank()) <= reach + per_support ? 1 : 0;
   }
-  if (maxima[1] > 1) {
+  if (maxima[1] > per_support) {
     alarm_ = MovedAlarm(int(maxima[1]), start_time);
   } else if (uint64_t(owned) != total_) {
     alarm_ = OwnerAlarm(owned, start_time);
@@ -487,7 +486,8 @@ std::string DistributedSimulation::MovedAlarm(int layers, double start_time) con
   return "a particle moved " + std::to_string(layers) +
          " cell layers in the predictor's half step at step " + std::to_string(state_.step + 1) +
          " (t = " + std::to_string(start_time) +
-         " s), past the ghost layers' slack of one: reduce the time step";
+         " s), past the ghost layers' slack of one kernel support (" +
+         std::to_string(model_.grid_cells_per_support) + " layers): reduce the time step";
 }
 
 std::string DistributedSimulation::CrowdedAlarm(uint64_t count, double start_time) const {

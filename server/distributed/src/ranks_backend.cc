@@ -158,7 +158,8 @@ void CheckRunsOnRanks(const Scene& scene, const Params& params, int processes,
   }
   const Model model = MakeModel(scene, params);
   NeighborGrid layout;
-  layout.Configure(model.domain, Real(model.kernel_support), model.periodic);
+  layout.Configure(model.domain, Real(model.kernel_support), model.periodic,
+                   model.grid_cells_per_support);
   const int layers = layout.dims().maxCoeff();
   if (layers < processes) {
     throw ConfigError("processes", "the neighbour grid has " + std::to_string(layers) +
