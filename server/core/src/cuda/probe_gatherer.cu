@@ -24,11 +24,10 @@ enum ReductionSlot : int {
   kFirstCount
 };
 
-// Whether two lists hold the same bytes (what was uploaded is what is asked for).
+// Whether the n values at `a` are the bytes of `uploaded` (what is on the device already).
 template <class T>
-bool SameBytes(const std::vector<T>& a, const std::vector<T>& b) {
-  return a.size() == b.size() &&
-         (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0);
+bool SameBytes(const T* a, size_t n, const std::vector<T>& uploaded) {
+  return n == uploaded.size() && (n == 0 || std::memcmp(a, uploaded.data(), n * sizeof(T)) == 0);
 }
 
 // std::max's choice: a NaN second argument is skipped.
@@ -104,7 +103,7 @@ void ProbeGatherer::Gather(const ProbeParticles& particles, const ProbeGatherPla
   const uint32_t blocks = std::clamp<uint32_t>((particles.n + kBlock - 1) / kBlock, 1u, kMaxBlocks);
   // The windows and boxes go up only when they change (a probe's box stays put while the
   // domain does): each upload waits for the stream.
-  if (!SameBytes(plan.windows, windows_uploaded_)) {
+  if (!SameBytes(plan.windows.data(), plan.windows.size(), windows_uploaded_)) {
     windows_.Assign(plan.windows, stream);
     windows_uploaded_ = plan.windows;
   }
@@ -118,11 +117,11 @@ void ProbeGatherer::Gather(const ProbeParticles& particles, const ProbeGatherPla
   bool first = true;
   while (first || box_begin < plan.count_boxes.size()) {
     const size_t box_count = std::min(kBoxesPerPass, plan.count_boxes.size() - box_begin);
-    const std::vector<ProbeBox> boxes(plan.count_boxes.begin() + box_begin,
-                                      plan.count_boxes.begin() + box_begin + box_count);
-    if (!SameBytes(boxes, boxes_uploaded_)) {
-      boxes_.Assign(boxes, stream);
-      boxes_uploaded_ = boxes;
+    // Compared in place: a probe evaluation copies no list when nothing changed.
+    const ProbeBox* boxes = plan.count_boxes.data() + box_begin;
+    if (!SameBytes(boxes, box_count, boxes_uploaded_)) {
+      boxes_uploaded_.assign(boxes, boxes + box_count);
+      boxes_.Assign(boxes_uploaded_, stream);
     }
     const size_t values = kFirstCount + box_count;
     partials_.Resize(size_t(blocks) * values);
